@@ -1,0 +1,144 @@
+//! Checkpoints: the complete state of a run, versioned, checksummed, written atomically.
+//!
+//! File layout (little endian): magic `GRNWCKPT` (8 bytes) | format version u32 | content tag
+//! length u32 | content tag (UTF-8) | payload length u64 | CRC-32 of tag + payload u32 | payload
+//! (bincode). A truncated or corrupted file, a wrong version or a wrong content tag is refused
+//! with a message saying which.
+
+use crate::dim::{Dim, D2, D3};
+use crate::error::{CoreError, Result};
+use crate::sim::Simulation;
+use serde::{de::DeserializeOwned, Serialize};
+use std::io::Write;
+use std::path::Path;
+
+/// Magic bytes at the start of every checkpoint.
+pub const MAGIC: &[u8; 8] = b"GRNWCKPT";
+/// Version of the file layout and of the serialized state.
+pub const FORMAT_VERSION: u32 = 1;
+
+/// Writes `bytes` to `path` atomically: a temporary file in the same directory, flushed and
+/// synced, then renamed over `path`. Readers see either the old file or the complete new one.
+pub fn atomic_write(path: &Path, bytes: &[u8]) -> Result<()> {
+    let io = |action: &str, p: &Path, e| CoreError::Io { action: action.into(), path: p.display().to_string(), source: e };
+    let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
+    std::fs::create_dir_all(dir).map_err(|e| io("cannot create directory", dir, e))?;
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
+    let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
+    {
+        let mut f = std::fs::File::create(&tmp).map_err(|e| io("cannot create", &tmp, e))?;
+        f.write_all(bytes).map_err(|e| io("cannot write", &tmp, e))?;
+        f.sync_all().map_err(|e| io("cannot sync", &tmp, e))?;
+    }
+    std::fs::rename(&tmp, path).map_err(|e| io("cannot rename into", path, e))?;
+    Ok(())
+}
+
+/// Serializes `payload` under content tag `tag` into checkpoint bytes.
+pub fn encode<T: Serialize>(tag: &str, payload: &T) -> Result<Vec<u8>> {
+    let body = bincode::serialize(payload).map_err(|e| CoreError::Inconsistent(format!("cannot serialize checkpoint: {e}")))?;
+    let mut crc = crc32fast::Hasher::new();
+    crc.update(tag.as_bytes());
+    crc.update(&body);
+    let mut out = Vec::with_capacity(body.len() + 64);
+    out.extend_from_slice(MAGIC);
+    out.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+    out.extend_from_slice(&(tag.len() as u32).to_le_bytes());
+    out.extend_from_slice(tag.as_bytes());
+    out.extend_from_slice(&(body.len() as u64).to_le_bytes());
+    out.extend_from_slice(&crc.finalize().to_le_bytes());
+    out.extend_from_slice(&body);
+    Ok(out)
+}
+
+/// Reads the content tag of checkpoint bytes after verifying magic, version, length and checksum.
+pub fn verify<'a>(bytes: &'a [u8], path: &str) -> Result<(String, &'a [u8])> {
+    let bad = |reason: String| CoreError::Checkpoint { path: path.into(), reason };
+    if bytes.len() < 16 || &bytes[..8] != MAGIC {
+        return Err(bad("not a grainwave checkpoint (bad magic bytes)".into()));
+    }
+    let version = u32::from_le_bytes(bytes[8..12].try_into().unwrap());
+    if version != FORMAT_VERSION {
+        return Err(bad(format!("format version {version}, but this grainwave reads version {FORMAT_VERSION}")));
+    }
+    let tag_len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    let head = 16 + tag_len + 12;
+    if bytes.len() < head {
+        return Err(bad("truncated header".into()));
+    }
+    let tag = std::str::from_utf8(&bytes[16..16 + tag_len]).map_err(|_| bad("corrupted header (content tag)".into()))?;
+    let len = u64::from_le_bytes(bytes[16 + tag_len..24 + tag_len].try_into().unwrap()) as usize;
+    let crc = u32::from_le_bytes(bytes[24 + tag_len..28 + tag_len].try_into().unwrap());
+    let body = &bytes[head..];
+    if body.len() != len {
+        return Err(bad(format!("truncated: payload has {} bytes, header says {len}", body.len())));
+    }
+    let mut h = crc32fast::Hasher::new();
+    h.update(tag.as_bytes());
+    h.update(body);
+    if h.finalize() != crc {
+        return Err(bad("checksum mismatch: the file is corrupted".into()));
+    }
+    Ok((tag.to_string(), body))
+}
+
+/// Decodes checkpoint bytes whose content tag must be `tag`.
+pub fn decode<T: DeserializeOwned>(bytes: &[u8], tag: &str, path: &str) -> Result<T> {
+    let (found, body) = verify(bytes, path)?;
+    if found != tag {
+        return Err(CoreError::Checkpoint { path: path.into(), reason: format!("holds `{found}`, expected `{tag}`") });
+    }
+    bincode::deserialize(body).map_err(|e| CoreError::Checkpoint { path: path.into(), reason: format!("cannot decode state: {e}") })
+}
+
+/// Writes any serializable state atomically as a checkpoint with content tag `tag`.
+pub fn save<T: Serialize>(path: &Path, tag: &str, payload: &T) -> Result<()> {
+    atomic_write(path, &encode(tag, payload)?)
+}
+
+/// Reads a checkpoint with content tag `tag`.
+pub fn load<T: DeserializeOwned>(path: &Path, tag: &str) -> Result<T> {
+    let bytes = std::fs::read(path).map_err(|e| CoreError::Io { action: "cannot read".into(), path: path.display().to_string(), source: e })?;
+    decode(&bytes, tag, &path.display().to_string())
+}
+
+/// Content tag of a simulation checkpoint in dimension `D`.
+pub fn simulation_tag<D: Dim>() -> String {
+    format!("simulation-{}", D::NAME)
+}
+
+/// A simulation of either dimension, as read from a checkpoint.
+#[derive(Clone, Debug)]
+pub enum AnySimulation {
+    /// Two dimensions.
+    D2(Simulation<D2>),
+    /// Three dimensions.
+    D3(Simulation<D3>),
+}
+
+impl<D: Dim> Simulation<D> {
+    /// Saves the complete state (atomically).
+    pub fn save_checkpoint(&self, path: &Path) -> Result<()> {
+        save(path, &simulation_tag::<D>(), self)
+    }
+
+    /// Loads a simulation of dimension `D`.
+    pub fn load_checkpoint(path: &Path) -> Result<Self> {
+        load(path, &simulation_tag::<D>())
+    }
+}
+
+/// Loads a simulation checkpoint of either dimension.
+pub fn load_simulation(path: &Path) -> Result<AnySimulation> {
+    let bytes = std::fs::read(path).map_err(|e| CoreError::Io { action: "cannot read".into(), path: path.display().to_string(), source: e })?;
+    let p = path.display().to_string();
+    let (tag, _) = verify(&bytes, &p)?;
+    if tag == simulation_tag::<D2>() {
+        Ok(AnySimulation::D2(decode(&bytes, &tag, &p)?))
+    } else if tag == simulation_tag::<D3>() {
+        Ok(AnySimulation::D3(decode(&bytes, &tag, &p)?))
+    } else {
+        let reason = format!("holds `{tag}`, not a simulation");
+        Err(CoreError::Checkpoint { path: p, reason })
+    }
+}

@@ -1,0 +1,274 @@
+//! Contact laws composed of independent parts (SPEC §2).
+//!
+//! A [`ContactLaw`] is a normal elastic part ([`NormalElastic`]), a normal damping part
+//! ([`NormalDamping`]), a tangential part with history ([`Tangential`], [`TangentialDamping`]),
+//! a Coulomb limit (`friction`) and rolling resistance ([`Rolling`]). [`ContactLaw::evaluate`] is a
+//! pure function of the contact [`Kinematics`] and the pair's [`ContactState`] and fixes the order:
+//!
+//! 1. normal: F_n = max(0, F_el(ξ) − γ_n v_n) (damping adds while approaching, v_n < 0);
+//! 2. tangential: rotate the history into the current tangent plane keeping its length, add the
+//!    increment, trial force, Coulomb cap |F_t| ≤ μ F_n with history reset when sliding;
+//! 3. rolling: same pattern with the rolling spring and the cap μ_r R* F_n.
+//!
+//! Forces on grain i: −F_n n̂ + F_t; on j the opposite. Torques: τ_i = a_i n̂ × F_t + M_r,
+//! τ_j = a_j n̂ × F_t − M_r with the lever arms a of [`Kinematics`].
+//!
+//! Named presets: `hertz_mindlin` and `hooke_cundall_strack` ([`ContactParams`]).
+
+mod coulomb;
+mod damping;
+mod kinematics;
+mod normal;
+mod params;
+mod rolling;
+mod tangential;
+
+pub use coulomb::coulomb_cap;
+pub use damping::{
+    clamped_contact_time, clamped_restitution, critical_fraction_for_restitution, textbook_critical_fraction,
+    NormalDamping,
+};
+pub use kinematics::{pair_kinematics, wall_kinematics, Kinematics};
+pub use normal::NormalElastic;
+pub use params::{ContactParams, Partner, PRESETS};
+pub use rolling::Rolling;
+pub use tangential::{Tangential, TangentialDamping};
+
+use crate::dim::{Dim, VectorOps};
+use crate::error::{require_non_negative, require_positive, CoreError, Result};
+use serde::{Deserialize, Serialize};
+
+/// A complete contact law for one class of contacts (grain–grain, or grains with one wall).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ContactLaw {
+    /// Normal elastic part.
+    pub normal: NormalElastic,
+    /// Normal damping part.
+    pub damping: NormalDamping,
+    /// Tangential elastic part.
+    pub tangential: Tangential,
+    /// Tangential damping.
+    pub tangential_damping: TangentialDamping,
+    /// Coulomb friction coefficient μ (static = dynamic).
+    pub friction: f64,
+    /// Rolling resistance.
+    pub rolling: Rolling,
+}
+
+/// Per-contact state carried from step to step (and across neighbor-list rebuilds).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(bound = "")]
+pub struct ContactState<D: Dim> {
+    /// Tangential history: the spring s (linear law) or the elastic tangential force on i (Mindlin).
+    pub spring: D::Vector,
+    /// Rolling spring θ_r.
+    pub rolling: D::AngVector,
+    /// Overlap at the last evaluation; 0 when the pair is not in contact.
+    pub overlap: f64,
+    /// The contact was sliding (Coulomb cap reached) at the last evaluation.
+    pub sliding: bool,
+}
+
+impl<D: Dim> ContactState<D> {
+    /// True when the pair was in contact at the last evaluation.
+    #[inline]
+    pub fn in_contact(&self) -> bool {
+        self.overlap > 0.0
+    }
+}
+
+/// What a contact law returns for one contact.
+#[derive(Clone, Copy, Debug)]
+pub struct ContactOutput<D: Dim> {
+    /// Total normal force F_n ≥ 0 (elastic + damping, clamped), repulsive.
+    pub normal_force: f64,
+    /// Tangential force on grain i.
+    pub tangential_force: D::Vector,
+    /// Rolling torque on grain i.
+    pub rolling_torque: D::AngVector,
+    /// Differential normal stiffness k_n = dF_el/dξ.
+    pub normal_stiffness: f64,
+    /// Tangential stiffness k_t.
+    pub tangential_stiffness: f64,
+    /// The Coulomb cap was reached.
+    pub sliding: bool,
+}
+
+/// Rotates `v` into the plane perpendicular to `n`, preserving its length.
+#[inline]
+fn into_tangent_plane<V: VectorOps>(v: V, n: V) -> V {
+    let len2 = v.norm2();
+    if len2 == 0.0 {
+        return v;
+    }
+    let p = v - n * v.dot(n);
+    let p2 = p.norm2();
+    if p2 == 0.0 {
+        V::ZERO
+    } else if p2 == len2 {
+        p
+    } else {
+        p * (len2 / p2).sqrt()
+    }
+}
+
+impl ContactLaw {
+    /// Evaluates the law for a contact with kinematics `kin` over a step `dt`, updating `state`.
+    /// Assumes `kin.overlap > 0`.
+    #[inline]
+    pub fn evaluate<D: Dim>(&self, kin: &Kinematics<D>, state: &mut ContactState<D>, dt: f64) -> ContactOutput<D> {
+        let n = kin.normal;
+        let (f_el, k_n) = self.normal.force_stiffness(kin.overlap, kin.r_eff);
+        let gamma_n = self.damping.coefficient(kin.m_eff, k_n);
+        let f_n = (f_el - gamma_n * kin.v_n).max(0.0);
+
+        let k_t = self.tangential.stiffness(kin.overlap, kin.r_eff);
+        let mut sliding = false;
+        let f_t = match self.tangential {
+            Tangential::None => D::Vector::ZERO,
+            Tangential::Linear { .. } => {
+                let gamma_t = self.tangential_damping.coefficient(kin.m_eff, k_t, gamma_n);
+                let s = into_tangent_plane(state.spring, n) + kin.v_t * dt;
+                let trial = s * k_t + kin.v_t * gamma_t;
+                let (f, slid) = coulomb_cap(trial, self.friction * f_n);
+                sliding = slid;
+                state.spring = if slid { f / k_t } else { s };
+                f
+            }
+            Tangential::Mindlin { rescale_on_unloading, .. } => {
+                let gamma_t = self.tangential_damping.coefficient(kin.m_eff, k_t, gamma_n);
+                let mut elastic = into_tangent_plane(state.spring, n);
+                if rescale_on_unloading && state.overlap > 0.0 && kin.overlap < state.overlap {
+                    // k_t ∝ √ξ
+                    elastic *= (kin.overlap / state.overlap).sqrt();
+                }
+                elastic += kin.v_t * (k_t * dt);
+                let trial = elastic + kin.v_t * gamma_t;
+                let (f, slid) = coulomb_cap(trial, self.friction * f_n);
+                sliding = slid;
+                state.spring = if slid { f } else { elastic };
+                f
+            }
+        };
+
+        let m_r = match self.rolling {
+            Rolling::None => D::AngVector::ZERO,
+            Rolling::SpringDashpot { stiffness, damping, friction } => {
+                let theta = into_tangent_plane_ang::<D>(state.rolling, n) + kin.w_roll * dt;
+                let trial = theta * stiffness + kin.w_roll * damping;
+                let (m, slid) = coulomb_cap(trial, friction * kin.r_eff * f_n);
+                state.rolling = if slid { m / stiffness } else { theta };
+                m
+            }
+        };
+        state.overlap = kin.overlap;
+        state.sliding = sliding;
+        ContactOutput {
+            normal_force: f_n,
+            tangential_force: f_t,
+            rolling_torque: m_r,
+            normal_stiffness: k_n,
+            tangential_stiffness: k_t,
+            sliding,
+        }
+    }
+
+    /// Elastic energy stored in a contact: normal part + tangential spring (½ k_t s² for the
+    /// linear law, |F|²/(2 k_t) for Mindlin) + rolling spring ½ k_r θ².
+    pub fn elastic_energy<D: Dim>(&self, overlap: f64, r_eff: f64, state: &ContactState<D>) -> f64 {
+        if overlap <= 0.0 {
+            return 0.0;
+        }
+        let mut e = self.normal.energy(overlap, r_eff);
+        let k_t = self.tangential.stiffness(overlap, r_eff);
+        match self.tangential {
+            Tangential::None => {}
+            Tangential::Linear { .. } => e += 0.5 * k_t * state.spring.norm2(),
+            Tangential::Mindlin { .. } => {
+                if k_t > 0.0 {
+                    e += 0.5 * state.spring.norm2() / k_t
+                }
+            }
+        }
+        if let Rolling::SpringDashpot { stiffness, .. } = self.rolling {
+            e += 0.5 * stiffness * state.rolling.norm2();
+        }
+        e
+    }
+
+    /// Largest angular frequency² of a single contact of this law between bodies of effective mass
+    /// `m_eff` and radius `r_eff` at overlap `overlap`, used for time-step suggestions: the normal
+    /// mode k_n/m*, and the tangential mode k_t (1 + m R²/I)/m* which couples translation and
+    /// rotation (`inertia_factor` = m R²/I: 2 for disks, 5/2 for spheres).
+    pub fn max_frequency_sq(&self, m_eff: f64, r_eff: f64, overlap: f64, inertia_factor: f64) -> f64 {
+        let (_, k_n) = self.normal.force_stiffness(overlap, r_eff);
+        let k_t = self.tangential.stiffness(overlap, r_eff);
+        let mut w2 = k_n / m_eff;
+        w2 = w2.max(k_t * (1.0 + inertia_factor) / m_eff);
+        if let Rolling::SpringDashpot { stiffness, .. } = self.rolling {
+            // rotational spring acting on a moment of inertia I = m R² / inertia_factor
+            w2 = w2.max(stiffness * inertia_factor / (m_eff * r_eff * r_eff));
+        }
+        w2
+    }
+
+    /// Checks every parameter; `field` prefixes the names in error messages.
+    pub fn validate(&self, field: &str) -> Result<()> {
+        match self.normal {
+            NormalElastic::Hooke { stiffness } => require_positive(&format!("{field}.normal_stiffness"), stiffness)?,
+            NormalElastic::Hertz { effective_modulus } => require_positive(&format!("{field}.young"), effective_modulus)?,
+        }
+        match self.damping {
+            NormalDamping::None => {}
+            NormalDamping::Dashpot { coefficient } => require_non_negative(&format!("{field}.normal_damping"), coefficient)?,
+            NormalDamping::CriticalFraction { zeta } => require_non_negative(&format!("{field}.damping_fraction"), zeta)?,
+        }
+        match self.tangential {
+            Tangential::None => {}
+            Tangential::Linear { stiffness } => require_positive(&format!("{field}.tangential_stiffness"), stiffness)?,
+            Tangential::Mindlin { effective_shear_modulus, .. } => {
+                require_positive(&format!("{field}.shear_modulus"), effective_shear_modulus)?
+            }
+        }
+        match self.tangential_damping {
+            TangentialDamping::None => {}
+            TangentialDamping::Coefficient { coefficient } => {
+                require_non_negative(&format!("{field}.tangential_damping"), coefficient)?
+            }
+            TangentialDamping::FractionOfNormal { ratio } => {
+                require_non_negative(&format!("{field}.tangential_damping_ratio"), ratio)?
+            }
+            TangentialDamping::CriticalFraction { zeta } => require_non_negative(&format!("{field}.damping_fraction"), zeta)?,
+        }
+        if !(self.friction >= 0.0) || self.friction.is_nan() {
+            return Err(CoreError::invalid(format!("{field}.friction"), self.friction, "a number ≥ 0 (may be inf)"));
+        }
+        if let Rolling::SpringDashpot { stiffness, damping, friction } = self.rolling {
+            require_positive(&format!("{field}.rolling_stiffness"), stiffness)?;
+            require_non_negative(&format!("{field}.rolling_damping"), damping)?;
+            if !(friction >= 0.0) || friction.is_nan() {
+                return Err(CoreError::invalid(format!("{field}.rolling_friction"), friction, "a number ≥ 0 (may be inf)"));
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Same as `into_tangent_plane` for angular vectors (3D); the identity in 2D.
+#[inline]
+fn into_tangent_plane_ang<D: Dim>(theta: D::AngVector, n: D::Vector) -> D::AngVector {
+    if D::ROT == 1 {
+        return theta;
+    }
+    let len2 = theta.norm2();
+    if len2 == 0.0 {
+        return theta;
+    }
+    let p = D::ang_perp(theta, n);
+    let p2 = p.norm2();
+    if p2 == 0.0 {
+        D::AngVector::ZERO
+    } else {
+        p * (len2 / p2).sqrt()
+    }
+}

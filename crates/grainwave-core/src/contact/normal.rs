@@ -1,0 +1,41 @@
+//! Normal elastic part (SPEC §2.1): Hooke and Hertz.
+
+use serde::{Deserialize, Serialize};
+
+/// Normal elastic force law F_el(ξ) and its differential stiffness k_n = dF_el/dξ.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "law", rename_all = "snake_case")]
+pub enum NormalElastic {
+    /// F = k_n ξ.
+    Hooke {
+        /// Stiffness k_n (force/length).
+        stiffness: f64,
+    },
+    /// F = (4/3) E*_ij √R* ξ^{3/2}; k_n = 2 E*_ij √(R* ξ).
+    Hertz {
+        /// Effective modulus E*_ij of the pair (grain–grain: (1/E*_i + 1/E*_j)⁻¹; rigid wall: E*_i).
+        effective_modulus: f64,
+    },
+}
+
+impl NormalElastic {
+    /// Elastic force (≥ 0) and differential stiffness at overlap `xi` > 0 for effective radius `r_eff`.
+    #[inline]
+    pub fn force_stiffness(&self, xi: f64, r_eff: f64) -> (f64, f64) {
+        match *self {
+            NormalElastic::Hooke { stiffness } => (stiffness * xi, stiffness),
+            NormalElastic::Hertz { effective_modulus } => {
+                let a = (r_eff * xi).sqrt(); // contact radius
+                (4.0 / 3.0 * effective_modulus * a * xi, 2.0 * effective_modulus * a)
+            }
+        }
+    }
+
+    /// Stored elastic energy ∫₀^ξ F dξ: ½ k ξ² (Hooke), (8/15) E* √R* ξ^{5/2} (Hertz).
+    pub fn energy(&self, xi: f64, r_eff: f64) -> f64 {
+        match *self {
+            NormalElastic::Hooke { stiffness } => 0.5 * stiffness * xi * xi,
+            NormalElastic::Hertz { effective_modulus } => 8.0 / 15.0 * effective_modulus * r_eff.sqrt() * xi.powf(2.5),
+        }
+    }
+}

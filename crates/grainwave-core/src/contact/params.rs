@@ -1,0 +1,256 @@
+//! Named presets: the keyword table at the boundary between configs and contact laws.
+
+use super::{
+    ContactLaw, NormalDamping, NormalElastic, Rolling, Tangential, TangentialDamping,
+};
+use crate::error::{require_non_negative, require_positive, CoreError, Result};
+use serde::{Deserialize, Serialize};
+
+/// Names of the available presets.
+pub const PRESETS: &[&str] = &["hertz_mindlin", "hooke_cundall_strack"];
+
+/// Which partner a law is built for: another grain or a rigid wall.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Partner {
+    /// Grain–grain contacts (identical materials).
+    Grain,
+    /// Grain–wall contacts (rigid wall, R_wall = ∞, E_wall = ∞).
+    Wall,
+}
+
+/// Contact parameters by name, as they appear in configs (`[contact]`, `[contact.wall]`).
+///
+/// * `hertz_mindlin`: Hertz normal force with E* = E/(1−ν²) per grain, incremental Mindlin
+///   tangential law with G* = E/[2(1+ν)(2−ν)] per grain; grain–grain pairs use E*_ij = E*/2 and
+///   G*_ij = G*/2, rigid walls E*_i and G*_i. Damping as a fraction ζ of critical on both parts
+///   (`damping_fraction`, default 0).
+/// * `hooke_cundall_strack`: linear normal spring `normal_stiffness`, linear tangential spring
+///   k_t = `tangential_stiffness_ratio` × k_n (default 2/7), normal dashpot from `restitution`
+///   (exact for the clamped law, see [`super::critical_fraction_for_restitution`]), `normal_damping` γ_n,
+///   or `damping_fraction` ζ; tangential damping γ_t = `tangential_damping_ratio` × γ_n (default ½).
+///
+/// Both: Coulomb `friction` μ (default 0.5; 0 removes the tangential force), optional rolling
+/// resistance (`rolling_stiffness`, `rolling_damping`, `rolling_friction`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ContactParams {
+    /// Preset name: `hertz_mindlin` or `hooke_cundall_strack`.
+    pub preset: String,
+    /// Young's modulus E of the grains (Hertz).
+    pub young: Option<f64>,
+    /// Poisson's ratio ν of the grains (Hertz), default 0.
+    pub poisson: Option<f64>,
+    /// Normal stiffness k_n (Hooke).
+    pub normal_stiffness: Option<f64>,
+    /// k_t / k_n (Hooke), default 2/7.
+    pub tangential_stiffness_ratio: Option<f64>,
+    /// Restitution coefficient e ∈ [e⁻², 1] (Hooke).
+    pub restitution: Option<f64>,
+    /// Normal dashpot coefficient γ_n (Hooke).
+    pub normal_damping: Option<f64>,
+    /// Damping as a fraction ζ of critical, on the normal and tangential parts.
+    pub damping_fraction: Option<f64>,
+    /// γ_t / γ_n (Hooke), default ½.
+    pub tangential_damping_ratio: Option<f64>,
+    /// Coulomb friction coefficient μ, default 0.5.
+    pub friction: Option<f64>,
+    /// Rescale the stored Mindlin force by k_t(new)/k_t(old) when the overlap decreases (default false).
+    pub mindlin_rescale: Option<bool>,
+    /// Rolling stiffness k_r; rolling resistance is on when given.
+    pub rolling_stiffness: Option<f64>,
+    /// Rolling damping γ_r, default 0.
+    pub rolling_damping: Option<f64>,
+    /// Rolling friction μ_r, default ∞ (no cap).
+    pub rolling_friction: Option<f64>,
+}
+
+/// Default Coulomb friction coefficient.
+pub const DEFAULT_FRICTION: f64 = 0.5;
+
+impl ContactParams {
+    /// Parameters of preset `name` with everything else left at its default.
+    pub fn preset(name: &str) -> Self {
+        ContactParams { preset: name.to_string(), ..Default::default() }
+    }
+
+    /// Builds the law for `partner`; `field` prefixes key names in errors (e.g. "contact").
+    pub fn build(&self, partner: Partner, field: &str) -> Result<ContactLaw> {
+        let key = |k: &str| format!("{field}.{k}");
+        let friction = self.friction.unwrap_or(DEFAULT_FRICTION);
+        if !(friction >= 0.0) || friction.is_nan() {
+            return Err(CoreError::invalid(key("friction"), friction, "a number ≥ 0 (may be inf)"));
+        }
+        let rolling = match self.rolling_stiffness {
+            None => {
+                for (name, v) in [("rolling_damping", self.rolling_damping), ("rolling_friction", self.rolling_friction)] {
+                    if let Some(v) = v {
+                        return Err(CoreError::Inconsistent(format!(
+                            "`{}` = {v} is given but `{}` is not: set the rolling stiffness to enable rolling resistance",
+                            key(name),
+                            key("rolling_stiffness")
+                        )));
+                    }
+                }
+                Rolling::None
+            }
+            Some(k) => {
+                require_positive(&key("rolling_stiffness"), k)?;
+                let damping = self.rolling_damping.unwrap_or(0.0);
+                require_non_negative(&key("rolling_damping"), damping)?;
+                let mu_r = self.rolling_friction.unwrap_or(f64::INFINITY);
+                if !(mu_r >= 0.0) || mu_r.is_nan() {
+                    return Err(CoreError::invalid(key("rolling_friction"), mu_r, "a number ≥ 0 (may be inf)"));
+                }
+                Rolling::SpringDashpot { stiffness: k, damping, friction: mu_r }
+            }
+        };
+        let forbid = |name: &str, v: Option<f64>, why: &str| -> Result<()> {
+            match v {
+                Some(v) => Err(CoreError::Inconsistent(format!("`{}` = {v} does not apply to preset `{}`: {why}", key(name), self.preset))),
+                None => Ok(()),
+            }
+        };
+        let law = match self.preset.as_str() {
+            "hertz_mindlin" => {
+                forbid("normal_stiffness", self.normal_stiffness, "Hertz stiffness follows from `young` and `poisson`")?;
+                forbid("tangential_stiffness_ratio", self.tangential_stiffness_ratio, "Mindlin's k_t/k_n follows from `poisson`")?;
+                forbid("restitution", self.restitution, "use `damping_fraction` (fraction of critical damping)")?;
+                forbid("normal_damping", self.normal_damping, "use `damping_fraction` (fraction of critical damping)")?;
+                forbid("tangential_damping_ratio", self.tangential_damping_ratio, "the same `damping_fraction` applies to both parts")?;
+                let young = self.young.ok_or_else(|| CoreError::invalid(key("young"), "(missing)", "Young's modulus E > 0, required by hertz_mindlin"))?;
+                require_positive(&key("young"), young)?;
+                let nu = self.poisson.unwrap_or(0.0);
+                if !(nu.is_finite() && (-1.0..0.5).contains(&nu)) {
+                    return Err(CoreError::invalid(key("poisson"), nu, "a Poisson ratio in [-1, 0.5)"));
+                }
+                let zeta = self.damping_fraction.unwrap_or(0.0);
+                require_non_negative(&key("damping_fraction"), zeta)?;
+                let e_star = young / (1.0 - nu * nu);
+                let g_star = young / (2.0 * (1.0 + nu) * (2.0 - nu));
+                let factor = match partner {
+                    Partner::Grain => 0.5,
+                    Partner::Wall => 1.0,
+                };
+                ContactLaw {
+                    normal: NormalElastic::Hertz { effective_modulus: factor * e_star },
+                    damping: if zeta > 0.0 { NormalDamping::CriticalFraction { zeta } } else { NormalDamping::None },
+                    tangential: if friction > 0.0 {
+                        Tangential::Mindlin {
+                            effective_shear_modulus: factor * g_star,
+                            rescale_on_unloading: self.mindlin_rescale.unwrap_or(false),
+                        }
+                    } else {
+                        Tangential::None
+                    },
+                    tangential_damping: if zeta > 0.0 { TangentialDamping::CriticalFraction { zeta } } else { TangentialDamping::None },
+                    friction,
+                    rolling,
+                }
+            }
+            "hooke_cundall_strack" => {
+                forbid("young", self.young, "Hooke stiffness is `normal_stiffness`")?;
+                forbid("poisson", self.poisson, "Hooke stiffness is `normal_stiffness`")?;
+                if self.mindlin_rescale.is_some() {
+                    return Err(CoreError::Inconsistent(format!("`{}` applies to hertz_mindlin only", key("mindlin_rescale"))));
+                }
+                let k_n = self
+                    .normal_stiffness
+                    .ok_or_else(|| CoreError::invalid(key("normal_stiffness"), "(missing)", "k_n > 0, required by hooke_cundall_strack"))?;
+                require_positive(&key("normal_stiffness"), k_n)?;
+                let ratio = self.tangential_stiffness_ratio.unwrap_or(2.0 / 7.0);
+                require_positive(&key("tangential_stiffness_ratio"), ratio)?;
+                let given: Vec<&str> = [
+                    ("restitution", self.restitution.is_some()),
+                    ("normal_damping", self.normal_damping.is_some()),
+                    ("damping_fraction", self.damping_fraction.is_some()),
+                ]
+                .iter()
+                .filter(|(_, g)| *g)
+                .map(|(n, _)| *n)
+                .collect();
+                if given.len() > 1 {
+                    return Err(CoreError::Inconsistent(format!(
+                        "give at most one of `{0}.restitution`, `{0}.normal_damping`, `{0}.damping_fraction` (got {1})",
+                        field,
+                        given.join(", ")
+                    )));
+                }
+                let damping = if let Some(e) = self.restitution {
+                    if !(e > 0.0 && e <= 1.0) {
+                        return Err(CoreError::invalid(key("restitution"), e, "a restitution coefficient in (0, 1]"));
+                    }
+                    NormalDamping::from_restitution(e).ok_or_else(|| {
+                        CoreError::invalid(
+                            key("restitution"),
+                            e,
+                            "a restitution coefficient in [0.1353, 1]: below e^-2 a linear dashpot without attraction never lets grains separate",
+                        )
+                    })?
+                } else if let Some(g) = self.normal_damping {
+                    require_non_negative(&key("normal_damping"), g)?;
+                    NormalDamping::Dashpot { coefficient: g }
+                } else if let Some(z) = self.damping_fraction {
+                    require_non_negative(&key("damping_fraction"), z)?;
+                    NormalDamping::CriticalFraction { zeta: z }
+                } else {
+                    NormalDamping::None
+                };
+                let tangential_damping = match (self.tangential_damping_ratio, damping) {
+                    (Some(r), _) => {
+                        require_non_negative(&key("tangential_damping_ratio"), r)?;
+                        TangentialDamping::FractionOfNormal { ratio: r }
+                    }
+                    (None, NormalDamping::CriticalFraction { zeta }) if self.damping_fraction.is_some() => {
+                        TangentialDamping::CriticalFraction { zeta }
+                    }
+                    (None, NormalDamping::None) => TangentialDamping::None,
+                    (None, _) => TangentialDamping::FractionOfNormal { ratio: 0.5 },
+                };
+                ContactLaw {
+                    normal: NormalElastic::Hooke { stiffness: k_n },
+                    damping,
+                    tangential: if friction > 0.0 { Tangential::Linear { stiffness: ratio * k_n } } else { Tangential::None },
+                    tangential_damping,
+                    friction,
+                    rolling,
+                }
+            }
+            other => {
+                return Err(CoreError::UnknownName {
+                    what: format!("contact preset (key `{}`)", key("preset")),
+                    name: other.to_string(),
+                    available: PRESETS.join(", "),
+                })
+            }
+        };
+        law.validate(field)?;
+        Ok(law)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn hertz_mindlin_moduli() {
+        let mut p = ContactParams::preset("hertz_mindlin");
+        p.young = Some(1.0);
+        p.poisson = Some(0.25);
+        let g = p.build(Partner::Grain, "contact").unwrap();
+        let w = p.build(Partner::Wall, "contact.wall").unwrap();
+        let es = 1.0 / (1.0 - 0.0625);
+        assert_eq!(g.normal, NormalElastic::Hertz { effective_modulus: es / 2.0 });
+        assert_eq!(w.normal, NormalElastic::Hertz { effective_modulus: es });
+        // η = k_t/k_n = 1 − ν/(2−ν)
+        let kt = g.tangential.stiffness(1e-3, 0.5);
+        let kn = g.normal.force_stiffness(1e-3, 0.5).1;
+        assert!((kt / kn - (1.0 - 0.25 / 1.75)).abs() < 1e-14);
+    }
+
+    #[test]
+    fn unknown_preset_names_alternatives() {
+        let err = ContactParams::preset("hertz").build(Partner::Grain, "contact").unwrap_err().to_string();
+        assert!(err.contains("`hertz`") && err.contains("hertz_mindlin") && err.contains("contact.preset"), "{err}");
+    }
+}

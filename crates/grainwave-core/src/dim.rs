@@ -1,0 +1,280 @@
+//! Dimension abstraction: one engine for 2D and 3D.
+//!
+//! [`Dim`] carries the translational vector type ([`Dim::Vector`], `DVec2`/`DVec3`), the angular
+//! vector type ([`Dim::AngVector`], a scalar `f64` about ẑ in 2D, a `DVec3` in 3D), and the
+//! orientation type. Engine code is generic over `D: Dim`; the binary dispatches once at the top.
+
+use glam::{DQuat, DVec2, DVec3};
+use serde::{de::DeserializeOwned, Serialize};
+use std::fmt::Debug;
+use std::ops::{Add, AddAssign, Div, Mul, MulAssign, Neg, Sub, SubAssign};
+
+/// Operations shared by translational and angular vectors.
+pub trait VectorOps:
+    Copy
+    + Clone
+    + Debug
+    + Default
+    + PartialEq
+    + Send
+    + Sync
+    + Serialize
+    + DeserializeOwned
+    + Add<Output = Self>
+    + Sub<Output = Self>
+    + Mul<f64, Output = Self>
+    + Div<f64, Output = Self>
+    + Neg<Output = Self>
+    + AddAssign
+    + SubAssign
+    + MulAssign<f64>
+    + 'static
+{
+    /// The zero vector.
+    const ZERO: Self;
+    /// Number of components.
+    const LEN: usize;
+    /// Euclidean dot product.
+    fn dot(self, other: Self) -> f64;
+    /// Component `k` (0-based).
+    fn get(self, k: usize) -> f64;
+    /// Sets component `k`.
+    fn set(&mut self, k: usize, value: f64);
+    /// Squared Euclidean norm.
+    #[inline]
+    fn norm2(self) -> f64 {
+        self.dot(self)
+    }
+    /// Euclidean norm.
+    #[inline]
+    fn norm(self) -> f64 {
+        self.norm2().sqrt()
+    }
+    /// True when every component is finite.
+    fn is_finite_vec(self) -> bool {
+        (0..Self::LEN).all(|k| self.get(k).is_finite())
+    }
+    /// Components as a 3-array, padded with zeros (for output).
+    fn to_array3(self) -> [f64; 3] {
+        let mut a = [0.0; 3];
+        for (k, slot) in a.iter_mut().enumerate().take(Self::LEN) {
+            *slot = self.get(k);
+        }
+        a
+    }
+    /// Builds a vector from the first `LEN` entries of `a`.
+    fn from_slice(a: &[f64]) -> Self {
+        let mut v = Self::ZERO;
+        for k in 0..Self::LEN {
+            v.set(k, a[k]);
+        }
+        v
+    }
+}
+
+impl VectorOps for f64 {
+    const ZERO: Self = 0.0;
+    const LEN: usize = 1;
+    #[inline]
+    fn dot(self, other: Self) -> f64 {
+        self * other
+    }
+    #[inline]
+    fn get(self, _k: usize) -> f64 {
+        self
+    }
+    #[inline]
+    fn set(&mut self, _k: usize, value: f64) {
+        *self = value;
+    }
+}
+
+impl VectorOps for DVec2 {
+    const ZERO: Self = DVec2::ZERO;
+    const LEN: usize = 2;
+    #[inline]
+    fn dot(self, other: Self) -> f64 {
+        self.x * other.x + self.y * other.y
+    }
+    #[inline]
+    fn get(self, k: usize) -> f64 {
+        self[k]
+    }
+    #[inline]
+    fn set(&mut self, k: usize, value: f64) {
+        self[k] = value;
+    }
+}
+
+impl VectorOps for DVec3 {
+    const ZERO: Self = DVec3::ZERO;
+    const LEN: usize = 3;
+    #[inline]
+    fn dot(self, other: Self) -> f64 {
+        self.x * other.x + self.y * other.y + self.z * other.z
+    }
+    #[inline]
+    fn get(self, k: usize) -> f64 {
+        self[k]
+    }
+    #[inline]
+    fn set(&mut self, k: usize, value: f64) {
+        self[k] = value;
+    }
+}
+
+/// A spatial dimension (2 or 3) and its vector algebra.
+pub trait Dim: Copy + Clone + Debug + Default + Send + Sync + PartialEq + 'static {
+    /// Number of translational degrees of freedom per grain.
+    const D: usize;
+    /// Number of rotational degrees of freedom per grain (1 in 2D, 3 in 3D).
+    const ROT: usize;
+    /// Short name ("2d" / "3d").
+    const NAME: &'static str;
+    /// Position, velocity and force vectors.
+    type Vector: VectorOps;
+    /// Angular velocities, torques and small rotations: `f64` about ẑ in 2D, a vector in 3D.
+    type AngVector: VectorOps;
+    /// Orientation of a grain: an angle about ẑ in 2D, a unit quaternion in 3D.
+    type Orientation: Copy + Clone + Debug + PartialEq + Send + Sync + Serialize + DeserializeOwned + 'static;
+
+    /// ω × r: the velocity of a point at offset `r` on a body spinning with `w`.
+    fn ang_cross(w: Self::AngVector, r: Self::Vector) -> Self::Vector;
+    /// a × b: the torque of force `b` applied at lever `a`.
+    fn cross(a: Self::Vector, b: Self::Vector) -> Self::AngVector;
+    /// Component of an angular vector perpendicular to the contact normal `n`
+    /// (in 2D every angular vector is perpendicular to the plane and returned unchanged).
+    fn ang_perp(w: Self::AngVector, n: Self::Vector) -> Self::AngVector;
+    /// The identity orientation.
+    fn identity_orientation() -> Self::Orientation;
+    /// Advances an orientation by the rotation `w dt` (exact exponential map in 3D).
+    fn rotate_orientation(o: Self::Orientation, w: Self::AngVector, dt: f64) -> Self::Orientation;
+    /// The orientation as a rotation vector (axis × angle; 2D: angle about ẑ in `[2]`).
+    fn orientation_rotation_vector(o: Self::Orientation) -> [f64; 3];
+    /// Unit vector along axis `k`.
+    fn unit(k: usize) -> Self::Vector {
+        let mut v = Self::Vector::ZERO;
+        v.set(k, 1.0);
+        v
+    }
+}
+
+/// Two dimensions: grains move in the x–y plane and rotate about ẑ.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct D2;
+
+/// Three dimensions.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct D3;
+
+impl Dim for D2 {
+    const D: usize = 2;
+    const ROT: usize = 1;
+    const NAME: &'static str = "2d";
+    type Vector = DVec2;
+    type AngVector = f64;
+    type Orientation = f64;
+
+    #[inline]
+    fn ang_cross(w: f64, r: DVec2) -> DVec2 {
+        DVec2::new(-w * r.y, w * r.x)
+    }
+    #[inline]
+    fn cross(a: DVec2, b: DVec2) -> f64 {
+        a.x * b.y - a.y * b.x
+    }
+    #[inline]
+    fn ang_perp(w: f64, _n: DVec2) -> f64 {
+        w
+    }
+    fn identity_orientation() -> f64 {
+        0.0
+    }
+    #[inline]
+    fn rotate_orientation(o: f64, w: f64, dt: f64) -> f64 {
+        o + w * dt
+    }
+    fn orientation_rotation_vector(o: f64) -> [f64; 3] {
+        [0.0, 0.0, o]
+    }
+}
+
+impl Dim for D3 {
+    const D: usize = 3;
+    const ROT: usize = 3;
+    const NAME: &'static str = "3d";
+    type Vector = DVec3;
+    type AngVector = DVec3;
+    type Orientation = DQuat;
+
+    #[inline]
+    fn ang_cross(w: DVec3, r: DVec3) -> DVec3 {
+        w.cross(r)
+    }
+    #[inline]
+    fn cross(a: DVec3, b: DVec3) -> DVec3 {
+        a.cross(b)
+    }
+    #[inline]
+    fn ang_perp(w: DVec3, n: DVec3) -> DVec3 {
+        w - n * w.dot(n)
+    }
+    fn identity_orientation() -> DQuat {
+        DQuat::IDENTITY
+    }
+    fn rotate_orientation(o: DQuat, w: DVec3, dt: f64) -> DQuat {
+        let angle = w.length() * dt;
+        if angle == 0.0 {
+            return o;
+        }
+        (DQuat::from_scaled_axis(w * dt) * o).normalize()
+    }
+    fn orientation_rotation_vector(o: DQuat) -> [f64; 3] {
+        o.to_scaled_axis().to_array()
+    }
+}
+
+/// The dimension of a run, known at run time.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, serde::Deserialize)]
+pub enum Dimension {
+    /// Two dimensions.
+    Two,
+    /// Three dimensions.
+    Three,
+}
+
+impl Dimension {
+    /// 2 or 3.
+    pub fn value(self) -> usize {
+        match self {
+            Dimension::Two => 2,
+            Dimension::Three => 3,
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn cross_products_are_consistent_between_dimensions() {
+        // In 2D, ω ẑ × r must equal the 3D cross product restricted to the plane.
+        let w = 0.7;
+        let r = DVec2::new(0.3, -1.2);
+        let v2 = D2::ang_cross(w, r);
+        let v3 = D3::ang_cross(DVec3::new(0.0, 0.0, w), DVec3::new(r.x, r.y, 0.0));
+        assert_eq!(v2, DVec2::new(v3.x, v3.y));
+        let f = DVec2::new(2.0, 0.5);
+        let t3 = D3::cross(DVec3::new(r.x, r.y, 0.0), DVec3::new(f.x, f.y, 0.0));
+        assert_eq!(D2::cross(r, f), t3.z);
+    }
+
+    #[test]
+    fn quaternion_rotation_matches_rotation_vector() {
+        let w = DVec3::new(0.0, 0.0, 2.0);
+        let o = D3::rotate_orientation(D3::identity_orientation(), w, 0.25);
+        let rv = D3::orientation_rotation_vector(o);
+        assert!((rv[2] - 0.5).abs() < 1e-14 && rv[0].abs() < 1e-14);
+    }
+}

@@ -1,0 +1,136 @@
+//! Initial configurations: random non-overlapping gases and lattices.
+
+use crate::dim::{Dim, VectorOps};
+use crate::error::{CoreError, Result};
+use rand::RngExt;
+use rand_chacha::ChaCha8Rng;
+
+/// Places grains of the given radii at random, without overlaps, inside the box `[lo, hi]`
+/// (random sequential addition). Along axes that are not periodic the whole grain stays inside
+/// the box; along periodic axes overlaps are checked through the boundary. Grains are placed
+/// largest first; the returned positions are in the order of `radii`.
+pub fn random_gas<D: Dim>(
+    radii: &[f64],
+    lo: D::Vector,
+    hi: D::Vector,
+    periodic: [bool; 3],
+    rng: &mut ChaCha8Rng,
+    max_attempts: usize,
+) -> Result<Vec<D::Vector>> {
+    let n = radii.len();
+    let r_max = radii.iter().cloned().fold(0.0, f64::max);
+    let cell = 2.0 * r_max;
+    let mut dims = [1usize; 3];
+    for k in 0..D::D {
+        let l = hi.get(k) - lo.get(k);
+        if !(l > 0.0) {
+            return Err(CoreError::invalid(format!("box size[{k}]"), l, "a length > 0"));
+        }
+        if !periodic[k] && l < 2.0 * r_max {
+            return Err(CoreError::invalid(format!("box size[{k}]"), l, format!("at least the largest diameter {}", 2.0 * r_max)));
+        }
+        dims[k] = ((l / cell).floor() as usize).max(1);
+    }
+    let size: Vec<f64> = (0..3).map(|k| if k < D::D { (hi.get(k) - lo.get(k)) / dims[k] as f64 } else { 1.0 }).collect();
+    let mut grid: Vec<Vec<u32>> = vec![Vec::new(); dims[0] * dims[1] * dims[2]];
+    let cell_of = |x: D::Vector| -> [usize; 3] {
+        let mut c = [0usize; 3];
+        for k in 0..D::D {
+            c[k] = (((x.get(k) - lo.get(k)) / size[k]).floor().max(0.0) as usize).min(dims[k] - 1);
+        }
+        c
+    };
+    let mut order: Vec<usize> = (0..n).collect();
+    order.sort_by(|&a, &b| radii[b].total_cmp(&radii[a]).then(a.cmp(&b)));
+    let mut pos = vec![D::Vector::ZERO; n];
+    let mut placed = vec![false; n];
+    for (count, &g) in order.iter().enumerate() {
+        let r = radii[g];
+        let mut ok = false;
+        for _ in 0..max_attempts {
+            let mut x = D::Vector::ZERO;
+            for k in 0..D::D {
+                let (a, b) = if periodic[k] { (lo.get(k), hi.get(k)) } else { (lo.get(k) + r, hi.get(k) - r) };
+                x.set(k, a + (b - a) * rng.random::<f64>());
+            }
+            let c = cell_of(x);
+            // The search reaches ⌈(r + r_max)/cell⌉ = 1 cell in every direction.
+            let mut clear = true;
+            'search: for dz in -1i64..=1 {
+                for dy in -1i64..=1 {
+                    for dx in -1i64..=1 {
+                        let off = [dx, dy, dz];
+                        let mut cc = [0usize; 3];
+                        let mut valid = true;
+                        for k in 0..3 {
+                            if k >= D::D {
+                                if off[k] != 0 {
+                                    valid = false;
+                                }
+                                continue;
+                            }
+                            let v = c[k] as i64 + off[k];
+                            let nk = dims[k] as i64;
+                            if periodic[k] {
+                                cc[k] = v.rem_euclid(nk) as usize;
+                            } else if v < 0 || v >= nk {
+                                valid = false;
+                            } else {
+                                cc[k] = v as usize;
+                            }
+                        }
+                        if !valid {
+                            continue;
+                        }
+                        for &o in &grid[(cc[2] * dims[1] + cc[1]) * dims[0] + cc[0]] {
+                            let o = o as usize;
+                            let mut d = pos[o] - x;
+                            for k in 0..D::D {
+                                if periodic[k] {
+                                    let l = hi.get(k) - lo.get(k);
+                                    d.set(k, d.get(k) - l * (d.get(k) / l).round());
+                                }
+                            }
+                            let reach = r + radii[o];
+                            if d.norm2() < reach * reach {
+                                clear = false;
+                                break 'search;
+                            }
+                        }
+                    }
+                }
+            }
+            if clear {
+                pos[g] = x;
+                placed[g] = true;
+                grid[(c[2] * dims[1] + c[1]) * dims[0] + c[0]].push(g as u32);
+                ok = true;
+                break;
+            }
+        }
+        if !ok {
+            return Err(CoreError::Inconsistent(format!(
+                "could not place grain {} of {n} without overlap after {max_attempts} random attempts ({count} placed): \
+                 the gas is too dense for its box; enlarge the box or use fewer grains",
+                count + 1
+            )));
+        }
+    }
+    debug_assert!(placed.iter().all(|&p| p));
+    Ok(pos)
+}
+
+/// Centres of a triangular lattice in 2D: `rows` rows of `cols` grains, spacing `a`, first
+/// centre at `origin`; odd rows are shifted by a/2 and rows are a√3/2 apart (one lattice
+/// direction along x).
+pub fn triangular_lattice(rows: usize, cols: usize, a: f64, origin: [f64; 2]) -> Vec<[f64; 2]> {
+    let mut out = Vec::with_capacity(rows * cols);
+    let dy = a * 3f64.sqrt() / 2.0;
+    for r in 0..rows {
+        let shift = if r % 2 == 1 { 0.5 * a } else { 0.0 };
+        for c in 0..cols {
+            out.push([origin[0] + shift + c as f64 * a, origin[1] + r as f64 * dy]);
+        }
+    }
+    out
+}

@@ -1,0 +1,198 @@
+//! Time integration: velocity Verlet and Beeman, translations and rotations, walls and pistons.
+
+use super::{Integrator, Simulation};
+use crate::dim::{Dim, VectorOps};
+use crate::domain::WallMotion;
+use crate::error::Result;
+use rayon::prelude::*;
+
+const MIN_LEN: usize = 1024;
+
+impl<D: Dim> Simulation<D> {
+    /// Advances the simulation by one time step.
+    pub fn step(&mut self) -> Result<()> {
+        match self.integrator {
+            Integrator::VelocityVerlet => self.step_verlet()?,
+            Integrator::Beeman => self.step_beeman()?,
+        }
+        self.step += 1;
+        if self.counters.network_changes == 0 {
+            self.counters.steps_network_unchanged += 1;
+        } else {
+            self.counters.steps_network_unchanged = 0;
+        }
+        Ok(())
+    }
+
+    /// Advances by `n` steps.
+    pub fn steps(&mut self, n: u64) -> Result<()> {
+        for _ in 0..n {
+            self.step()?;
+        }
+        Ok(())
+    }
+
+    fn step_verlet(&mut self) -> Result<()> {
+        let dt = self.dt;
+        let h = 0.5 * dt;
+        {
+            let g = &mut self.grains;
+            let dom = &self.domain;
+            g.pos
+                .par_iter_mut()
+                .zip(g.vel.par_iter_mut())
+                .zip(g.image.par_iter_mut())
+                .zip(g.force.par_iter())
+                .zip(g.mass.par_iter())
+                .with_min_len(MIN_LEN)
+                .for_each(|((((x, v), im), f), m)| {
+                    *v += *f * (h / m);
+                    *x += *v * dt;
+                    dom.wrap(x, im);
+                });
+            g.omega
+                .par_iter_mut()
+                .zip(g.orientation.par_iter_mut())
+                .zip(g.torque.par_iter())
+                .zip(g.inertia.par_iter())
+                .with_min_len(MIN_LEN)
+                .for_each(|(((w, o), t), i)| {
+                    *w += *t * (h / i);
+                    *o = D::rotate_orientation(*o, *w, dt);
+                });
+        }
+        let t0 = self.time;
+        for w in &mut self.domain.walls {
+            match &w.motion {
+                WallMotion::Fixed => w.speed = 0.0,
+                WallMotion::Velocity { speed } => {
+                    w.speed = speed.eval(t0 + h);
+                    w.position += w.normal * (w.speed * dt);
+                }
+                WallMotion::Piston { .. } => {
+                    w.speed += h * w.accel;
+                    w.position += w.normal * (w.speed * dt);
+                }
+            }
+        }
+        self.time = t0 + dt;
+        self.prepare_neighbors()?;
+        self.compute_forces(dt, false)?;
+        {
+            let g = &mut self.grains;
+            g.vel.par_iter_mut().zip(g.force.par_iter()).zip(g.mass.par_iter()).with_min_len(MIN_LEN).for_each(|((v, f), m)| {
+                *v += *f * (h / m);
+            });
+            g.omega.par_iter_mut().zip(g.torque.par_iter()).zip(g.inertia.par_iter()).with_min_len(MIN_LEN).for_each(|((w, t), i)| {
+                *w += *t * (h / i);
+            });
+        }
+        self.update_piston_accelerations();
+        let t1 = self.time;
+        for w in &mut self.domain.walls {
+            match &w.motion {
+                WallMotion::Fixed => {}
+                WallMotion::Velocity { speed } => w.speed = speed.eval(t1),
+                WallMotion::Piston { .. } => w.speed += h * w.accel,
+            }
+        }
+        Ok(())
+    }
+
+    fn step_beeman(&mut self) -> Result<()> {
+        let dt = self.dt;
+        let n = self.len();
+        if self.prev_acc.len() != n || self.prev_ang_acc.len() != n {
+            // first step (or after a change of integrator): start with a(t − dt) = a(t)
+            self.prev_acc = (0..n).map(|k| self.grains.force[k] / self.grains.mass[k]).collect();
+            self.prev_ang_acc = (0..n).map(|k| self.grains.torque[k] / self.grains.inertia[k]).collect();
+        }
+        // a(t) before the forces are overwritten.
+        let acc: Vec<D::Vector> = (0..n).into_par_iter().with_min_len(MIN_LEN).map(|k| self.grains.force[k] / self.grains.mass[k]).collect();
+        let ang: Vec<D::AngVector> =
+            (0..n).into_par_iter().with_min_len(MIN_LEN).map(|k| self.grains.torque[k] / self.grains.inertia[k]).collect();
+        {
+            let Simulation { grains: g, domain: dom, prev_acc, prev_ang_acc, work, .. } = self;
+            work.vel_eval.resize(n, D::Vector::ZERO);
+            work.omega_eval.resize(n, D::AngVector::ZERO);
+            let c2 = dt * dt / 6.0;
+            g.pos
+                .par_iter_mut()
+                .zip(g.image.par_iter_mut())
+                .zip(work.vel_eval.par_iter_mut())
+                .zip(g.vel.par_iter())
+                .zip(acc.par_iter().zip(prev_acc.par_iter()))
+                .with_min_len(MIN_LEN)
+                .for_each(|((((x, im), ve), v), (a, ap))| {
+                    *x += *v * dt + (*a * 4.0 - *ap) * c2;
+                    dom.wrap(x, im);
+                    *ve = *v + (*a * 3.0 - *ap) * (0.5 * dt);
+                });
+            g.orientation
+                .par_iter_mut()
+                .zip(work.omega_eval.par_iter_mut())
+                .zip(g.omega.par_iter())
+                .zip(ang.par_iter().zip(prev_ang_acc.par_iter()))
+                .with_min_len(MIN_LEN)
+                .for_each(|(((o, we), w), (a, ap))| {
+                    let turn = *w * dt + (*a * 4.0 - *ap) * c2;
+                    *o = D::rotate_orientation(*o, turn, 1.0);
+                    *we = *w + (*a * 3.0 - *ap) * (0.5 * dt);
+                });
+        }
+        let t0 = self.time;
+        let mut wall_accel = Vec::with_capacity(self.domain.walls.len());
+        for w in &mut self.domain.walls {
+            wall_accel.push(w.accel);
+            match &w.motion {
+                WallMotion::Fixed => w.speed = 0.0,
+                WallMotion::Velocity { speed } => {
+                    w.position += w.normal * (speed.eval(t0 + 0.5 * dt) * dt);
+                    w.speed = speed.eval(t0 + dt);
+                }
+                WallMotion::Piston { .. } => {
+                    let shift = w.speed * dt + (4.0 * w.accel - w.prev_accel) * dt * dt / 6.0;
+                    w.position += w.normal * shift;
+                    // predicted speed seen by the contacts; corrected below
+                    w.speed += (3.0 * w.accel - w.prev_accel) * 0.5 * dt;
+                }
+            }
+        }
+        self.time = t0 + dt;
+        self.prepare_neighbors()?;
+        self.compute_forces(dt, true)?;
+        {
+            let Simulation { grains: g, prev_acc, prev_ang_acc, .. } = self;
+            g.vel
+                .par_iter_mut()
+                .zip(g.force.par_iter().zip(g.mass.par_iter()))
+                .zip(acc.par_iter().zip(prev_acc.par_iter_mut()))
+                .with_min_len(MIN_LEN)
+                .for_each(|((v, (f, m)), (a, ap))| {
+                    let a_new = *f / *m;
+                    *v += (a_new * 2.0 + *a * 5.0 - *ap) * (dt / 6.0);
+                    *ap = *a;
+                });
+            g.omega
+                .par_iter_mut()
+                .zip(g.torque.par_iter().zip(g.inertia.par_iter()))
+                .zip(ang.par_iter().zip(prev_ang_acc.par_iter_mut()))
+                .with_min_len(MIN_LEN)
+                .for_each(|((w, (t, i)), (a, ap))| {
+                    let a_new = *t / *i;
+                    *w += (a_new * 2.0 + *a * 5.0 - *ap) * (dt / 6.0);
+                    *ap = *a;
+                });
+        }
+        self.update_piston_accelerations();
+        for (w, a_old) in self.domain.walls.iter_mut().zip(wall_accel) {
+            if let WallMotion::Piston { .. } = w.motion {
+                // undo the prediction, then apply the corrector
+                let v_t = w.speed - (3.0 * a_old - w.prev_accel) * 0.5 * dt;
+                w.speed = v_t + (2.0 * w.accel + 5.0 * a_old - w.prev_accel) * dt / 6.0;
+                w.prev_accel = a_old;
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,279 @@
+//! The simulation: grains + domain + contact laws + contact store + integrator.
+
+mod builder;
+mod forces;
+mod integrate;
+mod run;
+
+pub use builder::{ExternalLoad, SimulationBuilder};
+pub use run::{Control, Progress, RunOutcome, StopCriteria, StopReason};
+
+use crate::contact::{ContactLaw, ContactState};
+use crate::dim::{Dim, VectorOps};
+use crate::domain::Domain;
+use crate::grains::Grains;
+use crate::neighbor::{Adjacency, NeighborList};
+use crate::util::Fnv64;
+use rand_chacha::ChaCha8Rng;
+use serde::{Deserialize, Serialize};
+
+/// Time integration scheme (SPEC §3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Integrator {
+    /// Velocity Verlet (default): kick–drift–kick; forces see half-step velocities.
+    VelocityVerlet,
+    /// Beeman's predictor–corrector: x += v dt + (4a − a_prev) dt²/6,
+    /// v += (2a_new + 5a − a_prev) dt/6; forces see the predicted velocity v + (3a − a_prev) dt/2.
+    Beeman,
+}
+
+impl Integrator {
+    /// Parses `velocity_verlet` or `beeman`.
+    pub fn from_name(name: &str) -> crate::Result<Self> {
+        match name {
+            "velocity_verlet" => Ok(Integrator::VelocityVerlet),
+            "beeman" => Ok(Integrator::Beeman),
+            _ => Err(crate::CoreError::UnknownName {
+                what: "integrator".into(),
+                name: name.into(),
+                available: "velocity_verlet, beeman".into(),
+            }),
+        }
+    }
+}
+
+/// Numerical safety settings.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Safety {
+    /// A contact whose overlap exceeds this fraction of the smaller radius stops the run (blow-up).
+    pub max_overlap_fraction: f64,
+}
+
+impl Default for Safety {
+    fn default() -> Self {
+        Safety { max_overlap_fraction: 0.3 }
+    }
+}
+
+/// Counters updated every step.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct Counters {
+    /// Contacts that formed or broke at the last step.
+    pub network_changes: u64,
+    /// Consecutive steps (up to now) without any contact forming or breaking.
+    pub steps_network_unchanged: u64,
+    /// Contacts in contact at the last step (grain–grain + grain–wall).
+    pub contacts: u64,
+    /// Sliding contacts at the last step.
+    pub sliding: u64,
+    /// Largest overlap / smaller radius seen since the start.
+    pub max_overlap_ratio_seen: f64,
+}
+
+/// A discrete-element simulation in dimension `D`.
+///
+/// Everything that influences the future is a serialized field, so a checkpoint of this struct
+/// continues bit for bit; the `work` buffers are derived and rebuilt on demand.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(bound = "")]
+pub struct Simulation<D: Dim> {
+    /// Grains (structure of arrays).
+    pub grains: Grains<D>,
+    /// Periodicity and walls (each wall carries its own contact law).
+    pub domain: Domain<D>,
+    /// Grain–grain contact law.
+    pub law: ContactLaw,
+    /// Gravitational acceleration.
+    pub gravity: D::Vector,
+    /// Per-grain external forces and torques.
+    pub loads: Vec<ExternalLoad<D>>,
+    /// Time integration scheme.
+    pub integrator: Integrator,
+    /// Time step.
+    pub dt: f64,
+    /// The time step suggested for this system (fraction × shortest contact period).
+    pub suggested_dt: f64,
+    /// Fraction of the shortest contact period used for suggestions.
+    pub dt_fraction: f64,
+    /// Expected largest overlap (fraction of the largest radius) used for Hertz stiffness.
+    pub expected_overlap: f64,
+    /// Simulated time.
+    pub time: f64,
+    /// Steps done.
+    pub step: u64,
+    /// Safety settings.
+    pub safety: Safety,
+    /// Neighbor list and contact histories.
+    pub nlist: NeighborList<D>,
+    /// Translational accelerations of the previous step (Beeman only).
+    pub prev_acc: Vec<D::Vector>,
+    /// Angular accelerations of the previous step (Beeman only).
+    pub prev_ang_acc: Vec<D::AngVector>,
+    /// Step counters.
+    pub counters: Counters,
+    /// Seed the run was started with.
+    pub seed: u64,
+    /// Random generator (its state is part of checkpoints).
+    pub rng: ChaCha8Rng,
+    /// Warnings raised so far (each once).
+    pub warnings: Vec<String>,
+    #[serde(skip)]
+    work: Workspace<D>,
+}
+
+/// Derived buffers, rebuilt when needed.
+#[derive(Clone, Debug)]
+struct Workspace<D: Dim> {
+    pair_force: Vec<PairForce<D>>,
+    wall_force: Vec<WallForce<D>>,
+    adjacency: Adjacency,
+    adjacency_builds: u64,
+    vel_eval: Vec<D::Vector>,
+    omega_eval: Vec<D::AngVector>,
+}
+
+impl<D: Dim> Default for Workspace<D> {
+    fn default() -> Self {
+        Workspace {
+            pair_force: Vec::new(),
+            wall_force: Vec::new(),
+            adjacency: Adjacency::default(),
+            adjacency_builds: u64::MAX,
+            vel_eval: Vec::new(),
+            omega_eval: Vec::new(),
+        }
+    }
+}
+
+/// Force and torques of one grain–grain pair (force on i; j gets the opposite).
+#[derive(Clone, Copy, Debug, Default)]
+struct PairForce<D: Dim> {
+    force: D::Vector,
+    torque_i: D::AngVector,
+    torque_j: D::AngVector,
+}
+
+/// Force and torque of one grain–wall contact on the grain.
+#[derive(Clone, Copy, Debug, Default)]
+struct WallForce<D: Dim> {
+    force: D::Vector,
+    torque: D::AngVector,
+}
+
+impl<D: Dim> Simulation<D> {
+    /// Number of grains.
+    pub fn len(&self) -> usize {
+        self.grains.len()
+    }
+
+    /// True when there are no grains.
+    pub fn is_empty(&self) -> bool {
+        self.grains.is_empty()
+    }
+
+    /// Kinetic energy (translational + rotational).
+    pub fn kinetic_energy(&self) -> f64 {
+        let g = &self.grains;
+        crate::util::det_sum(g.len(), |k| 0.5 * g.mass[k] * g.vel[k].norm2() + 0.5 * g.inertia[k] * g.omega[k].norm2())
+    }
+
+    /// Elastic energy stored in all contacts (normal, tangential and rolling springs).
+    pub fn elastic_energy(&self) -> f64 {
+        let g = &self.grains;
+        let pairs = &self.nlist.pairs;
+        let e_pairs = crate::util::det_sum(pairs.len(), |k| {
+            let p = &pairs[k];
+            let (i, j) = (p.i as usize, p.j as usize);
+            let d = self.domain.displacement(g.pos[i], g.pos[j]).norm();
+            let xi = g.radius[i] + g.radius[j] - d;
+            let r_eff = g.radius[i] * g.radius[j] / (g.radius[i] + g.radius[j]);
+            self.law.elastic_energy(xi, r_eff, &p.state)
+        });
+        let mut e_walls = 0.0;
+        for wp in &self.nlist.wall_pairs {
+            let gi = wp.grain as usize;
+            let wall = &self.domain.walls[wp.wall as usize];
+            let xi = g.radius[gi] - wall.distance(g.pos[gi]);
+            e_walls += wall.law.elastic_energy(xi, g.radius[gi], &wp.state);
+        }
+        e_pairs + e_walls
+    }
+
+    /// Potential energy in the gravity field, −Σ m g·x (unwrapped positions).
+    pub fn gravitational_energy(&self) -> f64 {
+        let g = &self.grains;
+        crate::util::det_sum(g.len(), |k| -g.mass[k] * self.gravity.dot(self.domain.unwrapped(g.pos[k], g.image[k])))
+    }
+
+    /// Fingerprint of the complete dynamic state (positions, velocities, rotations, histories,
+    /// walls, time): equal hashes ⇔ (with overwhelming probability) identical bits.
+    pub fn state_hash(&self) -> u64 {
+        let mut h = Fnv64::default();
+        let g = &self.grains;
+        h.write_f64(self.time);
+        h.write(&self.step.to_le_bytes());
+        for k in 0..g.len() {
+            h.write(&g.id[k].to_le_bytes());
+            for c in g.pos[k].to_array3().into_iter().chain(g.vel[k].to_array3()).chain(g.omega[k].to_array3()) {
+                h.write_f64(c);
+            }
+            for c in g.force[k].to_array3().into_iter().chain(g.torque[k].to_array3()) {
+                h.write_f64(c);
+            }
+            for c in D::orientation_rotation_vector(g.orientation[k]) {
+                h.write_f64(c);
+            }
+        }
+        let mut hist = |s: &ContactState<D>| {
+            for c in s.spring.to_array3().into_iter().chain(s.rolling.to_array3()) {
+                h.write_f64(c);
+            }
+            h.write_f64(s.overlap);
+            h.write(&[s.sliding as u8]);
+        };
+        for p in &self.nlist.pairs {
+            hist(&p.state);
+        }
+        for p in &self.nlist.wall_pairs {
+            hist(&p.state);
+        }
+        for w in &self.domain.walls {
+            for c in w.position.to_array3() {
+                h.write_f64(c);
+            }
+            h.write_f64(w.speed);
+        }
+        h.finish()
+    }
+
+    /// Adds a warning once.
+    pub(crate) fn warn(&mut self, message: String) {
+        if !self.warnings.contains(&message) {
+            self.warnings.push(message);
+        }
+    }
+
+    /// Marks the neighbor list stale (after changing radii or the domain by hand) and recomputes
+    /// forces without advancing time or histories.
+    pub fn refresh(&mut self) -> crate::Result<()> {
+        self.nlist.stale = true;
+        self.refresh_forces()
+    }
+
+    /// Recomputes forces and torques at the current state without advancing time or histories
+    /// (use after changing parameters, velocities or loads by hand).
+    pub fn refresh_forces(&mut self) -> crate::Result<()> {
+        self.prepare_neighbors()?;
+        self.compute_forces(0.0, false)?;
+        self.update_piston_accelerations();
+        if self.integrator == Integrator::Beeman {
+            self.prev_acc = (0..self.len()).map(|k| self.grains.force[k] / self.grains.mass[k]).collect();
+            self.prev_ang_acc = (0..self.len()).map(|k| self.grains.torque[k] / self.grains.inertia[k]).collect();
+            for w in &mut self.domain.walls {
+                w.prev_accel = w.accel;
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,230 @@
+//! Running until a stop criterion (SPEC §3): equilibrium criteria and step/time limits.
+
+use super::Simulation;
+use crate::dim::{Dim, VectorOps};
+use crate::error::{CoreError, Result};
+use crate::util::{det_max, det_sum};
+use serde::{Deserialize, Serialize};
+
+/// When to stop. The run converges when **all** equilibrium criteria that are set hold at a
+/// check; it stops anyway at the step or time limit (absolute values, so that a resumed run stops
+/// where the uninterrupted one would). At least one limit is required.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct StopCriteria {
+    /// Stop when the step counter reaches this value.
+    pub step_limit: Option<u64>,
+    /// Stop when simulated time reaches this value.
+    pub time_limit: Option<f64>,
+    /// Converged when max_i max(|F_i|/m_i, |τ_i| R_i/I_i) is below this (acceleration units).
+    pub max_acceleration: Option<f64>,
+    /// Converged when the mean of the same per-grain acceleration is below this.
+    pub mean_acceleration: Option<f64>,
+    /// Converged when the kinetic energy per grain is below this.
+    pub kinetic_energy_per_grain: Option<f64>,
+    /// Converged when no contact formed or broke during this many consecutive steps.
+    pub network_unchanged_steps: Option<u64>,
+    /// Converged only when no contact is sliding.
+    #[serde(default)]
+    pub no_sliding: bool,
+    /// Evaluate the criteria (and report progress) every this many steps (0 or 1: every step).
+    #[serde(default)]
+    pub check_every: u64,
+    /// Do not declare convergence before this simulated time (e.g. the end of a load ramp).
+    pub not_before_time: Option<f64>,
+}
+
+impl StopCriteria {
+    /// True when at least one equilibrium criterion is set.
+    pub fn has_equilibrium_criterion(&self) -> bool {
+        self.max_acceleration.is_some()
+            || self.mean_acceleration.is_some()
+            || self.kinetic_energy_per_grain.is_some()
+            || self.network_unchanged_steps.is_some()
+            || self.no_sliding
+    }
+
+    /// Checks the values.
+    pub fn validate(&self) -> Result<()> {
+        if self.step_limit.is_none() && self.time_limit.is_none() {
+            return Err(CoreError::invalid("stop.step_limit", "(missing)", "a step limit or a time limit (`stop.time_limit`)"));
+        }
+        if let Some(t) = self.time_limit {
+            if !(t.is_finite() && t >= 0.0) {
+                return Err(CoreError::invalid("stop.time_limit", t, "a finite time ≥ 0"));
+            }
+        }
+        for (key, v) in [
+            ("stop.max_acceleration", self.max_acceleration),
+            ("stop.mean_acceleration", self.mean_acceleration),
+            ("stop.kinetic_energy_per_grain", self.kinetic_energy_per_grain),
+        ] {
+            if let Some(v) = v {
+                if !(v.is_finite() && v > 0.0) {
+                    return Err(CoreError::invalid(key, v, "a finite tolerance > 0"));
+                }
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Why a run stopped.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum StopReason {
+    /// All equilibrium criteria held.
+    Converged,
+    /// The step limit was reached first.
+    StepLimit,
+    /// The time limit was reached first.
+    TimeLimit,
+    /// The observer asked to stop (e.g. Ctrl-C); the current step was completed.
+    Interrupted,
+}
+
+/// State reported to the observer at every check.
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
+pub struct Progress {
+    /// Step counter.
+    pub step: u64,
+    /// Simulated time.
+    pub time: f64,
+    /// Kinetic energy per grain.
+    pub kinetic_energy_per_grain: f64,
+    /// max_i max(|F_i|/m_i, |τ_i| R_i/I_i).
+    pub max_acceleration: f64,
+    /// Mean of the same.
+    pub mean_acceleration: f64,
+    /// Contacts (grain–grain + grain–wall).
+    pub contacts: u64,
+    /// Sliding contacts.
+    pub sliding: u64,
+    /// Consecutive steps without a contact forming or breaking.
+    pub steps_network_unchanged: u64,
+    /// Fraction of the step/time limit done, in [0, 1].
+    pub fraction_of_limit: f64,
+}
+
+/// What the observer tells the run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Control {
+    /// Keep going.
+    Continue,
+    /// Stop after this step.
+    Stop,
+}
+
+/// Result of [`Simulation::run`].
+#[derive(Clone, Copy, Debug, Serialize, Deserialize)]
+pub struct RunOutcome {
+    /// Why it stopped.
+    pub reason: StopReason,
+    /// Steps done by this call.
+    pub steps: u64,
+    /// State at the end.
+    pub last: Progress,
+}
+
+impl<D: Dim> Simulation<D> {
+    /// Current values of every stop quantity.
+    pub fn progress(&self, stop: &StopCriteria) -> Progress {
+        let g = &self.grains;
+        let n = g.len();
+        let acc = |k: usize| {
+            let a = g.force[k].norm() / g.mass[k];
+            let b = g.torque[k].norm() * g.radius[k] / g.inertia[k];
+            a.max(b)
+        };
+        let ke = self.kinetic_energy();
+        let mut fraction: f64 = 0.0;
+        if let Some(s) = stop.step_limit {
+            fraction = fraction.max(if s == 0 { 1.0 } else { self.step as f64 / s as f64 });
+        }
+        if let Some(t) = stop.time_limit {
+            fraction = fraction.max(if t == 0.0 { 1.0 } else { self.time / t });
+        }
+        Progress {
+            step: self.step,
+            time: self.time,
+            kinetic_energy_per_grain: ke / n as f64,
+            max_acceleration: det_max(n, acc),
+            mean_acceleration: det_sum(n, acc) / n as f64,
+            contacts: self.counters.contacts,
+            sliding: self.counters.sliding,
+            steps_network_unchanged: self.counters.steps_network_unchanged,
+            fraction_of_limit: fraction.min(1.0),
+        }
+    }
+
+    fn converged(&self, stop: &StopCriteria, p: &Progress) -> bool {
+        if !stop.has_equilibrium_criterion() {
+            return false;
+        }
+        if let Some(t) = stop.not_before_time {
+            if self.time < t {
+                return false;
+            }
+        }
+        stop.max_acceleration.is_none_or(|tol| p.max_acceleration < tol)
+            && stop.mean_acceleration.is_none_or(|tol| p.mean_acceleration < tol)
+            && stop.kinetic_energy_per_grain.is_none_or(|tol| p.kinetic_energy_per_grain < tol)
+            && stop.network_unchanged_steps.is_none_or(|k| p.steps_network_unchanged >= k)
+            && (!stop.no_sliding || p.sliding == 0)
+    }
+
+    fn limit_reached(&self, stop: &StopCriteria) -> Option<super::StopReason> {
+        if stop.step_limit.is_some_and(|s| self.step >= s) {
+            return Some(StopReason::StepLimit);
+        }
+        // half a step of slack so that t_limit = k·dt stops after exactly k steps
+        if stop.time_limit.is_some_and(|t| self.time >= t - 0.5 * self.dt) {
+            return Some(StopReason::TimeLimit);
+        }
+        None
+    }
+
+    /// Steps until `stop` is met, calling `observer` at every check. Convergence and limits are
+    /// checked at absolute step numbers that are multiples of `check_every`, so a resumed run stops
+    /// at the same step as the uninterrupted one.
+    pub fn run(&mut self, stop: &StopCriteria, observer: &mut dyn FnMut(&Progress) -> Control) -> Result<RunOutcome> {
+        stop.validate()?;
+        let every = stop.check_every.max(1);
+        let start = self.step;
+        loop {
+            if let Some(reason) = self.limit_reached(stop) {
+                self.check_timestep_warning();
+                let last = self.progress(stop);
+                observer(&last);
+                return Ok(RunOutcome { reason, steps: self.step - start, last });
+            }
+            self.step()?;
+            if self.step % every == 0 {
+                let p = self.progress(stop);
+                if self.converged(stop, &p) {
+                    self.check_timestep_warning();
+                    observer(&p);
+                    return Ok(RunOutcome { reason: StopReason::Converged, steps: self.step - start, last: p });
+                }
+                if observer(&p) == Control::Stop {
+                    return Ok(RunOutcome { reason: StopReason::Interrupted, steps: self.step - start, last: p });
+                }
+            }
+        }
+    }
+
+    /// Warns when, at the deepest overlap seen so far, the time step exceeds the suggested
+    /// fraction of the shortest contact period (matters for Hertz contacts, which stiffen).
+    pub fn check_timestep_warning(&mut self) {
+        let (r_min, r_max) = self.grains.radius_range();
+        let seen = self.counters.max_overlap_ratio_seen * r_min / r_max;
+        let overlap = self.expected_overlap.max(seen);
+        let suggested = crate::timestep::suggest_timestep(&self.grains, &self.law, &self.domain.walls, self.dt_fraction, overlap);
+        if self.dt > suggested * (1.0 + 1e-12) {
+            self.warn(format!(
+                "time step {:.4e} exceeds {} of the shortest contact period at the deepest overlap seen ({:.3e} of the largest radius): suggested {:.4e}",
+                self.dt, self.dt_fraction, overlap, suggested
+            ));
+        }
+    }
+}

@@ -1,0 +1,55 @@
+//! Small deterministic helpers.
+
+use rayon::prelude::*;
+
+/// Fixed chunk length of deterministic parallel reductions.
+pub const REDUCE_CHUNK: usize = 2048;
+
+/// Σ f(k) for k in 0..n, summed in fixed chunks so the result does not depend on the number of
+/// threads (rayon's own `sum` splits work adaptively and would change the rounding).
+pub fn det_sum(n: usize, f: impl Fn(usize) -> f64 + Sync + Send) -> f64 {
+    let partial: Vec<f64> = (0..n.div_ceil(REDUCE_CHUNK))
+        .into_par_iter()
+        .map(|c| {
+            let mut s = 0.0;
+            for k in c * REDUCE_CHUNK..((c + 1) * REDUCE_CHUNK).min(n) {
+                s += f(k);
+            }
+            s
+        })
+        .collect();
+    partial.iter().sum()
+}
+
+/// max f(k) for k in 0..n (0 when n = 0); exact, hence deterministic.
+pub fn det_max(n: usize, f: impl Fn(usize) -> f64 + Sync + Send) -> f64 {
+    (0..n).into_par_iter().with_min_len(REDUCE_CHUNK).map(f).reduce(|| 0.0, f64::max)
+}
+
+/// 64-bit FNV-1a hash, used for bitwise state fingerprints.
+#[derive(Clone, Copy, Debug)]
+pub struct Fnv64(u64);
+
+impl Default for Fnv64 {
+    fn default() -> Self {
+        Fnv64(0xcbf2_9ce4_8422_2325)
+    }
+}
+
+impl Fnv64 {
+    /// Mixes bytes in.
+    pub fn write(&mut self, bytes: &[u8]) {
+        for &b in bytes {
+            self.0 ^= b as u64;
+            self.0 = self.0.wrapping_mul(0x0000_0100_0000_01b3);
+        }
+    }
+    /// Mixes the bit pattern of a float in.
+    pub fn write_f64(&mut self, x: f64) {
+        self.write(&x.to_bits().to_le_bytes());
+    }
+    /// The hash.
+    pub fn finish(&self) -> u64 {
+        self.0
+    }
+}
