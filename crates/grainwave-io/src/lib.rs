@@ -1,1 +1,36 @@
-//! placeholder
+//! # grainwave-io
+//!
+//! Output writers shared by every grainwave experiment:
+//!
+//! * [`write_json_atomic`]: any `Serialize` value as pretty-printed JSON;
+//! * [`CsvTable`] and [`write_csv_atomic`]: a small column-oriented CSV table (numbers and text);
+//! * [`grains_csv`] / [`write_grains_csv`]: one row per grain of a [`Snapshot`](grainwave_core::snapshot::Snapshot),
+//!   with dimension-dependent columns.
+//!
+//! Every file is written through [`grainwave_core::checkpoint::atomic_write`] (a temporary file in
+//! the same directory, synced, then renamed), so a reader never sees a half-written output even if
+//! the run is killed while writing.
+//!
+//! ```
+//! use grainwave_io::{write_csv_atomic, CsvTable};
+//!
+//! let mut table = CsvTable::new();
+//! table.push_u32("id", [0, 1]).unwrap();
+//! table.push_f64("radius", [0.5, 0.45]).unwrap();
+//! assert_eq!(table.to_csv_string(), "id,radius\n0,0.5\n1,0.45\n");
+//!
+//! let dir = std::env::temp_dir().join(format!("grainwave-io-doc-{}", std::process::id()));
+//! write_csv_atomic(&dir.join("radii.csv"), &table).unwrap();
+//! # std::fs::remove_dir_all(&dir).unwrap();
+//! ```
+#![warn(missing_docs)]
+
+mod error;
+mod grains_table;
+mod json;
+mod table;
+
+pub use error::{OutputError, Result};
+pub use grains_table::{grains_csv, write_grains_csv};
+pub use json::write_json_atomic;
+pub use table::{write_csv_atomic, Column, CsvTable};
