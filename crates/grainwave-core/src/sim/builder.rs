@@ -240,7 +240,8 @@ impl<D: Dim> SimulationBuilder<D> {
         }
         sim.check_initial_overlaps(self.max_initial_overlap)?;
         sim.refresh_forces()?;
-        sim.counters = Counters::default();
+        // Building is not a step: contacts present at the start did not "form".
+        sim.counters.network_changes = 0;
         Ok(sim)
     }
 }
