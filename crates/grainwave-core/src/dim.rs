@@ -145,6 +145,11 @@ pub trait Dim: Copy + Clone + Debug + Default + Send + Sync + PartialEq + 'stati
     /// Component of an angular vector perpendicular to the contact normal `n`
     /// (in 2D every angular vector is perpendicular to the plane and returned unchanged).
     fn ang_perp(w: Self::AngVector, n: Self::Vector) -> Self::AngVector;
+    /// Component of an angular vector along the contact normal `n` (twist rate); 0 in 2D,
+    /// where rotations are about ẑ and normals lie in the plane.
+    fn twist(w: Self::AngVector, n: Self::Vector) -> f64;
+    /// The angular vector `m n̂` (a torque about the normal); zero in 2D.
+    fn about_normal(m: f64, n: Self::Vector) -> Self::AngVector;
     /// The identity orientation.
     fn identity_orientation() -> Self::Orientation;
     /// Advances an orientation by the rotation `w dt` (exact exponential map in 3D).
@@ -187,6 +192,14 @@ impl Dim for D2 {
     fn ang_perp(w: f64, _n: DVec2) -> f64 {
         w
     }
+    #[inline]
+    fn twist(_w: f64, _n: DVec2) -> f64 {
+        0.0
+    }
+    #[inline]
+    fn about_normal(_m: f64, _n: DVec2) -> f64 {
+        0.0
+    }
     fn identity_orientation() -> f64 {
         0.0
     }
@@ -218,6 +231,14 @@ impl Dim for D3 {
     #[inline]
     fn ang_perp(w: DVec3, n: DVec3) -> DVec3 {
         w - n * w.dot(n)
+    }
+    #[inline]
+    fn twist(w: DVec3, n: DVec3) -> f64 {
+        w.dot(n)
+    }
+    #[inline]
+    fn about_normal(m: f64, n: DVec3) -> DVec3 {
+        n * m
     }
     fn identity_orientation() -> DQuat {
         DQuat::IDENTITY

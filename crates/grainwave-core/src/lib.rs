@@ -50,7 +50,7 @@ pub const VERSION: &str = env!("CARGO_PKG_VERSION");
 /// The names most programs need.
 pub mod prelude {
     pub use crate::checkpoint::{load_simulation, AnySimulation};
-    pub use crate::contact::{ContactLaw, ContactParams, NormalDamping, NormalElastic, Partner, Rolling, Tangential, TangentialDamping};
+    pub use crate::contact::{ContactLaw, ContactParams, NormalDamping, NormalElastic, Partner, Rolling, Tangential, TangentialDamping, Twisting};
     pub use crate::dim::{Dim, VectorOps, D2, D3};
     pub use crate::domain::{Domain, TimeFunction, Wall, WallMotion};
     pub use crate::grains::{GrainKind, Grains, SizeDistribution};

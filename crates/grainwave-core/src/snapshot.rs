@@ -43,7 +43,7 @@ pub struct ContactRecord<D: Dim> {
     pub normal_force: f64,
     /// Tangential force on i.
     pub tangential_force: D::Vector,
-    /// Rolling torque on i.
+    /// Rolling + twisting resistance torque on i.
     pub rolling_torque: D::AngVector,
     /// Differential normal stiffness k_n = dF_n/dξ.
     pub normal_stiffness: f64,
@@ -192,12 +192,10 @@ impl<D: Dim> Snapshot<D> {
         self.id.is_empty()
     }
 
-    /// Sum of the normal loads of all contacts with wall `w` (force the grains exert, outward).
+    /// Sum of the normal loads of all contacts with wall `w`: the force the grains exert on it
+    /// along its outward direction (equal to the push of the wall on the grains along its normal).
     pub fn wall_load(&self, w: u32) -> f64 {
-        self.contacts
-            .iter()
-            .filter(|c| c.j == Counterpart::Wall(w))
-            .map(|c| -c.force_on_i().dot(self.domain.walls[w as usize].normal))
-            .sum()
+        let n = self.domain.walls[w as usize].normal;
+        self.contacts.iter().filter(|c| c.j == Counterpart::Wall(w)).map(|c| c.force_on_i().dot(n)).sum()
     }
 }

@@ -203,3 +203,31 @@ fn disk_on_floor_sticks_then_slides() {
     let f_slide = slid_at.expect("the disk must slide");
     assert!(rel(f_slide, mu * m * g) < 0.01, "sliding starts at F = {f_slide}, μmg = {}", mu * m * g);
 }
+
+/// A sphere resting on a frictional floor and spinning about the vertical: the tangential force
+/// cannot stop it (the contact point is on the spin axis); twisting resistance does.
+#[test]
+fn twisting_resistance_stops_spin_about_the_normal() {
+    for twisting in [false, true] {
+        let mut params = hertz(1.0e4, 0.3, 0.5, Some(0.1));
+        if twisting {
+            params.twisting_stiffness = Some(1.0);
+            params.twisting_damping = Some(0.05);
+            params.twisting_friction = Some(0.1);
+        }
+        let law = params.build(Partner::Grain, "contact").unwrap();
+        let wall = params.build(Partner::Wall, "contact.wall").unwrap();
+        let mut grains = Grains::<D3>::new(GrainKind::Sphere);
+        grains.push(DVec3::new(0.0, 0.0, 0.5), 0.5, 1.0, DVec3::ZERO);
+        grains.omega[0] = DVec3::new(0.0, 0.0, 2.0);
+        let domain = Domain::new(DVec3::splat(-5.0), DVec3::splat(5.0), [false; 3]).with_wall(Wall::axis_aligned("floor", 2, 0.0, true, wall));
+        let mut sim = SimulationBuilder::new(grains, domain, law).gravity(DVec3::new(0.0, 0.0, -1.0)).build().unwrap();
+        sim.steps(200_000).unwrap();
+        let spin = sim.grains.omega[0].z;
+        if twisting {
+            assert!(spin.abs() < 1e-6, "twisting resistance stops the spin: ω_z = {spin}");
+        } else {
+            assert!((spin - 2.0).abs() < 1e-9, "nothing resists spin about the normal: ω_z = {spin}");
+        }
+    }
+}

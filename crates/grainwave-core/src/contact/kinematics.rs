@@ -27,6 +27,8 @@ pub struct Kinematics<D: Dim> {
     pub v_t: D::Vector,
     /// Relative rolling angular velocity (ω_j − ω_i) without its twist component.
     pub w_roll: D::AngVector,
+    /// Relative twist rate (ω_j − ω_i)·n̂ (0 in 2D).
+    pub w_twist: f64,
 }
 
 /// Kinematics of grains i and j whose centre-to-centre vector (nearest image) is `r_ij`, or `None`
@@ -69,6 +71,7 @@ pub fn pair_kinematics<D: Dim>(
         v_n,
         v_t,
         w_roll: D::ang_perp(omega_j - omega_i, n),
+        w_twist: D::twist(omega_j - omega_i, n),
     })
 }
 
@@ -104,5 +107,6 @@ pub fn wall_kinematics<D: Dim>(
         v_n,
         v_t,
         w_roll: D::ang_perp(-omega, n),
+        w_twist: D::twist(-omega, n),
     })
 }

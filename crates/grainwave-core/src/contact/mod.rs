@@ -8,10 +8,12 @@
 //! 1. normal: F_n = max(0, F_el(ξ) − γ_n v_n) (damping adds while approaching, v_n < 0);
 //! 2. tangential: rotate the history into the current tangent plane keeping its length, add the
 //!    increment, trial force, Coulomb cap |F_t| ≤ μ F_n with history reset when sliding;
-//! 3. rolling: same pattern with the rolling spring and the cap μ_r R* F_n.
+//! 3. rolling: same pattern with the rolling spring and the cap μ_r R* F_n;
+//! 4. twisting (3D): same pattern with the twist spring and the cap μ_tw R* F_n.
 //!
 //! Forces on grain i: −F_n n̂ + F_t; on j the opposite. Torques: τ_i = a_i n̂ × F_t + M_r,
-//! τ_j = a_j n̂ × F_t − M_r with the lever arms a of [`Kinematics`].
+//! τ_j = a_j n̂ × F_t − M_r with the lever arms a of [`Kinematics`], M_r the rolling plus
+//! twisting resistance torque on i.
 //!
 //! Named presets: `hertz_mindlin` and `hooke_cundall_strack` ([`ContactParams`]).
 
@@ -31,7 +33,7 @@ pub use damping::{
 pub use kinematics::{pair_kinematics, wall_kinematics, Kinematics};
 pub use normal::NormalElastic;
 pub use params::{ContactParams, Partner, PRESETS};
-pub use rolling::Rolling;
+pub use rolling::{Rolling, Twisting};
 pub use tangential::{Tangential, TangentialDamping};
 
 use crate::dim::{Dim, VectorOps};
@@ -53,6 +55,8 @@ pub struct ContactLaw {
     pub friction: f64,
     /// Rolling resistance.
     pub rolling: Rolling,
+    /// Twisting resistance (3D).
+    pub twisting: Twisting,
 }
 
 /// Per-contact state carried from step to step (and across neighbor-list rebuilds).
@@ -63,6 +67,8 @@ pub struct ContactState<D: Dim> {
     pub spring: D::Vector,
     /// Rolling spring θ_r.
     pub rolling: D::AngVector,
+    /// Twisting spring φ (3D).
+    pub twist: f64,
     /// Overlap at the last evaluation; 0 when the pair is not in contact.
     pub overlap: f64,
     /// The contact was sliding (Coulomb cap reached) at the last evaluation.
@@ -84,7 +90,7 @@ pub struct ContactOutput<D: Dim> {
     pub normal_force: f64,
     /// Tangential force on grain i.
     pub tangential_force: D::Vector,
-    /// Rolling torque on grain i.
+    /// Rolling + twisting resistance torque on grain i.
     pub rolling_torque: D::AngVector,
     /// Differential normal stiffness k_n = dF_el/dξ.
     pub normal_stiffness: f64,
@@ -151,7 +157,7 @@ impl ContactLaw {
             }
         };
 
-        let m_r = match self.rolling {
+        let mut m_r = match self.rolling {
             Rolling::None => D::AngVector::ZERO,
             Rolling::SpringDashpot { stiffness, damping, friction } => {
                 let theta = into_tangent_plane_ang::<D>(state.rolling, n) + kin.w_roll * dt;
@@ -161,6 +167,13 @@ impl ContactLaw {
                 m
             }
         };
+        if let Twisting::SpringDashpot { stiffness, damping, friction } = self.twisting {
+            let phi = state.twist + kin.w_twist * dt;
+            let trial = phi * stiffness + kin.w_twist * damping;
+            let (m, slid) = coulomb_cap(trial, friction * kin.r_eff * f_n);
+            state.twist = if slid { m / stiffness } else { phi };
+            m_r += D::about_normal(m, n);
+        }
         state.overlap = kin.overlap;
         state.sliding = sliding;
         ContactOutput {
@@ -193,6 +206,9 @@ impl ContactLaw {
         if let Rolling::SpringDashpot { stiffness, .. } = self.rolling {
             e += 0.5 * stiffness * state.rolling.norm2();
         }
+        if let Twisting::SpringDashpot { stiffness, .. } = self.twisting {
+            e += 0.5 * stiffness * state.twist * state.twist;
+        }
         e
     }
 
@@ -207,6 +223,9 @@ impl ContactLaw {
         w2 = w2.max(k_t * (1.0 + inertia_factor) / m_eff);
         if let Rolling::SpringDashpot { stiffness, .. } = self.rolling {
             // rotational spring acting on a moment of inertia I = m R² / inertia_factor
+            w2 = w2.max(stiffness * inertia_factor / (m_eff * r_eff * r_eff));
+        }
+        if let Twisting::SpringDashpot { stiffness, .. } = self.twisting {
             w2 = w2.max(stiffness * inertia_factor / (m_eff * r_eff * r_eff));
         }
         w2
@@ -248,6 +267,13 @@ impl ContactLaw {
             require_non_negative(&format!("{field}.rolling_damping"), damping)?;
             if !(friction >= 0.0) || friction.is_nan() {
                 return Err(CoreError::invalid(format!("{field}.rolling_friction"), friction, "a number ≥ 0 (may be inf)"));
+            }
+        }
+        if let Twisting::SpringDashpot { stiffness, damping, friction } = self.twisting {
+            require_positive(&format!("{field}.twisting_stiffness"), stiffness)?;
+            require_non_negative(&format!("{field}.twisting_damping"), damping)?;
+            if !(friction >= 0.0) || friction.is_nan() {
+                return Err(CoreError::invalid(format!("{field}.twisting_friction"), friction, "a number ≥ 0 (may be inf)"));
             }
         }
         Ok(())

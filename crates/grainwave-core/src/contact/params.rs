@@ -1,8 +1,6 @@
 //! Named presets: the keyword table at the boundary between configs and contact laws.
 
-use super::{
-    ContactLaw, NormalDamping, NormalElastic, Rolling, Tangential, TangentialDamping,
-};
+use super::{ContactLaw, NormalDamping, NormalElastic, Rolling, Tangential, TangentialDamping, Twisting};
 use crate::error::{require_non_negative, require_positive, CoreError, Result};
 use serde::{Deserialize, Serialize};
 
@@ -30,7 +28,8 @@ pub enum Partner {
 ///   or `damping_fraction` ζ; tangential damping γ_t = `tangential_damping_ratio` × γ_n (default ½).
 ///
 /// Both: Coulomb `friction` μ (default 0.5; 0 removes the tangential force), optional rolling
-/// resistance (`rolling_stiffness`, `rolling_damping`, `rolling_friction`).
+/// resistance (`rolling_stiffness`, `rolling_damping`, `rolling_friction`) and, in 3D, optional
+/// twisting resistance (`twisting_stiffness`, `twisting_damping`, `twisting_friction`).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ContactParams {
@@ -62,6 +61,12 @@ pub struct ContactParams {
     pub rolling_damping: Option<f64>,
     /// Rolling friction μ_r, default ∞ (no cap).
     pub rolling_friction: Option<f64>,
+    /// Twisting stiffness k_tw; twisting resistance (3D) is on when given.
+    pub twisting_stiffness: Option<f64>,
+    /// Twisting damping γ_tw, default 0.
+    pub twisting_damping: Option<f64>,
+    /// Twisting friction μ_tw, default ∞ (no cap).
+    pub twisting_friction: Option<f64>,
 }
 
 /// Default Coulomb friction coefficient.
@@ -80,29 +85,39 @@ impl ContactParams {
         if !(friction >= 0.0) || friction.is_nan() {
             return Err(CoreError::invalid(key("friction"), friction, "a number ≥ 0 (may be inf)"));
         }
-        let rolling = match self.rolling_stiffness {
-            None => {
-                for (name, v) in [("rolling_damping", self.rolling_damping), ("rolling_friction", self.rolling_friction)] {
-                    if let Some(v) = v {
-                        return Err(CoreError::Inconsistent(format!(
-                            "`{}` = {v} is given but `{}` is not: set the rolling stiffness to enable rolling resistance",
-                            key(name),
-                            key("rolling_stiffness")
-                        )));
+        let resistance = |what: &str, stiffness: Option<f64>, damping: Option<f64>, cap: Option<f64>| -> Result<Option<(f64, f64, f64)>> {
+            match stiffness {
+                None => {
+                    for (name, v) in [(format!("{what}_damping"), damping), (format!("{what}_friction"), cap)] {
+                        if let Some(v) = v {
+                            return Err(CoreError::Inconsistent(format!(
+                                "`{}` = {v} is given but `{}` is not: set the {what} stiffness to enable {what} resistance",
+                                key(&name),
+                                key(&format!("{what}_stiffness"))
+                            )));
+                        }
                     }
+                    Ok(None)
                 }
-                Rolling::None
-            }
-            Some(k) => {
-                require_positive(&key("rolling_stiffness"), k)?;
-                let damping = self.rolling_damping.unwrap_or(0.0);
-                require_non_negative(&key("rolling_damping"), damping)?;
-                let mu_r = self.rolling_friction.unwrap_or(f64::INFINITY);
-                if !(mu_r >= 0.0) || mu_r.is_nan() {
-                    return Err(CoreError::invalid(key("rolling_friction"), mu_r, "a number ≥ 0 (may be inf)"));
+                Some(k) => {
+                    require_positive(&key(&format!("{what}_stiffness")), k)?;
+                    let d = damping.unwrap_or(0.0);
+                    require_non_negative(&key(&format!("{what}_damping")), d)?;
+                    let mu = cap.unwrap_or(f64::INFINITY);
+                    if !(mu >= 0.0) || mu.is_nan() {
+                        return Err(CoreError::invalid(key(&format!("{what}_friction")), mu, "a number ≥ 0 (may be inf)"));
+                    }
+                    Ok(Some((k, d, mu)))
                 }
-                Rolling::SpringDashpot { stiffness: k, damping, friction: mu_r }
             }
+        };
+        let rolling = match resistance("rolling", self.rolling_stiffness, self.rolling_damping, self.rolling_friction)? {
+            None => Rolling::None,
+            Some((stiffness, damping, friction)) => Rolling::SpringDashpot { stiffness, damping, friction },
+        };
+        let twisting = match resistance("twisting", self.twisting_stiffness, self.twisting_damping, self.twisting_friction)? {
+            None => Twisting::None,
+            Some((stiffness, damping, friction)) => Twisting::SpringDashpot { stiffness, damping, friction },
         };
         let forbid = |name: &str, v: Option<f64>, why: &str| -> Result<()> {
             match v {
@@ -145,6 +160,7 @@ impl ContactParams {
                     tangential_damping: if zeta > 0.0 { TangentialDamping::CriticalFraction { zeta } } else { TangentialDamping::None },
                     friction,
                     rolling,
+                    twisting,
                 }
             }
             "hooke_cundall_strack" => {
@@ -213,6 +229,7 @@ impl ContactParams {
                     tangential_damping,
                     friction,
                     rolling,
+                    twisting,
                 }
             }
             other => {

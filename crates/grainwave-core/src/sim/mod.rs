@@ -229,6 +229,7 @@ impl<D: Dim> Simulation<D> {
             for c in s.spring.to_array3().into_iter().chain(s.rolling.to_array3()) {
                 h.write_f64(c);
             }
+            h.write_f64(s.twist);
             h.write_f64(s.overlap);
             h.write(&[s.sliding as u8]);
         };
