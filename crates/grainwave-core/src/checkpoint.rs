@@ -20,18 +20,22 @@ pub const FORMAT_VERSION: u32 = 1;
 /// Writes `bytes` to `path` atomically: a temporary file in the same directory, flushed and
 /// synced, then renamed over `path`. Readers see either the old file or the complete new one.
 pub fn atomic_write(path: &Path, bytes: &[u8]) -> Result<()> {
-    let io = |action: &str, p: &Path, e| CoreError::Io { action: action.into(), path: p.display().to_string(), source: e };
+    let io = |action: &str, p: &Path, e| CoreError::Io { action: action.into(), path: p.display().to_string(), error: e };
     let dir = path.parent().filter(|d| !d.as_os_str().is_empty()).unwrap_or(Path::new("."));
     std::fs::create_dir_all(dir).map_err(|e| io("cannot create directory", dir, e))?;
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_else(|| "out".into());
     let tmp = dir.join(format!(".{name}.{}.tmp", std::process::id()));
-    {
+    let written = (|| {
         let mut f = std::fs::File::create(&tmp).map_err(|e| io("cannot create", &tmp, e))?;
         f.write_all(bytes).map_err(|e| io("cannot write", &tmp, e))?;
         f.sync_all().map_err(|e| io("cannot sync", &tmp, e))?;
+        std::fs::rename(&tmp, path).map_err(|e| io("cannot rename into", path, e))
+    })();
+    if written.is_err() {
+        // never leave the temporary file behind
+        let _ = std::fs::remove_file(&tmp);
     }
-    std::fs::rename(&tmp, path).map_err(|e| io("cannot rename into", path, e))?;
-    Ok(())
+    written
 }
 
 /// Serializes `payload` under content tag `tag` into checkpoint bytes.
@@ -98,7 +102,7 @@ pub fn save<T: Serialize>(path: &Path, tag: &str, payload: &T) -> Result<()> {
 
 /// Reads a checkpoint with content tag `tag`.
 pub fn load<T: DeserializeOwned>(path: &Path, tag: &str) -> Result<T> {
-    let bytes = std::fs::read(path).map_err(|e| CoreError::Io { action: "cannot read".into(), path: path.display().to_string(), source: e })?;
+    let bytes = std::fs::read(path).map_err(|e| CoreError::Io { action: "cannot read".into(), path: path.display().to_string(), error: e })?;
     decode(&bytes, tag, &path.display().to_string())
 }
 
@@ -130,7 +134,7 @@ impl<D: Dim> Simulation<D> {
 
 /// Loads a simulation checkpoint of either dimension.
 pub fn load_simulation(path: &Path) -> Result<AnySimulation> {
-    let bytes = std::fs::read(path).map_err(|e| CoreError::Io { action: "cannot read".into(), path: path.display().to_string(), source: e })?;
+    let bytes = std::fs::read(path).map_err(|e| CoreError::Io { action: "cannot read".into(), path: path.display().to_string(), error: e })?;
     let p = path.display().to_string();
     let (tag, _) = verify(&bytes, &p)?;
     if tag == simulation_tag::<D2>() {

@@ -74,16 +74,16 @@ pub enum CoreError {
         /// Why.
         reason: String,
     },
-    /// An I/O error, with the path involved.
-    #[error("{action} `{path}`: {source}")]
+    /// An I/O error, with the path involved (the underlying error is part of the message, not a
+    /// separate source, so error chains print it once).
+    #[error("{action} `{path}`: {error}")]
     Io {
         /// What was being done.
         action: String,
         /// File path.
         path: String,
         /// Underlying error.
-        #[source]
-        source: std::io::Error,
+        error: std::io::Error,
     },
 }
 

@@ -9,7 +9,7 @@ use std::f64::consts::PI;
 
 /// The shape and inertia convention of the grains of a simulation (SPEC §1.1).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "kind", rename_all = "snake_case")]
+#[serde(rename_all = "snake_case")]
 pub enum GrainKind {
     /// 2D disk: m = ρ π R² W, I = ½ m R² (W = thickness; W = 1 means "per unit thickness").
     Disk {
@@ -97,7 +97,7 @@ impl GrainKind {
 
 /// Distribution of grain radii (SPEC §1.2). All draws use the simulation's seeded generator.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "distribution", rename_all = "snake_case")]
+#[serde(rename_all = "snake_case")]
 pub enum SizeDistribution {
     /// Every grain has radius `radius`.
     Monodisperse {

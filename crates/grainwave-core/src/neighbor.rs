@@ -98,9 +98,10 @@ impl<D: Dim> NeighborList<D> {
             .with_min_len(4096)
             .zip(self.ref_pos.par_iter())
             .map(|(&x, &r)| domain.displacement(r, x).norm2())
-            .reduce(|| 0.0, f64::max);
+            // NaN-propagating max: a non-finite position forces a rebuild, whose checks report it
+            .reduce(|| 0.0, |a, b| if a.is_nan() || b.is_nan() { f64::NAN } else { a.max(b) });
         let max_d = max_d2.sqrt();
-        if 2.0 * max_d > self.skin {
+        if !(2.0 * max_d <= self.skin) {
             return true;
         }
         let max_wall = domain

@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 
 /// The other side of a contact.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(tag = "type", content = "index", rename_all = "snake_case")]
+#[serde(rename_all = "snake_case")]
 pub enum Counterpart {
     /// Another grain (stable id).
     Grain(u32),

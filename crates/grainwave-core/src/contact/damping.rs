@@ -5,7 +5,7 @@ use std::f64::consts::PI;
 
 /// Normal viscous damping: a force γ_n |v_n| opposing the relative normal velocity.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "type", rename_all = "snake_case")]
+#[serde(rename_all = "snake_case")]
 pub enum NormalDamping {
     /// No damping.
     None,

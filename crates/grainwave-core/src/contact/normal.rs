@@ -4,7 +4,7 @@ use serde::{Deserialize, Serialize};
 
 /// Normal elastic force law F_el(ξ) and its differential stiffness k_n = dF_el/dξ.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "law", rename_all = "snake_case")]
+#[serde(rename_all = "snake_case")]
 pub enum NormalElastic {
     /// F = k_n ξ.
     Hooke {

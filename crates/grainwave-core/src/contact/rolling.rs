@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 
 /// Rolling resistance law.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "law", rename_all = "snake_case")]
+#[serde(rename_all = "snake_case")]
 pub enum Rolling {
     /// No rolling resistance (default).
     None,
@@ -33,7 +33,7 @@ pub enum Rolling {
 /// M_tw n̂ with M_tw = k_tw φ + γ_tw w_tw, |M_tw| ≤ μ_tw R* F_n (spring reset when capped);
 /// −M_tw n̂ on j. Off by default; no effect in 2D.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "law", rename_all = "snake_case")]
+#[serde(rename_all = "snake_case")]
 pub enum Twisting {
     /// No twisting resistance (default).
     None,

@@ -9,7 +9,7 @@ use serde::{Deserialize, Serialize};
 
 /// Tangential elastic law.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "law", rename_all = "snake_case")]
+#[serde(rename_all = "snake_case")]
 pub enum Tangential {
     /// No tangential force (frictionless).
     None,
@@ -44,7 +44,7 @@ impl Tangential {
 
 /// Tangential viscous damping γ_t.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "type", rename_all = "snake_case")]
+#[serde(rename_all = "snake_case")]
 pub enum TangentialDamping {
     /// No tangential damping.
     None,

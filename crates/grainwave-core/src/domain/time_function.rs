@@ -6,7 +6,7 @@ use std::f64::consts::PI;
 
 /// A scalar function of simulated time t.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "type", rename_all = "snake_case")]
+#[serde(rename_all = "snake_case")]
 pub enum TimeFunction {
     /// f(t) = value.
     Constant {

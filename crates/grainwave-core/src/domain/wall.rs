@@ -8,7 +8,7 @@ use serde::{Deserialize, Serialize};
 
 /// How a wall moves. All motion is along the wall's normal.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(tag = "type", rename_all = "snake_case")]
+#[serde(rename_all = "snake_case")]
 pub enum WallMotion {
     /// The wall does not move.
     Fixed,

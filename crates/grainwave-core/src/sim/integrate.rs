@@ -24,12 +24,14 @@ impl<D: Dim> Simulation<D> {
         Ok(())
     }
 
-    /// Advances by `n` steps.
+    /// Advances by `n` steps (inside the rayon pool).
     pub fn steps(&mut self, n: u64) -> Result<()> {
-        for _ in 0..n {
-            self.step()?;
-        }
-        Ok(())
+        crate::util::in_pool(|| {
+            for _ in 0..n {
+                self.step()?;
+            }
+            Ok(())
+        })
     }
 
     fn step_verlet(&mut self) -> Result<()> {

@@ -162,7 +162,8 @@ impl<D: Dim> Simulation<D> {
             return false;
         }
         if let Some(t) = stop.not_before_time {
-            if self.time < t {
+            // half a step of slack, as for the time limit: accumulated time may fall short of t
+            if self.time < t - 0.5 * self.dt {
                 return false;
             }
         }
@@ -192,23 +193,32 @@ impl<D: Dim> Simulation<D> {
         let every = stop.check_every.max(1);
         let start = self.step;
         loop {
-            if let Some(reason) = self.limit_reached(stop) {
+            // Advance to the next check (a multiple of `every`) or a limit, inside the pool.
+            let limit = crate::util::in_pool(|| -> Result<Option<StopReason>> {
+                loop {
+                    if let Some(reason) = self.limit_reached(stop) {
+                        return Ok(Some(reason));
+                    }
+                    self.step()?;
+                    if self.step % every == 0 {
+                        return Ok(None);
+                    }
+                }
+            })?;
+            if let Some(reason) = limit {
                 self.check_timestep_warning();
                 let last = self.progress(stop);
                 observer(&last);
                 return Ok(RunOutcome { reason, steps: self.step - start, last });
             }
-            self.step()?;
-            if self.step % every == 0 {
-                let p = self.progress(stop);
-                if self.converged(stop, &p) {
-                    self.check_timestep_warning();
-                    observer(&p);
-                    return Ok(RunOutcome { reason: StopReason::Converged, steps: self.step - start, last: p });
-                }
-                if observer(&p) == Control::Stop {
-                    return Ok(RunOutcome { reason: StopReason::Interrupted, steps: self.step - start, last: p });
-                }
+            let p = self.progress(stop);
+            if self.converged(stop, &p) {
+                self.check_timestep_warning();
+                observer(&p);
+                return Ok(RunOutcome { reason: StopReason::Converged, steps: self.step - start, last: p });
+            }
+            if observer(&p) == Control::Stop {
+                return Ok(RunOutcome { reason: StopReason::Interrupted, steps: self.step - start, last: p });
             }
         }
     }
