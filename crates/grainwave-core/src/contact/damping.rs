@@ -19,16 +19,32 @@ pub enum NormalDamping {
         /// ζ (dimensionless).
         zeta: f64,
     },
+    /// γ_n = rate × m*: a dashpot proportional to the effective mass. This is the damping of
+    /// LAMMPS's `gran/hooke/history` (its `gamma_n`, in 1/time, multiplies m*).
+    MassProportional {
+        /// γ_n / m* (1/time).
+        rate: f64,
+    },
+    /// Tsuji, Tanaka & Ishida (1992): γ_n = α √(m* k̄) with k̄ = F_el/ξ the secant stiffness of
+    /// the normal law (Hooke: k_n; Hertz: (4/3) E*_ij √(R* ξ), so γ_n ∝ ξ^¼). α follows from a
+    /// restitution coefficient through [`tsuji_alpha`]. This is LAMMPS's `damping tsuji`.
+    Tsuji {
+        /// α (dimensionless).
+        alpha: f64,
+    },
 }
 
 impl NormalDamping {
-    /// γ_n for a pair of effective mass `m_eff` and current normal stiffness `k_n`.
+    /// γ_n for a pair of effective mass `m_eff`, current differential normal stiffness `k_n`
+    /// and secant stiffness `k_secant` = F_el/ξ (see [`NormalElastic::response`](super::NormalElastic::response)).
     #[inline]
-    pub fn coefficient(&self, m_eff: f64, k_n: f64) -> f64 {
+    pub fn coefficient(&self, m_eff: f64, k_n: f64, k_secant: f64) -> f64 {
         match *self {
             NormalDamping::None => 0.0,
             NormalDamping::Dashpot { coefficient } => coefficient,
             NormalDamping::CriticalFraction { zeta } => zeta * 2.0 * (m_eff * k_n).sqrt(),
+            NormalDamping::MassProportional { rate } => rate * m_eff,
+            NormalDamping::Tsuji { alpha } => alpha * (m_eff * k_secant).sqrt(),
         }
     }
 
@@ -37,6 +53,19 @@ impl NormalDamping {
     pub fn from_restitution(e: f64) -> Option<Self> {
         critical_fraction_for_restitution(e).map(|zeta| NormalDamping::CriticalFraction { zeta })
     }
+}
+
+/// Tsuji's damping constant α for restitution coefficient `e` ∈ [0, 1]: the polynomial fit
+///
+/// α(e) = 1.2728 − 4.2783 e + 11.087 e² − 22.348 e³ + 27.467 e⁴ − 18.022 e⁵ + 4.8218 e⁶
+///
+/// used by LAMMPS (`pair_style granular`, `damping tsuji`), evaluated in the same expanded form.
+/// It is a fit to Tsuji et al.'s numerical solutions of the Hertz contact with γ_n ∝ ξ^¼, whose
+/// force may turn attractive at the end of the contact; with grainwave's clamped normal force
+/// the measured restitution is somewhat larger than `e` (see the tests).
+pub fn tsuji_alpha(e: f64) -> f64 {
+    1.2728 - 4.2783 * e + 11.087 * e * e - 22.348 * e * e * e + 27.467 * e * e * e * e - 18.022 * e * e * e * e * e
+        + 4.8218 * e * e * e * e * e * e
 }
 
 /// Textbook relation ζ(e) = −ln e / √(π² + ln² e) for a linear spring–dashpot whose force may become
@@ -127,5 +156,20 @@ mod tests {
         // Weak damping: the clamp hardly matters and the textbook formula is recovered.
         let z = critical_fraction_for_restitution(0.999).unwrap();
         assert!((z - textbook_critical_fraction(0.999)).abs() < 1e-6);
+    }
+
+    #[test]
+    fn tsuji_alpha_matches_the_published_fit() {
+        // Values of the polynomial computed by hand: α(1) ≈ 0 (elastic), α(0) = 1.2728, and
+        // α(0.5) = 1.2728 − 2.13915 + 2.77175 − 2.7935 + 1.71669 − 0.563188 + 0.0753406.
+        assert!(tsuji_alpha(1.0).abs() < 1e-3);
+        assert_eq!(tsuji_alpha(0.0), 1.2728);
+        let a = 1.2728 - 2.13915 + 2.77175 - 2.7935 + 1.716_687_5 - 0.563_187_5 + 0.075_340_625;
+        assert!((tsuji_alpha(0.5) - a).abs() < 1e-12, "{}", tsuji_alpha(0.5));
+        // decreasing on [0, 1]: more damping for smaller restitution
+        for k in 0..100 {
+            let e = k as f64 / 100.0;
+            assert!(tsuji_alpha(e) > tsuji_alpha(e + 0.01), "e = {e}");
+        }
     }
 }

@@ -27,11 +27,11 @@ mod tangential;
 
 pub use coulomb::coulomb_cap;
 pub use damping::{
-    clamped_contact_time, clamped_restitution, critical_fraction_for_restitution, textbook_critical_fraction,
+    clamped_contact_time, clamped_restitution, critical_fraction_for_restitution, textbook_critical_fraction, tsuji_alpha,
     NormalDamping,
 };
 pub use kinematics::{pair_kinematics, wall_kinematics, Kinematics};
-pub use normal::NormalElastic;
+pub use normal::{NormalElastic, NormalResponse};
 pub use params::{ContactParams, Partner, PRESETS};
 pub use rolling::{Rolling, Twisting};
 pub use tangential::{Tangential, TangentialDamping};
@@ -124,8 +124,8 @@ impl ContactLaw {
     #[inline]
     pub fn evaluate<D: Dim>(&self, kin: &Kinematics<D>, state: &mut ContactState<D>, dt: f64) -> ContactOutput<D> {
         let n = kin.normal;
-        let (f_el, k_n) = self.normal.force_stiffness(kin.overlap, kin.r_eff);
-        let gamma_n = self.damping.coefficient(kin.m_eff, k_n);
+        let NormalResponse { force: f_el, stiffness: k_n, secant } = self.normal.response(kin.overlap, kin.r_eff);
+        let gamma_n = self.damping.coefficient(kin.m_eff, k_n, secant);
         let f_n = (f_el - gamma_n * kin.v_n).max(0.0);
 
         let k_t = self.tangential.stiffness(kin.overlap, kin.r_eff);
@@ -241,6 +241,8 @@ impl ContactLaw {
             NormalDamping::None => {}
             NormalDamping::Dashpot { coefficient } => require_non_negative(&format!("{field}.normal_damping"), coefficient)?,
             NormalDamping::CriticalFraction { zeta } => require_non_negative(&format!("{field}.damping_fraction"), zeta)?,
+            NormalDamping::MassProportional { rate } => require_non_negative(&format!("{field}.normal_damping_rate"), rate)?,
+            NormalDamping::Tsuji { alpha } => require_non_negative(&format!("{field}.tsuji_alpha"), alpha)?,
         }
         match self.tangential {
             Tangential::None => {}
@@ -258,6 +260,9 @@ impl ContactLaw {
                 require_non_negative(&format!("{field}.tangential_damping_ratio"), ratio)?
             }
             TangentialDamping::CriticalFraction { zeta } => require_non_negative(&format!("{field}.damping_fraction"), zeta)?,
+            TangentialDamping::MassProportional { rate } => {
+                require_non_negative(&format!("{field}.tangential_damping_rate"), rate)?
+            }
         }
         if !(self.friction >= 0.0) || self.friction.is_nan() {
             return Err(CoreError::invalid(format!("{field}.friction"), self.friction, "a number ≥ 0 (may be inf)"));

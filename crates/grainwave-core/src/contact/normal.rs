@@ -18,15 +18,35 @@ pub enum NormalElastic {
     },
 }
 
+/// What the normal elastic part gives at one overlap.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct NormalResponse {
+    /// Elastic force F_el(ξ) ≥ 0.
+    pub force: f64,
+    /// Differential stiffness k_n = dF_el/dξ.
+    pub stiffness: f64,
+    /// Secant stiffness F_el/ξ (Hooke: k_n; Hertz: (4/3) E*_ij √(R* ξ) = ⅔ k_n).
+    pub secant: f64,
+}
+
 impl NormalElastic {
     /// Elastic force (≥ 0) and differential stiffness at overlap `xi` > 0 for effective radius `r_eff`.
     #[inline]
     pub fn force_stiffness(&self, xi: f64, r_eff: f64) -> (f64, f64) {
+        let r = self.response(xi, r_eff);
+        (r.force, r.stiffness)
+    }
+
+    /// Elastic force, differential and secant stiffness at overlap `xi` > 0 for effective radius
+    /// `r_eff`.
+    #[inline]
+    pub fn response(&self, xi: f64, r_eff: f64) -> NormalResponse {
         match *self {
-            NormalElastic::Hooke { stiffness } => (stiffness * xi, stiffness),
+            NormalElastic::Hooke { stiffness } => NormalResponse { force: stiffness * xi, stiffness, secant: stiffness },
             NormalElastic::Hertz { effective_modulus } => {
                 let a = (r_eff * xi).sqrt(); // contact radius
-                (4.0 / 3.0 * effective_modulus * a * xi, 2.0 * effective_modulus * a)
+                let secant = 4.0 / 3.0 * effective_modulus * a;
+                NormalResponse { force: secant * xi, stiffness: 2.0 * effective_modulus * a, secant }
             }
         }
     }

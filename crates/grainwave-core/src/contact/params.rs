@@ -21,11 +21,15 @@ pub enum Partner {
 /// * `hertz_mindlin`: Hertz normal force with E* = E/(1−ν²) per grain, incremental Mindlin
 ///   tangential law with G* = E/[2(1+ν)(2−ν)] per grain; grain–grain pairs use E*_ij = E*/2 and
 ///   G*_ij = G*/2, rigid walls E*_i and G*_i. Damping as a fraction ζ of critical on both parts
-///   (`damping_fraction`, default 0).
+///   (`damping_fraction`, default 0), or Tsuji damping from a restitution coefficient
+///   (`tsuji_restitution`, γ_n = α(e)√(m* k̄), see [`super::tsuji_alpha`]) with
+///   γ_t = `tangential_damping_ratio` × γ_n (default 1).
 /// * `hooke_cundall_strack`: linear normal spring `normal_stiffness`, linear tangential spring
 ///   k_t = `tangential_stiffness_ratio` × k_n (default 2/7), normal dashpot from `restitution`
 ///   (exact for the clamped law, see [`super::critical_fraction_for_restitution`]), `normal_damping` γ_n,
-///   or `damping_fraction` ζ; tangential damping γ_t = `tangential_damping_ratio` × γ_n (default ½).
+///   `damping_fraction` ζ, `normal_damping_rate` (γ_n = rate × m*, LAMMPS `gran/hooke/history`)
+///   or `tsuji_restitution`; tangential damping γ_t = `tangential_damping_ratio` × γ_n (default ½)
+///   or γ_t = `tangential_damping_rate` × m*.
 ///
 /// Both: Coulomb `friction` μ (default 0.5; 0 removes the tangential force), optional rolling
 /// resistance (`rolling_stiffness`, `rolling_damping`, `rolling_friction`) and, in 3D, optional
@@ -49,8 +53,16 @@ pub struct ContactParams {
     pub normal_damping: Option<f64>,
     /// Damping as a fraction ζ of critical, on the normal and tangential parts.
     pub damping_fraction: Option<f64>,
-    /// γ_t / γ_n (Hooke), default ½.
+    /// γ_t / γ_n, default ½ (Hooke) or 1 (Hertz with Tsuji damping).
     pub tangential_damping_ratio: Option<f64>,
+    /// γ_n / m* (1/time): a dashpot proportional to the effective mass (Hooke; LAMMPS
+    /// `gran/hooke/history`'s `gamma_n`).
+    pub normal_damping_rate: Option<f64>,
+    /// γ_t / m* (1/time) (Hooke; LAMMPS `gran/hooke/history`'s `gamma_t`); default γ_t = ½ γ_n.
+    pub tangential_damping_rate: Option<f64>,
+    /// Restitution coefficient e ∈ [0, 1] of Tsuji damping, γ_n = α(e) √(m* F_el/ξ) (LAMMPS
+    /// `damping tsuji`).
+    pub tsuji_restitution: Option<f64>,
     /// Coulomb friction coefficient μ, default 0.5.
     pub friction: Option<f64>,
     /// Rescale the stored Mindlin force by k_t(new)/k_t(old) when the overlap decreases (default false).
@@ -76,6 +88,15 @@ impl ContactParams {
     /// Parameters of preset `name` with everything else left at its default.
     pub fn preset(name: &str) -> Self {
         ContactParams { preset: name.to_string(), ..Default::default() }
+    }
+
+    /// Tsuji's α from `tsuji_restitution`, if given (checked to lie in [0, 1]).
+    fn tsuji_alpha(&self, key: &dyn Fn(&str) -> String) -> Result<Option<f64>> {
+        match self.tsuji_restitution {
+            None => Ok(None),
+            Some(e) if (0.0..=1.0).contains(&e) => Ok(Some(super::tsuji_alpha(e))),
+            Some(e) => Err(CoreError::invalid(key("tsuji_restitution"), e, "a restitution coefficient in [0, 1]")),
+        }
     }
 
     /// Builds the law for `partner`; `field` prefixes key names in errors (e.g. "contact").
@@ -129,9 +150,22 @@ impl ContactParams {
             "hertz_mindlin" => {
                 forbid("normal_stiffness", self.normal_stiffness, "Hertz stiffness follows from `young` and `poisson`")?;
                 forbid("tangential_stiffness_ratio", self.tangential_stiffness_ratio, "Mindlin's k_t/k_n follows from `poisson`")?;
-                forbid("restitution", self.restitution, "use `damping_fraction` (fraction of critical damping)")?;
+                forbid("restitution", self.restitution, "use `damping_fraction` (fraction of critical damping) or `tsuji_restitution`")?;
                 forbid("normal_damping", self.normal_damping, "use `damping_fraction` (fraction of critical damping)")?;
-                forbid("tangential_damping_ratio", self.tangential_damping_ratio, "the same `damping_fraction` applies to both parts")?;
+                forbid("normal_damping_rate", self.normal_damping_rate, "use `damping_fraction` or `tsuji_restitution`")?;
+                forbid("tangential_damping_rate", self.tangential_damping_rate, "use `damping_fraction` or `tsuji_restitution`")?;
+                if self.tsuji_restitution.is_none() {
+                    forbid(
+                        "tangential_damping_ratio",
+                        self.tangential_damping_ratio,
+                        "the same `damping_fraction` applies to both parts (the ratio applies to Tsuji damping)",
+                    )?;
+                } else if self.damping_fraction.is_some() {
+                    return Err(CoreError::Inconsistent(format!(
+                        "give at most one of `{0}.damping_fraction`, `{0}.tsuji_restitution`",
+                        field
+                    )));
+                }
                 let young = self.young.ok_or_else(|| CoreError::invalid(key("young"), "(missing)", "Young's modulus E > 0, required by hertz_mindlin"))?;
                 require_positive(&key("young"), young)?;
                 let nu = self.poisson.unwrap_or(0.0);
@@ -140,6 +174,16 @@ impl ContactParams {
                 }
                 let zeta = self.damping_fraction.unwrap_or(0.0);
                 require_non_negative(&key("damping_fraction"), zeta)?;
+                let tsuji = self.tsuji_alpha(&key)?;
+                let (damping, tangential_damping) = match tsuji {
+                    Some(alpha) => {
+                        let ratio = self.tangential_damping_ratio.unwrap_or(1.0);
+                        require_non_negative(&key("tangential_damping_ratio"), ratio)?;
+                        (NormalDamping::Tsuji { alpha }, TangentialDamping::FractionOfNormal { ratio })
+                    }
+                    None if zeta > 0.0 => (NormalDamping::CriticalFraction { zeta }, TangentialDamping::CriticalFraction { zeta }),
+                    None => (NormalDamping::None, TangentialDamping::None),
+                };
                 let e_star = young / (1.0 - nu * nu);
                 let g_star = young / (2.0 * (1.0 + nu) * (2.0 - nu));
                 let factor = match partner {
@@ -148,7 +192,7 @@ impl ContactParams {
                 };
                 ContactLaw {
                     normal: NormalElastic::Hertz { effective_modulus: factor * e_star },
-                    damping: if zeta > 0.0 { NormalDamping::CriticalFraction { zeta } } else { NormalDamping::None },
+                    damping,
                     tangential: if friction > 0.0 {
                         Tangential::Mindlin {
                             effective_shear_modulus: factor * g_star,
@@ -157,7 +201,7 @@ impl ContactParams {
                     } else {
                         Tangential::None
                     },
-                    tangential_damping: if zeta > 0.0 { TangentialDamping::CriticalFraction { zeta } } else { TangentialDamping::None },
+                    tangential_damping,
                     friction,
                     rolling,
                     twisting,
@@ -179,6 +223,8 @@ impl ContactParams {
                     ("restitution", self.restitution.is_some()),
                     ("normal_damping", self.normal_damping.is_some()),
                     ("damping_fraction", self.damping_fraction.is_some()),
+                    ("normal_damping_rate", self.normal_damping_rate.is_some()),
+                    ("tsuji_restitution", self.tsuji_restitution.is_some()),
                 ]
                 .iter()
                 .filter(|(_, g)| *g)
@@ -186,9 +232,16 @@ impl ContactParams {
                 .collect();
                 if given.len() > 1 {
                     return Err(CoreError::Inconsistent(format!(
-                        "give at most one of `{0}.restitution`, `{0}.normal_damping`, `{0}.damping_fraction` (got {1})",
+                        "give at most one of `{0}.restitution`, `{0}.normal_damping`, `{0}.damping_fraction`, \
+                         `{0}.normal_damping_rate`, `{0}.tsuji_restitution` (got {1})",
                         field,
                         given.join(", ")
+                    )));
+                }
+                if self.tangential_damping_ratio.is_some() && self.tangential_damping_rate.is_some() {
+                    return Err(CoreError::Inconsistent(format!(
+                        "give at most one of `{0}.tangential_damping_ratio`, `{0}.tangential_damping_rate`",
+                        field
                     )));
                 }
                 let damping = if let Some(e) = self.restitution {
@@ -208,19 +261,28 @@ impl ContactParams {
                 } else if let Some(z) = self.damping_fraction {
                     require_non_negative(&key("damping_fraction"), z)?;
                     NormalDamping::CriticalFraction { zeta: z }
+                } else if let Some(rate) = self.normal_damping_rate {
+                    require_non_negative(&key("normal_damping_rate"), rate)?;
+                    NormalDamping::MassProportional { rate }
+                } else if let Some(alpha) = self.tsuji_alpha(&key)? {
+                    NormalDamping::Tsuji { alpha }
                 } else {
                     NormalDamping::None
                 };
-                let tangential_damping = match (self.tangential_damping_ratio, damping) {
-                    (Some(r), _) => {
+                let tangential_damping = match (self.tangential_damping_ratio, self.tangential_damping_rate, damping) {
+                    (Some(r), _, _) => {
                         require_non_negative(&key("tangential_damping_ratio"), r)?;
                         TangentialDamping::FractionOfNormal { ratio: r }
                     }
-                    (None, NormalDamping::CriticalFraction { zeta }) if self.damping_fraction.is_some() => {
+                    (None, Some(rate), _) => {
+                        require_non_negative(&key("tangential_damping_rate"), rate)?;
+                        TangentialDamping::MassProportional { rate }
+                    }
+                    (None, None, NormalDamping::CriticalFraction { zeta }) if self.damping_fraction.is_some() => {
                         TangentialDamping::CriticalFraction { zeta }
                     }
-                    (None, NormalDamping::None) => TangentialDamping::None,
-                    (None, _) => TangentialDamping::FractionOfNormal { ratio: 0.5 },
+                    (None, None, NormalDamping::None) => TangentialDamping::None,
+                    (None, None, _) => TangentialDamping::FractionOfNormal { ratio: 0.5 },
                 };
                 ContactLaw {
                     normal: NormalElastic::Hooke { stiffness: k_n },

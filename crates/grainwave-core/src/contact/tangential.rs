@@ -63,6 +63,11 @@ pub enum TangentialDamping {
         /// ζ.
         zeta: f64,
     },
+    /// γ_t = rate × m* (LAMMPS `gran/hooke/history`'s `gamma_t`, in 1/time).
+    MassProportional {
+        /// γ_t / m* (1/time).
+        rate: f64,
+    },
 }
 
 impl TangentialDamping {
@@ -74,6 +79,7 @@ impl TangentialDamping {
             TangentialDamping::Coefficient { coefficient } => coefficient,
             TangentialDamping::FractionOfNormal { ratio } => ratio * gamma_n,
             TangentialDamping::CriticalFraction { zeta } => zeta * 2.0 * (m_eff * k_t).sqrt(),
+            TangentialDamping::MassProportional { rate } => rate * m_eff,
         }
     }
 }
