@@ -1,4 +1,4 @@
-//! Errors of the output writers.
+//! Errors of the output writers and readers.
 
 use grainwave_core::CoreError;
 use thiserror::Error;
@@ -31,6 +31,81 @@ pub enum OutputError {
     /// Two CSV columns have the same name.
     #[error("CSV column `{0}` appears twice")]
     DuplicateColumn(String),
+    /// An array's shape does not match its number of values.
+    #[error("array `{name}` has {len} values, but its shape {shape:?} needs {expected}")]
+    Shape {
+        /// Name of the array (file or archive entry).
+        name: String,
+        /// Shape given.
+        shape: Vec<usize>,
+        /// Number of values given.
+        len: usize,
+        /// Product of the shape.
+        expected: usize,
+    },
+    /// A file could not be read.
+    #[error("cannot read `{path}`: {source}")]
+    Read {
+        /// File that was to be read.
+        path: String,
+        /// Underlying error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A `.npy` file or `.npz` entry is not in a format this crate reads.
+    #[error("`{name}` is not a NumPy array this reader understands: {reason}")]
+    Npy {
+        /// File or archive entry.
+        name: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A `.npz` (zip) archive could not be built or read.
+    #[error("zip archive `{name}`: {reason}")]
+    Zip {
+        /// File or archive being processed.
+        name: String,
+        /// What went wrong.
+        reason: String,
+    },
+    /// A name (array, column, series, file stem) is empty, repeated or contains characters that
+    /// are not allowed in it.
+    #[error("invalid name `{name}`: {reason}")]
+    Name {
+        /// The offending name.
+        name: String,
+        /// Why it is refused.
+        reason: String,
+    },
+    /// A row or per-grain field has the wrong number of values.
+    #[error("{what}: expected {expected} values, got {len}")]
+    Length {
+        /// What was being given (e.g. "row of series `signals`").
+        what: String,
+        /// Number of values needed.
+        expected: usize,
+        /// Number of values given.
+        len: usize,
+    },
+    /// A VTK file name has an extension other than `.vtp` or `.vtu`.
+    #[error("cannot tell the VTK dataset type of `{0}`: the file name must end in `.vtp` (PolyData) or `.vtu` (UnstructuredGrid)")]
+    VtkExtension(String),
+    /// A `.pvd` collection could not be parsed.
+    #[error("`{path}` is not a ParaView collection this reader understands: {reason}")]
+    Pvd {
+        /// File that was read.
+        path: String,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A plot could not be drawn (no data, invalid ranges, or a drawing backend error).
+    #[error("plot `{stem}`: {reason}")]
+    Plot {
+        /// File stem of the figure.
+        stem: String,
+        /// What went wrong.
+        reason: String,
+    },
 }
 
 /// Result alias of the output writers.

@@ -28,9 +28,15 @@
 mod error;
 mod grains_table;
 mod json;
+pub mod npy;
+pub mod npz;
+mod series;
 mod table;
 
 pub use error::{OutputError, Result};
 pub use grains_table::{grains_csv, write_grains_csv};
 pub use json::write_json_atomic;
+pub use npy::{npy_bytes, read_npy, write_npy, NpyArray, NpyData, NpyElement};
+pub use npz::{read_npz, write_npz, Npz, NpzCompression};
+pub use series::{Series, SeriesFiles};
 pub use table::{write_csv_atomic, Column, CsvTable};
