@@ -1,18 +1,24 @@
 //! `grainwave`: the command-line program. It parses arguments, calls an experiment protocol,
 //! shows progress and prints a short summary; the work happens in `grainwave-experiments`.
 //!
-//! Exit codes: 0 success, 1 runtime failure (numerical blow-up, output files not writable…),
-//! 2 bad input (unknown flag, invalid thread count, invalid parameters).
+//! Exit codes: 0 success; 1 runtime failure (numerical blow-up, output not writable…); 2 bad
+//! input (unknown flag, invalid config, invalid thread count); 130 interrupted by Ctrl-C or
+//! SIGTERM (the state is saved: `grainwave resume DIR` continues).
+
+mod inspect;
+mod progress;
 
 use anyhow::{Context, Result};
-use clap::{Args, Parser, Subcommand};
-use grainwave_experiments::demo::{run_demo, DemoConfig, DemoReport};
-use grainwave_experiments::{Control, ExperimentError, Progress, StopReason};
-use indicatif::{ProgressBar, ProgressStyle};
-use std::io::IsTerminal;
+use clap::{Args, CommandFactory, Parser, Subcommand};
+use grainwave_experiments::config::ConfigSource;
+use grainwave_experiments::protocol::RunContext;
+use grainwave_experiments::registry::{self, RunSummary};
+use grainwave_experiments::ExperimentError;
+use progress::CliReporter;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
-use std::time::{Duration, Instant};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
 
 /// Discrete-element simulations of granular materials: stress transmission and acoustics.
 #[derive(Debug, Parser)]
@@ -33,18 +39,46 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// Settle 300 polydisperse disks under gravity in a box and check that the floor carries the
-    /// whole weight; writes summary.json and grains.csv
-    ///
-    /// The disks start as a loose gas in the upper part of a box 20 wide with frictionless side
-    /// walls, fall, and settle until every grain's acceleration is below 1e-7 g and the kinetic
-    /// energy per grain below 1e-12. See docs/demo.md.
-    Demo(DemoArgs),
+    /// Run the experiment described by a config file
+    Run(RunArgs),
+    /// Run the embedded demo: 300 disks settle under gravity; the walls then carry the weight
+    Demo(OutArgs),
+    /// Validate a config file without running it
+    Check {
+        /// The config file.
+        config: PathBuf,
+    },
+    /// Continue an interrupted run from the checkpoint in its output directory
+    Resume {
+        /// The output directory of the run.
+        dir: PathBuf,
+    },
+    /// Say what a checkpoint, config or output directory holds
+    Inspect {
+        /// A file or an output directory.
+        path: PathBuf,
+    },
+    /// Print the config reference (Markdown; the source of docs/config.md)
+    Reference,
+    /// Print shell completions
+    Completions {
+        /// Shell: bash, zsh, fish, elvish or powershell.
+        shell: clap_complete::Shell,
+    },
 }
 
 #[derive(Debug, Args)]
-struct DemoArgs {
-    /// Output directory (created if needed; existing files of the same name are replaced).
+struct RunArgs {
+    /// The config file (TOML).
+    config: PathBuf,
+    /// Output directory (default: grainwave-out/<config file name>).
+    #[arg(long, value_name = "DIR")]
+    out: Option<PathBuf>,
+}
+
+#[derive(Debug, Args)]
+struct OutArgs {
+    /// Output directory (created if needed; files of the same name are replaced).
     #[arg(long, value_name = "DIR", default_value = "grainwave-out/demo")]
     out: PathBuf,
 }
@@ -73,18 +107,35 @@ fn main() -> ExitCode {
     let cli = Cli::parse(); // exits with code 2 on bad arguments, 0 for --help/--version
     match run(&cli) {
         Ok(()) => ExitCode::SUCCESS,
-        Err(err) => {
-            eprintln!("{}", error_chain(&err));
-            let input = err.chain().any(|e| {
-                e.is::<BadInput>() || e.downcast_ref::<ExperimentError>().is_some_and(ExperimentError::is_input_error)
-            });
-            ExitCode::from(if input { 2 } else { 1 })
-        }
+        Err(err) => report_error(&err),
     }
 }
 
+/// Prints an error and chooses the exit code.
+fn report_error(err: &anyhow::Error) -> ExitCode {
+    if let Some(e) = err.chain().find_map(|e| e.downcast_ref::<ExperimentError>()) {
+        match e {
+            ExperimentError::Config(c) => {
+                let report = miette::Report::new((**c).clone());
+                eprintln!("{report:?}");
+                return ExitCode::from(2);
+            }
+            ExperimentError::Interrupted { .. } => {
+                eprintln!("{e}");
+                return ExitCode::from(130);
+            }
+            _ => {}
+        }
+    }
+    eprintln!("{}", error_chain(err));
+    let input = err
+        .chain()
+        .any(|e| e.is::<BadInput>() || e.downcast_ref::<ExperimentError>().is_some_and(ExperimentError::is_input_error));
+    ExitCode::from(if input { 2 } else { 1 })
+}
+
 /// "error: outer\n  caused by: inner…", skipping causes whose text the previous message
-/// already ends with (some errors repeat their source in their own message).
+/// already ends with.
 fn error_chain(err: &anyhow::Error) -> String {
     let mut out = format!("error: {err}");
     let mut previous = err.to_string();
@@ -107,174 +158,91 @@ fn run(cli: &Cli) -> Result<()> {
             .with_context(|| format!("cannot start a pool of {n} worker threads"))?;
     }
     match &cli.command {
-        Command::Demo(args) => demo(args, cli.quiet),
+        Command::Run(args) => {
+            let src = ConfigSource::from_file(&args.config).map_err(ExperimentError::from)?;
+            let out = args.out.clone().unwrap_or_else(|| default_out(&args.config));
+            execute(cli.quiet, &out, |ctx| registry::run(&src, ctx))
+        }
+        Command::Demo(args) => execute(cli.quiet, &args.out, |ctx| grainwave_experiments::demo::run_demo(ctx)),
+        Command::Resume { dir } => {
+            if !dir.is_dir() {
+                return Err(BadInput(format!("`{}` is not a directory (give the output directory of the run)", dir.display())).into());
+            }
+            execute(cli.quiet, dir, |ctx| registry::resume(dir, ctx))
+        }
+        Command::Check { config } => {
+            let src = ConfigSource::from_file(config).map_err(ExperimentError::from)?;
+            let lines = registry::check(&src).map_err(ExperimentError::from)?;
+            if !cli.quiet {
+                println!("{}: valid", config.display());
+                for l in lines {
+                    println!("  {l}");
+                }
+            }
+            Ok(())
+        }
+        Command::Inspect { path } => {
+            if !path.exists() {
+                return Err(BadInput(format!("`{}` does not exist", path.display())).into());
+            }
+            for l in inspect::describe(path)? {
+                println!("{l}");
+            }
+            Ok(())
+        }
+        Command::Reference => {
+            print!("{}", registry::reference_markdown());
+            Ok(())
+        }
+        Command::Completions { shell } => {
+            clap_complete::generate(*shell, &mut Cli::command(), "grainwave", &mut std::io::stdout());
+            Ok(())
+        }
     }
 }
 
-/// Runs `work` on a worker thread of the global thread pool and waits for it.
-///
-/// The engine's parallel loops, when called from a worker, split their work in place; called from
-/// the main thread, every loop of every step is sent to the pool and waited for, which costs two
-/// futex system calls per loop. Measured on the demo (300 grains, 133,300 steps, 2 cores):
-/// 6.7 s from the main thread, 4.8 s on a worker with one thread, same results bit for bit.
-fn on_worker<R: Send>(work: impl FnOnce() -> R + Send) -> R {
-    rayon::scope(|_| work())
+/// `grainwave-out/<stem of the config file>`.
+fn default_out(config: &Path) -> PathBuf {
+    let stem = config.file_stem().map(|s| s.to_string_lossy().into_owned()).unwrap_or_else(|| "run".into());
+    PathBuf::from("grainwave-out").join(stem)
 }
 
-fn demo(args: &DemoArgs, quiet: bool) -> Result<()> {
-    std::fs::create_dir_all(&args.out)
-        .map_err(|e| BadInput(format!("cannot create the output directory `{}`: {e}", args.out.display())))?;
-    let cfg = DemoConfig::default();
-    let mut reporter = Reporter::new(quiet, &cfg);
-    let start = Instant::now();
-    let result = on_worker(|| run_demo(&cfg, &args.out, &mut |p| reporter.update(p, start.elapsed())).map_err(anyhow::Error::from));
+/// Runs a protocol with progress display and Ctrl-C handling, then prints its summary.
+fn execute(quiet: bool, out: &Path, work: impl FnOnce(&mut RunContext<'_>) -> grainwave_experiments::Result<RunSummary> + Send) -> Result<()> {
+    let interrupt = Arc::new(AtomicBool::new(false));
+    {
+        let flag = interrupt.clone();
+        // First Ctrl-C/SIGTERM: finish the current step, checkpoint, exit. Second: exit at once
+        // (every file, checkpoints included, is written atomically, so nothing is half-written).
+        let _ = ctrlc::set_handler(move || {
+            if flag.swap(true, Ordering::SeqCst) {
+                eprintln!("\ninterrupted again: exiting now");
+                std::process::exit(130);
+            }
+            eprintln!("\ninterrupt: finishing the current step and saving a checkpoint (Ctrl-C again to quit at once)");
+        });
+    }
+    let mut reporter = CliReporter::new(quiet);
+    let started = std::time::Instant::now();
+    let result = {
+        let mut ctx = RunContext::new(out, &mut reporter, interrupt).map_err(|e| BadInput(format!("cannot use `{}`: {e}", out.display())))?;
+        // Enter the thread pool once for the whole run (parallel loops then start in place).
+        rayon::scope(|_| work(&mut ctx))
+    };
     reporter.finish();
-    let report = result.with_context(|| format!("the demo failed (outputs in `{}` are incomplete)", args.out.display()))?;
-    let elapsed = start.elapsed();
-    for w in &report.warnings {
-        eprintln!("warning: {w}");
-    }
-    if report.stop_reason != StopReason::Converged {
-        eprintln!(
-            "warning: the run stopped ({}) before reaching equilibrium; the floor force is not expected to equal the weight",
-            reason_text(report.stop_reason)
-        );
-    }
+    let summary = result?;
     if !quiet {
-        print_summary(&report, &args.out, elapsed);
+        println!("grainwave: done in {:.1} s", started.elapsed().as_secs_f64());
+        for l in &summary.lines {
+            println!("  {l}");
+        }
     }
     Ok(())
-}
-
-fn reason_text(reason: StopReason) -> &'static str {
-    match reason {
-        StopReason::Converged => "converged",
-        StopReason::StepLimit => "step limit reached",
-        StopReason::TimeLimit => "time limit reached",
-        StopReason::Interrupted => "interrupted",
-    }
-}
-
-fn print_summary(r: &DemoReport, out: &Path, elapsed: Duration) {
-    println!(
-        "grainwave demo: {} after {} steps (simulated time {:.2}, wall clock {:.1} s)",
-        reason_text(r.stop_reason),
-        r.steps,
-        r.simulated_time,
-        elapsed.as_secs_f64()
-    );
-    println!("  grains          {} disks ({}), seed {}, pile height {:.2}", r.grains, r.dimension, r.seed, r.pile_height);
-    println!(
-        "  floor force     {:.6} = {:.9} × total weight {:.6}",
-        r.floor_force, r.floor_force_over_weight, r.total_weight
-    );
-    println!("  kinetic energy  {:.3e} per grain", r.kinetic_energy_per_grain);
-    println!(
-        "  contacts        {} grain–grain, {} grain–wall, {} sliding",
-        r.contacts.grain_grain, r.contacts.grain_wall, r.contacts.sliding
-    );
-    let mut label = "  outputs         ";
-    for f in &r.files {
-        println!("{label}{}", out.join(f).display());
-        label = "                  ";
-    }
-}
-
-/// Shows progress: a live line on a terminal, plain throttled lines otherwise, nothing if quiet.
-enum Reporter {
-    Silent,
-    Bar(ProgressBar, StopTargets),
-    Plain {
-        /// When the last line was printed.
-        last: Option<Duration>,
-        /// The latest report and its time, if it has not been printed.
-        pending: Option<(Progress, Duration)>,
-        targets: StopTargets,
-    },
-}
-
-/// Seconds between two plain progress lines when stderr is not a terminal.
-const PLAIN_INTERVAL: Duration = Duration::from_secs(5);
-
-impl Reporter {
-    fn new(quiet: bool, cfg: &DemoConfig) -> Self {
-        if quiet {
-            return Reporter::Silent;
-        }
-        let targets = StopTargets { kinetic_energy_per_grain: cfg.stop.kinetic_energy_per_grain, max_acceleration: cfg.stop.max_acceleration };
-        if std::io::stderr().is_terminal() {
-            let bar = ProgressBar::new_spinner();
-            // `wide_msg` cuts the message to the terminal width, so the line never wraps.
-            bar.set_style(ProgressStyle::with_template("{spinner} {elapsed:>4} {wide_msg}").expect("the template is valid"));
-            bar.enable_steady_tick(Duration::from_millis(120));
-            bar.set_message("placing grains");
-            Reporter::Bar(bar, targets)
-        } else {
-            Reporter::Plain { last: None, pending: None, targets }
-        }
-    }
-
-    fn update(&mut self, p: &Progress, elapsed: Duration) -> Control {
-        match self {
-            Reporter::Silent => {}
-            Reporter::Bar(bar, targets) => bar.set_message(targets.describe(p)),
-            Reporter::Plain { last, pending, targets } => {
-                if last.is_none_or(|t| elapsed >= t + PLAIN_INTERVAL) {
-                    print_plain(p, elapsed, targets);
-                    *last = Some(elapsed);
-                    *pending = None;
-                } else {
-                    *pending = Some((*p, elapsed));
-                }
-            }
-        }
-        Control::Continue
-    }
-
-    /// Clears the live line, or prints the final state if its line was skipped.
-    fn finish(&mut self) {
-        match self {
-            Reporter::Silent => {}
-            Reporter::Bar(bar, _) => bar.finish_and_clear(),
-            Reporter::Plain { pending, targets, .. } => {
-                if let Some((p, elapsed)) = pending.take() {
-                    print_plain(&p, elapsed, targets);
-                }
-            }
-        }
-    }
-}
-
-fn print_plain(p: &Progress, elapsed: Duration, targets: &StopTargets) {
-    eprintln!("[{:6.1} s] {}", elapsed.as_secs_f64(), targets.describe(p));
-}
-
-/// The equilibrium criteria the run stops at, shown next to the current values.
-struct StopTargets {
-    kinetic_energy_per_grain: Option<f64>,
-    max_acceleration: Option<f64>,
-}
-
-impl StopTargets {
-    /// "step 133200  t 84.25  KE/grain 1.9e-14 (<1e-12)  max accel 2.1e-6 (<1e-7)".
-    fn describe(&self, p: &Progress) -> String {
-        let target = |t: Option<f64>| t.map(|t| format!(" (<{t:.0e})")).unwrap_or_default();
-        format!(
-            "step {}  t {:.2}  KE/grain {:.1e}{}  max accel {:.1e}{}",
-            p.step,
-            p.time,
-            p.kinetic_energy_per_grain,
-            target(self.kinetic_energy_per_grain),
-            p.max_acceleration,
-            target(self.max_acceleration)
-        )
-    }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use clap::CommandFactory;
 
     #[test]
     fn arguments_are_consistent() {
@@ -292,18 +260,19 @@ mod tests {
     }
 
     #[test]
-    fn demo_defaults_and_global_flags() {
+    fn defaults_and_global_flags() {
         let cli = Cli::try_parse_from(["grainwave", "--quiet", "demo", "--threads", "2"]).unwrap();
         assert!(cli.quiet);
         assert_eq!(cli.threads, Some(2));
-        let Command::Demo(args) = cli.command;
+        let Command::Demo(args) = cli.command else { panic!("demo") };
         assert_eq!(args.out, PathBuf::from("grainwave-out/demo"));
+        assert_eq!(default_out(Path::new("examples/pile.toml")), PathBuf::from("grainwave-out/pile"));
     }
 
     #[test]
     fn repeated_causes_are_printed_once() {
         let io = std::io::Error::new(std::io::ErrorKind::PermissionDenied, "denied");
-        let err = anyhow::Error::new(io).context("cannot create `x`: denied").context("the demo failed");
-        assert_eq!(error_chain(&err), "error: the demo failed\n  caused by: cannot create `x`: denied");
+        let err = anyhow::Error::new(io).context("cannot create `x`: denied").context("the run failed");
+        assert_eq!(error_chain(&err), "error: the run failed\n  caused by: cannot create `x`: denied");
     }
 }

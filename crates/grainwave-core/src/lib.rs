@@ -54,7 +54,7 @@ pub mod prelude {
     pub use crate::dim::{Dim, VectorOps, D2, D3};
     pub use crate::domain::{Domain, TimeFunction, Wall, WallMotion};
     pub use crate::grains::{GrainKind, Grains, SizeDistribution};
-    pub use crate::sim::{Control, ExternalLoad, Integrator, Progress, RunOutcome, Simulation, SimulationBuilder, StopCriteria, StopReason};
+    pub use crate::sim::{Control, ExternalLoad, Integrator, Progress, RunHooks, RunOutcome, Simulation, SimulationBuilder, StopCriteria, StopReason};
     pub use crate::snapshot::{ContactRecord, Counterpart, Snapshot};
     pub use crate::{CoreError, Result};
 }

@@ -35,9 +35,12 @@ pub enum Partner {
 /// resistance (`rolling_stiffness`, `rolling_damping`, `rolling_friction`) and, in 3D, optional
 /// twisting resistance (`twisting_stiffness`, `twisting_damping`, `twisting_friction`).
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct ContactParams {
-    /// Preset name: `hertz_mindlin` or `hooke_cundall_strack`.
+    /// Preset name: `hertz_mindlin` or `hooke_cundall_strack` (required in `[contact]`; in wall
+    /// overrides, leave it out to keep the grain–grain preset).
+    #[serde(default, skip_serializing_if = "String::is_empty")]
     pub preset: String,
     /// Young's modulus E of the grains (Hertz).
     pub young: Option<f64>,

@@ -6,7 +6,7 @@ mod integrate;
 mod run;
 
 pub use builder::{ExternalLoad, SimulationBuilder};
-pub use run::{Control, Progress, RunOutcome, StopCriteria, StopReason};
+pub use run::{Control, Progress, RunHooks, RunOutcome, StopCriteria, StopReason};
 
 use crate::contact::{ContactLaw, ContactState};
 use crate::dim::{Dim, VectorOps};
@@ -248,11 +248,13 @@ impl<D: Dim> Simulation<D> {
         h.finish()
     }
 
-    /// Adds a warning once.
+    /// Adds a warning once. A warning starting like an earlier one (same first four words, e.g.
+    /// an updated time-step warning) replaces it.
     pub(crate) fn warn(&mut self, message: String) {
-        if !self.warnings.contains(&message) {
-            self.warnings.push(message);
-        }
+        let head = |m: &str| m.split_whitespace().take(4).collect::<Vec<_>>().join(" ");
+        let h = head(&message);
+        self.warnings.retain(|w| head(w) != h);
+        self.warnings.push(message);
     }
 
     /// Marks the neighbor list stale (after changing radii or the domain by hand) and recomputes

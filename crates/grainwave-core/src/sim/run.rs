@@ -10,6 +10,7 @@ use serde::{Deserialize, Serialize};
 /// check; it stops anyway at the step or time limit (absolute values, so that a resumed run stops
 /// where the uninterrupted one would). At least one limit is required.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
 #[serde(deny_unknown_fields)]
 pub struct StopCriteria {
     /// Stop when the step counter reaches this value.
@@ -115,6 +116,24 @@ pub enum Control {
     Stop,
 }
 
+/// Optional hooks of [`Simulation::run_with`]; none of them changes the result of a run.
+pub struct RunHooks<'a> {
+    /// Called at every check, every `report_every` steps and at the end. Returning
+    /// [`Control::Stop`] interrupts the run after the current step.
+    pub observer: &'a mut dyn FnMut(&Progress) -> Control,
+    /// Also report every this many steps (0: only at checks).
+    pub report_every: u64,
+    /// Polled after every step; when set, the run stops (e.g. on Ctrl-C).
+    pub interrupt: Option<&'a std::sync::atomic::AtomicBool>,
+}
+
+enum Event {
+    Limit(StopReason),
+    Check,
+    Report,
+    Interrupt,
+}
+
 /// Result of [`Simulation::run`].
 #[derive(Clone, Copy, Debug, Serialize, Deserialize)]
 pub struct RunOutcome {
@@ -189,36 +208,68 @@ impl<D: Dim> Simulation<D> {
     /// checked at absolute step numbers that are multiples of `check_every`, so a resumed run stops
     /// at the same step as the uninterrupted one.
     pub fn run(&mut self, stop: &StopCriteria, observer: &mut dyn FnMut(&Progress) -> Control) -> Result<RunOutcome> {
+        self.run_with(stop, &mut RunHooks { observer, report_every: 0, interrupt: None })
+    }
+
+    /// Like [`Simulation::run`], with hooks that never change the result: the observer is also
+    /// called every `report_every` steps, and `interrupt` is polled after every step (the run
+    /// then returns [`StopReason::Interrupted`] having completed that step).
+    pub fn run_with(&mut self, stop: &StopCriteria, hooks: &mut RunHooks<'_>) -> Result<RunOutcome> {
         stop.validate()?;
         let every = stop.check_every.max(1);
+        let report = hooks.report_every;
         let start = self.step;
+        let interrupt = hooks.interrupt;
+        let interrupted = || interrupt.is_some_and(|f| f.load(std::sync::atomic::Ordering::Relaxed));
         loop {
-            // Advance to the next check (a multiple of `every`) or a limit, inside the pool.
-            let limit = crate::util::in_pool(|| -> Result<Option<StopReason>> {
+            // Advance to the next check (a multiple of `every`), report, limit or interrupt,
+            // inside the thread pool.
+            let event = crate::util::in_pool(|| -> Result<Event> {
                 loop {
                     if let Some(reason) = self.limit_reached(stop) {
-                        return Ok(Some(reason));
+                        return Ok(Event::Limit(reason));
                     }
                     self.step()?;
                     if self.step % every == 0 {
-                        return Ok(None);
+                        return Ok(Event::Check);
+                    }
+                    if interrupted() {
+                        return Ok(Event::Interrupt);
+                    }
+                    if report > 0 && self.step % report == 0 {
+                        return Ok(Event::Report);
                     }
                 }
             })?;
-            if let Some(reason) = limit {
-                self.check_timestep_warning();
-                let last = self.progress(stop);
-                observer(&last);
-                return Ok(RunOutcome { reason, steps: self.step - start, last });
-            }
-            let p = self.progress(stop);
-            if self.converged(stop, &p) {
-                self.check_timestep_warning();
-                observer(&p);
-                return Ok(RunOutcome { reason: StopReason::Converged, steps: self.step - start, last: p });
-            }
-            if observer(&p) == Control::Stop {
-                return Ok(RunOutcome { reason: StopReason::Interrupted, steps: self.step - start, last: p });
+            match event {
+                Event::Limit(reason) => {
+                    self.check_timestep_warning();
+                    let last = self.progress(stop);
+                    (hooks.observer)(&last);
+                    return Ok(RunOutcome { reason, steps: self.step - start, last });
+                }
+                Event::Check => {
+                    let p = self.progress(stop);
+                    if self.converged(stop, &p) {
+                        self.check_timestep_warning();
+                        (hooks.observer)(&p);
+                        return Ok(RunOutcome { reason: StopReason::Converged, steps: self.step - start, last: p });
+                    }
+                    if (hooks.observer)(&p) == Control::Stop || interrupted() {
+                        return Ok(RunOutcome { reason: StopReason::Interrupted, steps: self.step - start, last: p });
+                    }
+                }
+                Event::Report => {
+                    let p = self.progress(stop);
+                    if (hooks.observer)(&p) == Control::Stop {
+                        return Ok(RunOutcome { reason: StopReason::Interrupted, steps: self.step - start, last: p });
+                    }
+                }
+                Event::Interrupt => {
+                    let p = self.progress(stop);
+                    (hooks.observer)(&p);
+                    return Ok(RunOutcome { reason: StopReason::Interrupted, steps: self.step - start, last: p });
+                }
             }
         }
     }

@@ -1,0 +1,151 @@
+//! `grainwave inspect FILE|DIR`: what a checkpoint, config or output directory holds, in plain
+//! words.
+
+use anyhow::{Context, Result};
+use grainwave_core::checkpoint::{decode, verify};
+use grainwave_core::dim::Dim;
+use grainwave_core::sim::Simulation;
+use grainwave_experiments::simulation::{AnySim, SimulationState, TAG as SIMULATION_TAG};
+use std::path::Path;
+
+/// Describes `path`.
+pub fn describe(path: &Path) -> Result<Vec<String>> {
+    if path.is_dir() {
+        return describe_dir(path);
+    }
+    let bytes = std::fs::read(path).with_context(|| format!("cannot read `{}`", path.display()))?;
+    if bytes.starts_with(grainwave_core::checkpoint::MAGIC) {
+        return describe_checkpoint(path, &bytes);
+    }
+    let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
+    let ext = path.extension().map(|e| e.to_string_lossy().into_owned()).unwrap_or_default();
+    Ok(match ext.as_str() {
+        "toml" => {
+            let src = grainwave_experiments::config::ConfigSource::from_file(path)?;
+            let mut v = vec![format!("{name}: a grainwave config")];
+            match grainwave_experiments::registry::check(&src) {
+                Ok(lines) => v.extend(lines.into_iter().map(|l| format!("  {l}"))),
+                Err(e) => v.push(format!("  invalid: {e}")),
+            }
+            v
+        }
+        "json" => {
+            let value: serde_json::Value = serde_json::from_slice(&bytes).with_context(|| format!("`{}` is not JSON", path.display()))?;
+            let mut v = vec![format!("{name}: JSON with {} top-level entries", value.as_object().map_or(0, |o| o.len()))];
+            if let Some(o) = value.as_object() {
+                for (k, x) in o {
+                    if !x.is_array() && !x.is_object() {
+                        v.push(format!("  {k:28} {x}"));
+                    }
+                }
+            }
+            v
+        }
+        "csv" => {
+            let text = String::from_utf8_lossy(&bytes);
+            let mut lines = text.lines();
+            let header = lines.next().unwrap_or("");
+            vec![format!("{name}: CSV table, {} rows, columns: {}", lines.count(), header.replace(',', ", "))]
+        }
+        _ => vec![format!("{name}: {} bytes, not a format grainwave describes", bytes.len())],
+    })
+}
+
+fn describe_sim<D: Dim>(s: &Simulation<D>, v: &mut Vec<String>) {
+    let (rmin, rmax) = s.grains.radius_range();
+    v.push(format!("  grains        {} {} ({}D), radii {:.4}–{:.4}, seed {}", s.len(), s.grains.kind.name(), D::D, rmin, rmax, s.seed));
+    v.push(format!("  time          step {}, t = {:.6e}, dt = {:.4e}", s.step, s.time, s.dt));
+    v.push(format!("  contacts      {} ({} sliding); neighbor list rebuilt {} times", s.counters.contacts, s.counters.sliding, s.nlist.builds));
+    v.push(format!("  energy        kinetic {:.4e}, elastic {:.4e}", s.kinetic_energy(), s.elastic_energy()));
+    for w in &s.domain.walls {
+        v.push(format!("  wall {:9} load {:.6e}, moved {:.6e}", w.name, w.normal_load(), w.displacement()));
+    }
+    v.push(format!("  state hash    {:016x}", s.state_hash()));
+}
+
+fn describe_checkpoint(path: &Path, bytes: &[u8]) -> Result<Vec<String>> {
+    let p = path.display().to_string();
+    let (tag, body) = verify(bytes, &p)?;
+    let mut v = vec![format!(
+        "{}: grainwave checkpoint (format {}, {} bytes, checksum ok), holds `{tag}`",
+        path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
+        grainwave_core::checkpoint::FORMAT_VERSION,
+        body.len()
+    )];
+    match tag.as_str() {
+        SIMULATION_TAG => {
+            let state: SimulationState = decode(bytes, &tag, &p)?;
+            v.push(format!(
+                "  protocol      simulation, {}",
+                match state.outcome {
+                    Some(r) => format!("finished ({r:?})"),
+                    None => "in progress — continue with `grainwave resume DIR`".into(),
+                }
+            ));
+            v.push(format!("  recorded      {} series rows, {} snapshots", state.series.len(), state.snapshots.len()));
+            match &state.sim {
+                AnySim::D2(s) => describe_sim(s, &mut v),
+                AnySim::D3(s) => describe_sim(s, &mut v),
+            }
+        }
+        "simulation-2d" => describe_sim::<grainwave_core::dim::D2>(&decode(bytes, &tag, &p)?, &mut v),
+        "simulation-3d" => describe_sim::<grainwave_core::dim::D3>(&decode(bytes, &tag, &p)?, &mut v),
+        _ => {}
+    }
+    Ok(v)
+}
+
+/// What each file of an output directory is.
+fn file_role(name: &str) -> &'static str {
+    match name {
+        "summary.json" => "every scalar result, with units and version",
+        "config.resolved.toml" => "the config with every default filled in (re-runnable)",
+        "checkpoint.gwck" => "complete state (resume or inspect it)",
+        "run.log" => "log of the run",
+        "series.csv" | "series.npz" => "time series (one row per record)",
+        "grains.csv" => "final grains, one row per grain",
+        n if n.ends_with(".pvd") => "ParaView collection of snapshots",
+        n if n.ends_with(".vtp") || n.ends_with(".vtu") => "VTK snapshot (ParaView)",
+        n if n.ends_with(".png") || n.ends_with(".svg") => "plot",
+        n if n.ends_with(".npy") || n.ends_with(".npz") => "NumPy arrays",
+        n if n.ends_with(".csv") => "table",
+        _ => "",
+    }
+}
+
+fn describe_dir(dir: &Path) -> Result<Vec<String>> {
+    let mut v = vec![format!("{}: output directory", dir.display())];
+    let summary = dir.join("summary.json");
+    if let Ok(bytes) = std::fs::read(&summary) {
+        if let Ok(s) = serde_json::from_slice::<serde_json::Value>(&bytes) {
+            let get = |k: &str| s.get(k).map(|x| x.to_string()).unwrap_or_else(|| "?".into());
+            v.push(format!(
+                "  {} run, stopped: {}, {} steps, t = {}, {} grains",
+                get("experiment").trim_matches('"'),
+                get("stop_reason").trim_matches('"'),
+                get("steps"),
+                get("time"),
+                get("grains")
+            ));
+        }
+    } else if dir.join("checkpoint.gwck").exists() {
+        v.push("  no summary.json yet: the run is in progress or was interrupted (`grainwave resume` continues it)".into());
+    }
+    let mut entries: Vec<_> = std::fs::read_dir(dir)?.filter_map(|e| e.ok()).collect();
+    entries.sort_by_key(|e| e.file_name());
+    for e in entries {
+        let name = e.file_name().to_string_lossy().into_owned();
+        let meta = e.metadata()?;
+        if meta.is_dir() {
+            let n = std::fs::read_dir(e.path()).map(|r| r.count()).unwrap_or(0);
+            v.push(format!("  {name:24} directory, {n} files"));
+        } else {
+            v.push(format!("  {name:24} {:>10} bytes  {}", meta.len(), file_role(&name)));
+        }
+    }
+    if dir.join("checkpoint.gwck").exists() {
+        v.push(String::new());
+        v.extend(describe_checkpoint(&dir.join("checkpoint.gwck"), &std::fs::read(dir.join("checkpoint.gwck"))?)?);
+    }
+    Ok(v)
+}

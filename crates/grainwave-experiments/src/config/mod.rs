@@ -1,0 +1,360 @@
+//! Config files: TOML → raw serde struct → validated spec, with errors that point at the file,
+//! line and column of the offending key.
+//!
+//! Each key is defined once, as a field of a raw config struct: its doc comment is the key's
+//! documentation (ending with its unit in brackets, e.g. `[length]`), its serde default is the
+//! default, its type is the type. Parsing refuses unknown keys (with a "did you mean" when a key
+//! is close to a known one) and wrong types; validation refuses out-of-range values and
+//! inconsistent combinations. Every error is a [`ConfigError`] carrying the file, line, column,
+//! key path, the value and what is allowed. The reference `docs/config.md` is generated from the
+//! same definitions ([`reference`]).
+
+pub mod reference;
+pub mod values;
+
+pub use values::{Axis, TimeFunctionConfig, VectorConfig};
+
+use grainwave_core::CoreError;
+use serde::de::DeserializeOwned;
+use std::ops::Range;
+use std::path::Path;
+use std::sync::Arc;
+
+/// The text of a config and the name it is reported under.
+#[derive(Clone, Debug)]
+pub struct ConfigSource {
+    /// Name shown in errors (the file path, or e.g. "embedded demo config").
+    pub name: String,
+    /// The TOML text.
+    pub text: Arc<String>,
+}
+
+impl ConfigSource {
+    /// Reads a config file.
+    pub fn from_file(path: &Path) -> Result<Self, ConfigError> {
+        let text = std::fs::read_to_string(path).map_err(|e| ConfigError {
+            file: path.display().to_string(),
+            line: 0,
+            column: 0,
+            key: None,
+            message: format!("cannot read the config file: {e}"),
+            span: None,
+            text: Arc::new(String::new()),
+        })?;
+        Ok(ConfigSource { name: path.display().to_string(), text: Arc::new(text) })
+    }
+
+    /// A config given as text.
+    pub fn from_text(name: impl Into<String>, text: impl Into<String>) -> Self {
+        ConfigSource { name: name.into(), text: Arc::new(text.into()) }
+    }
+
+    /// Parses the text into the raw struct `T`; errors carry positions and suggestions.
+    pub fn parse<T: DeserializeOwned>(&self) -> Result<T, ConfigError> {
+        let doc = toml_edit::Document::parse(self.text.as_str()).map_err(|e| self.error_at_span(e.span(), None, e.message().to_string()))?;
+        match toml::from_str::<T>(&self.text) {
+            Ok(v) => Ok(v),
+            Err(e) => {
+                let span = e.span();
+                let key = span.as_ref().and_then(|s| key_at(&doc, s.start));
+                Err(self.error_at_span(span, key, improve_message(e.message())))
+            }
+        }
+    }
+
+    /// An error about the value of key `path` (e.g. `contact.friction`, `walls[1].mass`).
+    /// The position is that of the value, or of the deepest part of the path present in the file
+    /// (a key left at its default has no position of its own).
+    pub fn error_at_key(&self, path: &str, message: impl Into<String>) -> ConfigError {
+        let span = toml_edit::Document::parse(self.text.as_str()).ok().and_then(|doc| locate(&doc, path));
+        self.error_at_span(span, Some(path.to_string()), message.into())
+    }
+
+    /// Converts an engine error into a config error at the key it names.
+    pub fn error_from_core(&self, e: &CoreError) -> ConfigError {
+        match e {
+            CoreError::InvalidParameter { field, .. } => {
+                // fields may carry a note in parentheses, e.g. "grains.radius (grain id 3)"
+                let path = field.split(" (").next().unwrap_or(field).to_string();
+                self.error_at_key(&path, e.to_string())
+            }
+            CoreError::UnknownName { what, .. } => {
+                let path = what.split("key `").nth(1).and_then(|s| s.split('`').next()).map(str::to_string);
+                match path {
+                    Some(p) => self.error_at_key(&p, e.to_string()),
+                    None => self.error_at_span(None, None, e.to_string()),
+                }
+            }
+            other => {
+                // inconsistent set-ups name their keys in backquotes: point at the first one found
+                let text = other.to_string();
+                let first_key = text.split('`').skip(1).step_by(2).find(|k| {
+                    toml_edit::Document::parse(self.text.as_str()).ok().and_then(|doc| locate_exact(&doc, k)).is_some()
+                });
+                match first_key.map(str::to_string) {
+                    Some(k) => self.error_at_key(&k, text),
+                    None => self.error_at_span(None, None, text),
+                }
+            }
+        }
+    }
+
+    fn error_at_span(&self, span: Option<Range<usize>>, key: Option<String>, message: String) -> ConfigError {
+        let (line, column) = span.as_ref().map(|s| line_column(&self.text, s.start)).unwrap_or((0, 0));
+        ConfigError { file: self.name.clone(), line, column, key, message, span, text: self.text.clone() }
+    }
+}
+
+/// A config error: where, which key, what is wrong and what is allowed.
+#[derive(Debug, Clone)]
+pub struct ConfigError {
+    /// File name.
+    pub file: String,
+    /// 1-based line (0 when unknown).
+    pub line: usize,
+    /// 1-based column (0 when unknown).
+    pub column: usize,
+    /// Key path, e.g. `contact.friction`.
+    pub key: Option<String>,
+    /// What is wrong (names the value and what is allowed).
+    pub message: String,
+    /// Byte range in the file.
+    pub span: Option<Range<usize>>,
+    /// The file's text (for rendering).
+    pub text: Arc<String>,
+}
+
+impl std::fmt::Display for ConfigError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}", self.file)?;
+        if self.line > 0 {
+            write!(f, ":{}:{}", self.line, self.column)?;
+        }
+        if let Some(k) = &self.key {
+            write!(f, ": key `{k}`")?;
+        }
+        write!(f, ": {}", self.message)
+    }
+}
+
+impl std::error::Error for ConfigError {}
+
+impl miette::Diagnostic for ConfigError {
+    fn code<'a>(&'a self) -> Option<Box<dyn std::fmt::Display + 'a>> {
+        Some(Box::new("grainwave::config"))
+    }
+    fn source_code(&self) -> Option<&dyn miette::SourceCode> {
+        if self.span.is_some() {
+            Some(self.text.as_ref() as &String)
+        } else {
+            None
+        }
+    }
+    fn labels(&self) -> Option<Box<dyn Iterator<Item = miette::LabeledSpan> + '_>> {
+        let span = self.span.clone()?;
+        let label = match &self.key {
+            Some(k) => format!("`{k}`"),
+            None => "here".to_string(),
+        };
+        let len = span.end.saturating_sub(span.start).max(1);
+        Some(Box::new(std::iter::once(miette::LabeledSpan::new(Some(label), span.start, len))))
+    }
+}
+
+/// 1-based line and column (in characters) of byte offset `at`.
+pub fn line_column(text: &str, at: usize) -> (usize, usize) {
+    let at = at.min(text.len());
+    let before = &text[..at];
+    let line = before.matches('\n').count() + 1;
+    let col = before.rsplit('\n').next().map(|l| l.chars().count()).unwrap_or(0) + 1;
+    (line, col)
+}
+
+/// Adds a "did you mean" to serde's unknown-field and unknown-variant messages.
+fn improve_message(msg: &str) -> String {
+    for (marker, what) in [("unknown field `", "key"), ("unknown variant `", "value")] {
+        if let Some(rest) = msg.strip_prefix(marker) {
+            let bad = rest.split('`').next().unwrap_or("");
+            let candidates: Vec<&str> = msg.split('`').skip(3).step_by(2).collect();
+            let mut out = format!("unknown {what} `{bad}`");
+            if let Some(best) = did_you_mean(bad, &candidates) {
+                out.push_str(&format!(" — did you mean `{best}`?"));
+            }
+            if !candidates.is_empty() {
+                out.push_str(&format!(" (allowed: {})", candidates.join(", ")));
+            }
+            return out;
+        }
+    }
+    msg.trim_end_matches('\n').to_string()
+}
+
+/// The candidate closest to `word`, if it is close enough to be a likely typo.
+pub fn did_you_mean<'a>(word: &str, candidates: &[&'a str]) -> Option<&'a str> {
+    candidates
+        .iter()
+        .map(|c| (strsim::normalized_damerau_levenshtein(word, c), *c))
+        .filter(|(score, _)| *score >= 0.6)
+        .max_by(|a, b| a.0.total_cmp(&b.0))
+        .map(|(_, c)| c)
+}
+
+/// One step of a key path.
+enum Segment<'a> {
+    Key(&'a str),
+    Index(usize),
+}
+
+fn segments(path: &str) -> Vec<Segment<'_>> {
+    let mut out = Vec::new();
+    for part in path.split('.') {
+        let mut rest = part;
+        if let Some(b) = rest.find('[') {
+            if b > 0 {
+                out.push(Segment::Key(&rest[..b]));
+            }
+            rest = &rest[b..];
+            while let Some(stripped) = rest.strip_prefix('[') {
+                let close = stripped.find(']').unwrap_or(stripped.len());
+                if let Ok(k) = stripped[..close].parse() {
+                    out.push(Segment::Index(k));
+                }
+                rest = stripped.get(close + 1..).unwrap_or("");
+            }
+        } else {
+            out.push(Segment::Key(rest));
+        }
+    }
+    out
+}
+
+/// Span of the value at `path`, or of the deepest existing key on the way.
+fn locate(doc: &toml_edit::Document<&str>, path: &str) -> Option<Range<usize>> {
+    walk(doc, path).1
+}
+
+/// Span of the value at `path` only if the whole path exists in the file.
+fn locate_exact(doc: &toml_edit::Document<&str>, path: &str) -> Option<Range<usize>> {
+    let (complete, span) = walk(doc, path);
+    if complete {
+        span
+    } else {
+        None
+    }
+}
+
+fn walk(doc: &toml_edit::Document<&str>, path: &str) -> (bool, Option<Range<usize>>) {
+    let mut item: &toml_edit::Item = doc.as_item();
+    let mut best: Option<Range<usize>> = None;
+    for seg in segments(path) {
+        let (next, key_span) = match (&seg, item) {
+            (Segment::Key(k), toml_edit::Item::Table(t)) => (t.get(k), t.key(k).and_then(|k| k.span())),
+            (Segment::Key(k), toml_edit::Item::Value(toml_edit::Value::InlineTable(t))) => (item.get(*k), t.key(k).and_then(|k| k.span())),
+            (Segment::Index(i), _) => (item.get(*i), None),
+            _ => (None, None),
+        };
+        match next {
+            None => return (false, best),
+            Some(n) => {
+                let span = match n {
+                    toml_edit::Item::Value(v) => v.span(),
+                    toml_edit::Item::Table(t) => t.span().or(key_span.clone()),
+                    toml_edit::Item::ArrayOfTables(a) => a.span().or(key_span.clone()),
+                    toml_edit::Item::None => None,
+                };
+                if span.is_some() {
+                    best = span;
+                } else if key_span.is_some() {
+                    best = key_span;
+                }
+                item = n;
+            }
+        }
+    }
+    (true, best)
+}
+
+/// Dotted path of the innermost key whose key or value contains byte offset `at`.
+fn key_at(doc: &toml_edit::Document<&str>, at: usize) -> Option<String> {
+    fn visit(item: &toml_edit::Item, prefix: &str, at: usize, best: &mut Option<(usize, String)>) {
+        let consider = |span: Option<Range<usize>>, path: &str, best: &mut Option<(usize, String)>| {
+            if let Some(s) = span {
+                if s.start <= at && at <= s.end {
+                    let width = s.end - s.start;
+                    if best.as_ref().is_none_or(|(w, _)| width <= *w) {
+                        *best = Some((width, path.to_string()));
+                    }
+                }
+            }
+        };
+        let join = |k: &str| if prefix.is_empty() { k.to_string() } else { format!("{prefix}.{k}") };
+        match item {
+            toml_edit::Item::Table(t) => {
+                for (k, v) in t.iter() {
+                    let path = join(k);
+                    if let Some(key) = t.key(k) {
+                        consider(key.span(), &path, best);
+                    }
+                    visit(v, &path, at, best);
+                }
+            }
+            toml_edit::Item::ArrayOfTables(a) => {
+                for (i, t) in a.iter().enumerate() {
+                    let path = format!("{prefix}[{i}]");
+                    consider(t.span(), &path, best);
+                    for (k, v) in t.iter() {
+                        let p = format!("{path}.{k}");
+                        if let Some(key) = t.key(k) {
+                            consider(key.span(), &p, best);
+                        }
+                        visit(v, &p, at, best);
+                    }
+                }
+            }
+            toml_edit::Item::Value(v) => {
+                consider(v.span(), prefix, best);
+                match v {
+                    toml_edit::Value::InlineTable(t) => {
+                        for (k, v) in t.iter() {
+                            let path = join(k);
+                            if let Some(key) = t.key(k) {
+                                consider(key.span(), &path, best);
+                            }
+                            visit(&toml_edit::Item::Value(v.clone()), &path, at, best);
+                        }
+                    }
+                    toml_edit::Value::Array(a) => {
+                        for (i, v) in a.iter().enumerate() {
+                            visit(&toml_edit::Item::Value(v.clone()), &format!("{prefix}[{i}]"), at, best);
+                        }
+                    }
+                    _ => {}
+                }
+            }
+            toml_edit::Item::None => {}
+        }
+    }
+    let mut best = None;
+    visit(doc.as_item(), "", at, &mut best);
+    best.map(|(_, p)| p).filter(|p| !p.is_empty())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn positions_and_paths() {
+        let src = ConfigSource::from_text("t.toml", "a = 1\n[contact]\npreset = \"x\"\nfriction = -1\n[[walls]]\nname = \"w\"\nmass = 2\n");
+        let e = src.error_at_key("contact.friction", "bad");
+        assert_eq!((e.line, e.column), (4, 12));
+        let e = src.error_at_key("walls[0].mass", "bad");
+        assert_eq!((e.line, e.column), (7, 8));
+        // a key left at its default points at its table
+        let e = src.error_at_key("contact.restitution", "bad");
+        assert_eq!(e.line, 2);
+        assert!(e.to_string().starts_with("t.toml:2:"), "{e}");
+        assert_eq!(did_you_mean("frction", &["friction", "preset"]), Some("friction"));
+        assert_eq!(did_you_mean("zzz", &["friction", "preset"]), None);
+    }
+}

@@ -1,0 +1,137 @@
+//! Dispatch by the `experiment` key: check, run and resume any protocol, and the config reference.
+
+use crate::config::{did_you_mean, reference, ConfigError, ConfigSource};
+use crate::error::{ExperimentError, Result};
+use crate::protocol::{checkpoint_tag, load_state, RunContext};
+use crate::simulation;
+use schemars::schema_for;
+use std::path::Path;
+
+/// Names of the protocols a config can select with `experiment = "…"`.
+pub const EXPERIMENTS: &[&str] = &["simulation"];
+
+/// The protocol a config selects, from its top-level `experiment` key.
+pub fn experiment_name(src: &ConfigSource) -> Result<String, ConfigError> {
+    let table: toml::Table = src.parse()?;
+    match table.get("experiment") {
+        None => Err(src.error_at_key("experiment", format!("missing: say which protocol this file configures (allowed: {})", EXPERIMENTS.join(", ")))),
+        Some(toml::Value::String(name)) if EXPERIMENTS.contains(&name.as_str()) => Ok(name.clone()),
+        Some(toml::Value::String(name)) => {
+            let mut msg = format!("unknown experiment `{name}`");
+            if let Some(best) = did_you_mean(name, EXPERIMENTS) {
+                msg.push_str(&format!(" — did you mean `{best}`?"));
+            }
+            msg.push_str(&format!(" (allowed: {})", EXPERIMENTS.join(", ")));
+            Err(src.error_at_key("experiment", msg))
+        }
+        Some(other) => Err(src.error_at_key("experiment", format!("{other} is not a name (allowed: {})", EXPERIMENTS.join(", ")))),
+    }
+}
+
+/// What `grainwave check` prints about a valid config.
+pub fn check(src: &ConfigSource) -> Result<Vec<String>, ConfigError> {
+    match experiment_name(src)?.as_str() {
+        "simulation" => {
+            let p = simulation::prepare(src)?;
+            Ok(describe(&p))
+        }
+        other => unreachable!("experiment `{other}` is listed but not dispatched"),
+    }
+}
+
+fn describe(p: &simulation::Prepared) -> Vec<String> {
+    fn lines<D: grainwave_core::dim::Dim>(s: &grainwave_core::sim::Simulation<D>, c: &simulation::SimulationConfig) -> Vec<String> {
+        let (rmin, rmax) = s.grains.radius_range();
+        let mut v = vec![
+            format!("experiment   simulation, seed {}", c.seed),
+            format!("grains       {} {} ({}D), radii {:.4}–{:.4}", s.len(), s.grains.kind.name(), D::D, rmin, rmax),
+            format!("contacts     {} at the start; law {:?} / {:?} / {:?}, μ = {}", s.counters.contacts, s.law.normal, s.law.damping, s.law.tangential, s.law.friction),
+            format!("walls        {}", if s.domain.walls.is_empty() { "none".into() } else { s.domain.walls.iter().map(|w| w.name.clone()).collect::<Vec<_>>().join(", ") }),
+            format!("time step    {:.4e} (suggested {:.4e})", s.dt, s.suggested_dt),
+            format!(
+                "stop         step limit {:?}, time limit {:?}, equilibrium criteria: {}",
+                c.stop.step_limit,
+                c.stop.time_limit,
+                if c.stop.has_equilibrium_criterion() { "yes" } else { "none" }
+            ),
+        ];
+        for w in &s.warnings {
+            v.push(format!("warning      {w}"));
+        }
+        v
+    }
+    match &p.sim {
+        simulation::AnySim::D2(s) => lines(s, &p.config),
+        simulation::AnySim::D3(s) => lines(s, &p.config),
+    }
+}
+
+/// The outcome of a run, for the command line.
+#[derive(Clone, Debug)]
+pub struct RunSummary {
+    /// Lines describing the result.
+    pub lines: Vec<String>,
+    /// The report as JSON.
+    pub report: serde_json::Value,
+}
+
+fn summarize(r: &simulation::SimulationReport, out: &Path) -> RunSummary {
+    let mut lines = vec![
+        format!("stopped      {:?} after {} steps (simulated time {:.6})", r.stop_reason, r.steps, r.time),
+        format!("grains       {} {} ({}D), seed {}", r.grains, r.grain_kind, r.dimension, r.seed),
+        format!("final state  KE/grain {:.3e}, max acceleration {:.3e}, {} contacts, {} sliding", r.kinetic_energy_per_grain, r.max_acceleration, r.contacts, r.sliding),
+    ];
+    if let Some(s) = r.support_over_weight {
+        lines.push(format!("walls carry  {:.9} × the weight {:.6}", s, r.weight));
+    }
+    for w in &r.warnings {
+        lines.push(format!("warning      {w}"));
+    }
+    lines.push(format!("outputs      {}/", out.display()));
+    RunSummary { lines, report: serde_json::to_value(r).unwrap_or_default() }
+}
+
+/// Parses, validates and runs a config.
+pub fn run(src: &ConfigSource, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
+    match experiment_name(src)?.as_str() {
+        "simulation" => {
+            let out = ctx.out_dir().to_path_buf();
+            Ok(summarize(&simulation::run_config(src, ctx)?, &out))
+        }
+        other => unreachable!("experiment `{other}` is listed but not dispatched"),
+    }
+}
+
+/// Continues the run whose checkpoint is in `dir`.
+pub fn resume(dir: &Path, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
+    let (file, tag) = checkpoint_tag(dir)?;
+    match tag.as_str() {
+        simulation::TAG => {
+            let mut state: simulation::SimulationState = load_state(&file, &tag)?;
+            ctx.log(&format!("resuming from {}", file.display()));
+            let out = ctx.out_dir().to_path_buf();
+            Ok(summarize(&state.run(ctx)?, &out))
+        }
+        other => Err(ExperimentError::Resume { path: dir.to_path_buf(), reason: format!("its checkpoint holds `{other}`, which is not a protocol state") }),
+    }
+}
+
+/// The config reference (`docs/config.md`), generated from the key definitions.
+pub fn reference_markdown() -> String {
+    let mut s = String::from(
+        "# Config reference\n\n\
+         Generated from the key definitions by `grainwave reference`; do not edit by hand (a test fails when this file\n\
+         is stale). Every config file names its protocol with `experiment = \"…\"`. Units are given per key in the units\n\
+         of the user's choice (grainwave is unit-agnostic): `length`, `time`, `mass`, `force` and their combinations;\n\
+         keys without a unit are dimensionless. Unknown keys are refused.\n\n",
+    );
+    let schema = schema_for!(simulation::SimulationConfig);
+    let value = serde_json::to_value(&schema).expect("schema serializes");
+    s.push_str(&reference::markdown(
+        "`experiment = \"simulation\"`",
+        "A general discrete-element run (see docs/simulation.md). The `[contact]` keys are those of the presets\n\
+         (docs/engine.md); `[wall_contact]` and `walls[].contact` take the same keys and replace the grain–grain values.",
+        &reference::sections(&value),
+    ));
+    s
+}

@@ -1,0 +1,228 @@
+//! The `simulation` protocol: a general discrete-element run from one config file.
+//!
+//! Grains of one kind are placed in a domain (random gas or lattice), with walls (fixed, moving,
+//! pistons), a contact law, gravity and loads, and integrated until the stop criteria hold or a
+//! limit is reached. Along the way it records a time series, writes snapshots and checkpoints at
+//! fixed step numbers; at the end it writes the summary, the final grains and plots.
+//!
+//! Outputs (see docs/simulation.md): `config.resolved.toml`, `summary.json`, `series.csv` and
+//! `series.npz`, `grains.csv`, VTK snapshots with a `.pvd` collection, plots, `checkpoint.gwck`,
+//! `run.log`.
+
+pub mod build;
+pub mod config;
+mod outputs;
+
+pub use build::AnySim;
+pub use config::SimulationConfig;
+pub use outputs::{SimulationReport, WallReport};
+
+use crate::config::{ConfigError, ConfigSource};
+use crate::error::Result;
+use crate::protocol::RunContext;
+use grainwave_core::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// Content tag of this protocol's checkpoints.
+pub const TAG: &str = "experiment-simulation";
+
+/// Named columns of equal length (a time series), kept in the protocol state.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SeriesData {
+    /// Column names.
+    pub names: Vec<String>,
+    /// Columns.
+    pub columns: Vec<Vec<f64>>,
+}
+
+impl SeriesData {
+    /// Appends a row (one value per column; the first row fixes the names).
+    pub fn push(&mut self, row: &[(String, f64)]) {
+        if self.names.is_empty() {
+            self.names = row.iter().map(|(n, _)| n.clone()).collect();
+            self.columns = vec![Vec::new(); row.len()];
+        }
+        for (c, (_, v)) in self.columns.iter_mut().zip(row) {
+            c.push(*v);
+        }
+    }
+    /// Number of rows.
+    pub fn len(&self) -> usize {
+        self.columns.first().map_or(0, Vec::len)
+    }
+    /// True when there is no row.
+    pub fn is_empty(&self) -> bool {
+        self.len() == 0
+    }
+    /// The column called `name`.
+    pub fn column(&self, name: &str) -> Option<&[f64]> {
+        self.names.iter().position(|n| n == name).map(|k| self.columns[k].as_slice())
+    }
+}
+
+/// The complete state of a `simulation` run (what a checkpoint holds).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SimulationState {
+    /// The config, with computed defaults filled in (stored as its TOML text).
+    #[serde(with = "as_toml")]
+    pub config: SimulationConfig,
+    /// The engine state.
+    pub sim: AnySim,
+    /// Time series recorded so far.
+    pub series: SeriesData,
+    /// Snapshots written so far: (time, step).
+    pub snapshots: Vec<(f64, u64)>,
+    /// Step of the last series row.
+    pub last_series_step: Option<u64>,
+    /// Step of the last snapshot.
+    pub last_snapshot_step: Option<u64>,
+    /// Step of the last periodic checkpoint.
+    pub last_checkpoint_step: Option<u64>,
+    /// Why the run stopped, once it has.
+    pub outcome: Option<StopReason>,
+}
+
+/// Stores a config as TOML text inside binary checkpoints (its tagged enums and "number or
+/// table" values need a self-describing format).
+mod as_toml {
+    use super::SimulationConfig;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    pub fn serialize<S: Serializer>(c: &SimulationConfig, s: S) -> Result<S::Ok, S::Error> {
+        toml::to_string(c).map_err(serde::ser::Error::custom)?.serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<SimulationConfig, D::Error> {
+        let text = String::deserialize(d)?;
+        toml::from_str(&text).map_err(serde::de::Error::custom)
+    }
+}
+
+/// A validated `simulation` config: the parsed keys and the built engine state.
+pub struct Prepared {
+    /// The config with computed defaults (time step, skin) filled in.
+    pub config: SimulationConfig,
+    /// The simulation, ready to step.
+    pub sim: AnySim,
+}
+
+/// Parses and validates a config; builds the simulation without stepping it.
+pub fn prepare(src: &ConfigSource) -> Result<Prepared, ConfigError> {
+    let mut config: SimulationConfig = src.parse()?;
+    let sim = build::build(src, &config)?;
+    // resolved values: the time step and skin actually used
+    let (dt, skin) = match &sim {
+        AnySim::D2(s) => (s.dt, s.nlist.skin),
+        AnySim::D3(s) => (s.dt, s.nlist.skin),
+    };
+    config.integration.dt = Some(dt);
+    config.integration.skin = Some(skin);
+    Ok(Prepared { config, sim })
+}
+
+impl SimulationState {
+    /// A fresh state from a prepared config.
+    pub fn new(p: Prepared) -> Self {
+        SimulationState {
+            config: p.config,
+            sim: p.sim,
+            series: SeriesData::default(),
+            snapshots: Vec::new(),
+            last_series_step: None,
+            last_snapshot_step: None,
+            last_checkpoint_step: None,
+            outcome: None,
+        }
+    }
+
+    /// Runs (or continues) the protocol until it is done, writing every output into the context's
+    /// directory. Returns the report.
+    pub fn run(&mut self, ctx: &mut RunContext<'_>) -> Result<SimulationReport> {
+        if self.outcome.is_none() {
+            outputs::write_resolved_config(ctx, &self.config)?;
+            match self.sim.clone() {
+                AnySim::D2(s) => self.advance::<D2>(ctx, s, AnySim::D2)?,
+                AnySim::D3(s) => self.advance::<D3>(ctx, s, AnySim::D3)?,
+            }
+        }
+        let report = match &self.sim {
+            AnySim::D2(s) => outputs::write_final(ctx, self, s)?,
+            AnySim::D3(s) => outputs::write_final(ctx, self, s)?,
+        };
+        ctx.save_checkpoint(TAG, self)?;
+        Ok(report)
+    }
+
+    fn advance<D: Dim>(&mut self, ctx: &mut RunContext<'_>, mut sim: Simulation<D>, wrap: fn(Simulation<D>) -> AnySim) -> Result<()> {
+        let out = self.config.output.clone();
+        let stop = self.config.stop.clone();
+        let limit = stop.step_limit.unwrap_or(u64::MAX);
+        ctx.reporter.stage("simulation", stop.step_limit);
+        ctx.log(&format!(
+            "{} {} grains ({}D), dt = {:.4e}, {} contacts at the start",
+            sim.len(),
+            sim.grains.kind.name(),
+            D::D,
+            sim.dt,
+            sim.counters.contacts
+        ));
+        let due = |every: u64, step: u64| every > 0 && step % every == 0;
+        loop {
+            // events at the current step (each at most once, also across a resume)
+            if (self.last_series_step.is_none() || due(out.series_every, sim.step)) && self.last_series_step != Some(sim.step) {
+                outputs::record_series(&mut self.series, &sim, &stop);
+                self.last_series_step = Some(sim.step);
+            }
+            if out.vtk && due(out.snapshot_every, sim.step) && self.last_snapshot_step != Some(sim.step) {
+                outputs::write_snapshot(ctx, &sim)?;
+                self.snapshots.push((sim.time, sim.step));
+                self.last_snapshot_step = Some(sim.step);
+            }
+            if due(out.checkpoint_every, sim.step) && self.last_checkpoint_step != Some(sim.step) && sim.step > 0 {
+                self.last_checkpoint_step = Some(sim.step);
+                self.sim = wrap(sim.clone());
+                ctx.save_checkpoint(TAG, self)?;
+                ctx.log_quiet(&format!("checkpoint at step {}", sim.step));
+            }
+            // next event
+            let next = |every: u64| if every > 0 { (sim.step / every + 1) * every } else { u64::MAX };
+            let target = next(out.series_every).min(next(out.snapshot_every)).min(next(out.checkpoint_every)).min(limit);
+            let mut segment = stop.clone();
+            segment.step_limit = Some(target);
+            let result = ctx.with_hooks(|hooks| sim.run_with(&segment, hooks));
+            let outcome = match result {
+                Ok(o) => o,
+                Err(e) => {
+                    ctx.log(&format!("error: {e}"));
+                    return Err(e.into());
+                }
+            };
+            match outcome.reason {
+                StopReason::StepLimit if sim.step < limit => continue,
+                StopReason::Interrupted => {
+                    self.sim = wrap(sim);
+                    return Err(ctx.interrupted_error(TAG, self));
+                }
+                reason => {
+                    if self.last_series_step != Some(sim.step) {
+                        outputs::record_series(&mut self.series, &sim, &stop);
+                        self.last_series_step = Some(sim.step);
+                    }
+                    ctx.log(&format!(
+                        "stopped ({reason:?}) at step {}, t = {:.6e}, KE/grain {:.3e}, max acceleration {:.3e}",
+                        sim.step, sim.time, outcome.last.kinetic_energy_per_grain, outcome.last.max_acceleration
+                    ));
+                    self.outcome = Some(reason);
+                    self.sim = wrap(sim);
+                    return Ok(());
+                }
+            }
+        }
+    }
+}
+
+/// Parses, validates and runs a `simulation` config into `ctx`'s directory.
+pub fn run_config(src: &ConfigSource, ctx: &mut RunContext<'_>) -> Result<SimulationReport> {
+    let prepared = prepare(src)?;
+    SimulationState::new(prepared).run(ctx)
+}

@@ -1,0 +1,166 @@
+//! Outputs of the `simulation` protocol.
+
+use super::{SeriesData, SimulationConfig, SimulationState};
+use crate::error::Result;
+use crate::protocol::RunContext;
+use grainwave_core::prelude::*;
+use grainwave_io::{write_csv_atomic, write_grains_csv, write_json_atomic, CsvTable};
+use serde::{Deserialize, Serialize};
+
+/// Normal load and position of one wall at the end of the run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct WallReport {
+    /// Wall name.
+    pub name: String,
+    /// Normal force the grains exert on it (outwards) [force].
+    pub load: f64,
+    /// Displacement along its inward normal since the start [length].
+    pub displacement: f64,
+}
+
+/// The summary of a `simulation` run (`summary.json`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SimulationReport {
+    /// Protocol name.
+    pub experiment: String,
+    /// grainwave version.
+    pub version: String,
+    /// Seed.
+    pub seed: u64,
+    /// Units of the numbers (from the config).
+    pub units: String,
+    /// 2 or 3.
+    pub dimension: usize,
+    /// Grain kind.
+    pub grain_kind: String,
+    /// Number of grains.
+    pub grains: usize,
+    /// Steps done.
+    pub steps: u64,
+    /// Simulated time at the end [time].
+    pub time: f64,
+    /// Time step [time].
+    pub dt: f64,
+    /// Suggested time step [time].
+    pub suggested_dt: f64,
+    /// Why the run stopped.
+    pub stop_reason: StopReason,
+    /// Kinetic energy per grain at the end [energy].
+    pub kinetic_energy_per_grain: f64,
+    /// Largest grain acceleration at the end [length/time²].
+    pub max_acceleration: f64,
+    /// Contacts at the end (grain–grain + grain–wall).
+    pub contacts: u64,
+    /// Sliding contacts at the end.
+    pub sliding: u64,
+    /// Total weight M|g| [force].
+    pub weight: f64,
+    /// Sum of the wall loads opposing gravity divided by the weight (1 at static equilibrium
+    /// when the walls carry all the weight); absent without gravity.
+    pub support_over_weight: Option<f64>,
+    /// Every wall.
+    pub walls: Vec<WallReport>,
+    /// Engine warnings.
+    pub warnings: Vec<String>,
+    /// Files written, relative to the output directory.
+    pub files: Vec<String>,
+}
+
+/// Writes `config.resolved.toml`.
+pub fn write_resolved_config(ctx: &RunContext<'_>, config: &SimulationConfig) -> Result<()> {
+    let text = toml::to_string_pretty(config).expect("a config serializes to TOML");
+    let header = format!(
+        "# The config of this run with every default filled in (grainwave {}).\n# Running it again gives the same results, bit for bit.\n\n",
+        grainwave_core::VERSION
+    );
+    grainwave_core::checkpoint::atomic_write(&ctx.path("config.resolved.toml"), format!("{header}{text}").as_bytes())?;
+    Ok(())
+}
+
+/// Appends the current state to the series.
+pub fn record_series<D: Dim>(series: &mut SeriesData, sim: &Simulation<D>, stop: &StopCriteria) {
+    let p = sim.progress(stop);
+    let mut row = vec![
+        ("step".to_string(), sim.step as f64),
+        ("time".to_string(), sim.time),
+        ("kinetic_energy_per_grain".to_string(), p.kinetic_energy_per_grain),
+        ("max_acceleration".to_string(), p.max_acceleration),
+        ("mean_acceleration".to_string(), p.mean_acceleration),
+        ("contacts".to_string(), p.contacts as f64),
+        ("sliding".to_string(), p.sliding as f64),
+    ];
+    for w in &sim.domain.walls {
+        row.push((format!("load_{}", w.name), w.normal_load()));
+        row.push((format!("displacement_{}", w.name), w.displacement()));
+    }
+    series.push(&row);
+}
+
+/// Writes a snapshot of the grains at the current step into `snapshots/`.
+pub fn write_snapshot<D: Dim>(ctx: &RunContext<'_>, sim: &Simulation<D>) -> Result<()> {
+    let snap = sim.snapshot();
+    write_grains_csv(&ctx.path(&format!("snapshots/grains_{:010}.csv", sim.step)), &snap)?;
+    Ok(())
+}
+
+fn series_table(series: &SeriesData) -> Result<CsvTable> {
+    let mut t = CsvTable::new();
+    for (name, col) in series.names.iter().zip(&series.columns) {
+        t.push_f64(name, col.iter().copied())?;
+    }
+    Ok(t)
+}
+
+/// Writes the final outputs and returns the report.
+pub fn write_final<D: Dim>(ctx: &mut RunContext<'_>, state: &SimulationState, sim: &Simulation<D>) -> Result<SimulationReport> {
+    let mut files = vec!["config.resolved.toml".to_string(), "summary.json".into(), "series.csv".into(), "grains.csv".into()];
+    write_csv_atomic(&ctx.path("series.csv"), &series_table(&state.series)?)?;
+    let snap = sim.snapshot();
+    write_grains_csv(&ctx.path("grains.csv"), &snap)?;
+    for (_, step) in &state.snapshots {
+        files.push(format!("snapshots/grains_{step:010}.csv"));
+    }
+    files.push(crate::protocol::CHECKPOINT_FILE.into());
+    files.push(crate::protocol::LOG_FILE.into());
+
+    let p = sim.progress(&state.config.stop);
+    let g = sim.gravity;
+    let g_norm = g.norm();
+    let weight = sim.grains.total_mass() * g_norm;
+    let support = if g_norm > 0.0 && !sim.domain.walls.is_empty() {
+        let up = g * (-1.0 / g_norm);
+        Some(sim.domain.walls.iter().map(|w| w.normal_load() * w.normal.dot(up)).sum::<f64>() / weight)
+    } else {
+        None
+    };
+    let report = SimulationReport {
+        experiment: "simulation".into(),
+        version: grainwave_core::VERSION.into(),
+        seed: state.config.seed,
+        units: state.config.units.clone(),
+        dimension: D::D,
+        grain_kind: sim.grains.kind.name().into(),
+        grains: sim.len(),
+        steps: sim.step,
+        time: sim.time,
+        dt: sim.dt,
+        suggested_dt: sim.suggested_dt,
+        stop_reason: state.outcome.unwrap_or(StopReason::Interrupted),
+        kinetic_energy_per_grain: p.kinetic_energy_per_grain,
+        max_acceleration: p.max_acceleration,
+        contacts: p.contacts,
+        sliding: p.sliding,
+        weight,
+        support_over_weight: support,
+        walls: sim
+            .domain
+            .walls
+            .iter()
+            .map(|w| WallReport { name: w.name.clone(), load: w.normal_load(), displacement: w.displacement() })
+            .collect(),
+        warnings: sim.warnings.clone(),
+        files,
+    };
+    write_json_atomic(&ctx.path("summary.json"), &report)?;
+    Ok(report)
+}
