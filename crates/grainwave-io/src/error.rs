@@ -87,9 +87,18 @@ pub enum OutputError {
         /// Number of values given.
         len: usize,
     },
-    /// A VTK file name has an extension other than `.vtp` or `.vtu`.
-    #[error("cannot tell the VTK dataset type of `{0}`: the file name must end in `.vtp` (PolyData) or `.vtu` (UnstructuredGrid)")]
-    VtkExtension(String),
+    /// A VTK file name does not end in the extension of its dataset type (`.vtp` for PolyData,
+    /// `.vtu` for UnstructuredGrid).
+    #[error("VTK file `{path}`: {reason}")]
+    VtkExtension {
+        /// The file name given.
+        path: String,
+        /// What the name should end in.
+        reason: String,
+    },
+    /// A contact record names a grain id that is not in the snapshot.
+    #[error("a contact refers to grain id {0}, which is not in the snapshot")]
+    UnknownGrain(u32),
     /// A `.pvd` collection could not be parsed.
     #[error("`{path}` is not a ParaView collection this reader understands: {reason}")]
     Pvd {

@@ -32,6 +32,7 @@ pub mod npy;
 pub mod npz;
 mod series;
 mod table;
+pub mod vtk;
 
 pub use error::{OutputError, Result};
 pub use grains_table::{grains_csv, write_grains_csv};
