@@ -104,6 +104,9 @@ impl std::fmt::Display for BadInput {
 impl std::error::Error for BadInput {}
 
 fn main() -> ExitCode {
+    // Config errors: source excerpt with the offending key underlined; never wrap lines (a file
+    // path or key must stay on one line for editors and scripts to pick it up).
+    let _ = miette::set_hook(Box::new(|_| Box::new(miette::MietteHandlerOpts::new().wrap_lines(false).build())));
     let cli = Cli::parse(); // exits with code 2 on bad arguments, 0 for --help/--version
     match run(&cli) {
         Ok(()) => ExitCode::SUCCESS,
