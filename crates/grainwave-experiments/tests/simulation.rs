@@ -60,6 +60,7 @@ step_limit = 1_000_000
 [output]
 series_every = 500
 checkpoint_every = 5000
+snapshot_every = 4000
 "#;
 
 fn out_dir(name: &str) -> PathBuf {
@@ -87,7 +88,7 @@ fn small_pile_settles_and_the_walls_carry_the_weight() {
     assert_eq!(r["stop_reason"], "converged");
     let support = r["support_over_weight"].as_f64().unwrap();
     assert!((support - 1.0).abs() < 1e-6, "walls carry {support} × the weight");
-    for f in ["summary.json", "config.resolved.toml", "series.csv", "grains.csv", "checkpoint.gwck", "run.log"] {
+    for f in ["summary.json", "config.resolved.toml", "series.csv", "series.npz", "grains.csv", "grains.pvd", "contacts.pvd", "checkpoint.gwck", "run.log"] {
         assert!(out.join(f).exists(), "{f} missing");
     }
     let series = std::fs::read_to_string(out.join("series.csv")).unwrap();
@@ -177,10 +178,15 @@ impl Reporter for Interrupter {
 }
 
 fn results(out: &Path) -> Vec<(String, Vec<u8>)> {
-    ["summary.json", "series.csv", "grains.csv", "config.resolved.toml"]
+    let mut files: Vec<String> = ["summary.json", "series.csv", "series.npz", "grains.csv", "config.resolved.toml", "grains.pvd", "contacts.pvd"]
         .iter()
-        .map(|f| (f.to_string(), std::fs::read(out.join(f)).unwrap()))
-        .collect()
+        .map(|s| s.to_string())
+        .collect();
+    let mut snaps: Vec<String> =
+        std::fs::read_dir(out.join("snapshots")).unwrap().map(|e| format!("snapshots/{}", e.unwrap().file_name().to_string_lossy())).collect();
+    snaps.sort();
+    files.extend(snaps);
+    files.into_iter().map(|f| (f.clone(), std::fs::read(out.join(&f)).unwrap())).collect()
 }
 
 #[test]

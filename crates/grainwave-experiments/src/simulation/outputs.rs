@@ -4,7 +4,8 @@ use super::{SeriesData, SimulationConfig, SimulationState};
 use crate::error::Result;
 use crate::protocol::RunContext;
 use grainwave_core::prelude::*;
-use grainwave_io::{write_csv_atomic, write_grains_csv, write_json_atomic, CsvTable};
+use grainwave_io::vtk::{write_contacts_vtp, write_grains_vtp, PvdCollection};
+use grainwave_io::{write_grains_csv, write_json_atomic, Series};
 use serde::{Deserialize, Serialize};
 
 /// Normal load and position of one wall at the end of the run.
@@ -96,29 +97,47 @@ pub fn record_series<D: Dim>(series: &mut SeriesData, sim: &Simulation<D>, stop:
     series.push(&row);
 }
 
-/// Writes a snapshot of the grains at the current step into `snapshots/`.
-pub fn write_snapshot<D: Dim>(ctx: &RunContext<'_>, sim: &Simulation<D>) -> Result<()> {
-    let snap = sim.snapshot();
-    write_grains_csv(&ctx.path(&format!("snapshots/grains_{:010}.csv", sim.step)), &snap)?;
-    Ok(())
+/// File names of the VTK snapshot at `step`, relative to the output directory.
+pub fn snapshot_files(step: u64) -> [String; 2] {
+    [format!("snapshots/grains_{step:010}.vtp"), format!("snapshots/contacts_{step:010}.vtp")]
 }
 
-fn series_table(series: &SeriesData) -> Result<CsvTable> {
-    let mut t = CsvTable::new();
-    for (name, col) in series.names.iter().zip(&series.columns) {
-        t.push_f64(name, col.iter().copied())?;
-    }
-    Ok(t)
+/// Writes VTK snapshots of the grains and of the contact network at the current step.
+pub fn write_snapshot<D: Dim>(ctx: &RunContext<'_>, sim: &Simulation<D>) -> Result<()> {
+    let snap = sim.snapshot();
+    let [g, c] = snapshot_files(sim.step);
+    write_grains_vtp(&ctx.path(&g), &snap)?;
+    write_contacts_vtp(&ctx.path(&c), &snap)?;
+    Ok(())
 }
 
 /// Writes the final outputs and returns the report.
 pub fn write_final<D: Dim>(ctx: &mut RunContext<'_>, state: &SimulationState, sim: &Simulation<D>) -> Result<SimulationReport> {
-    let mut files = vec!["config.resolved.toml".to_string(), "summary.json".into(), "series.csv".into(), "grains.csv".into()];
-    write_csv_atomic(&ctx.path("series.csv"), &series_table(&state.series)?)?;
+    let mut files =
+        vec!["config.resolved.toml".to_string(), "summary.json".into(), "series.npz".into(), "series.csv".into(), "grains.csv".into()];
+    let series = Series::from_columns(state.series.names.iter().cloned().zip(state.series.columns.iter().cloned()))?;
+    series.write(ctx.out_dir(), "series")?;
     let snap = sim.snapshot();
     write_grains_csv(&ctx.path("grains.csv"), &snap)?;
-    for (_, step) in &state.snapshots {
-        files.push(format!("snapshots/grains_{step:010}.csv"));
+    if state.config.output.vtk {
+        // the final state is always part of the collections
+        let mut snapshots = state.snapshots.clone();
+        if snapshots.last().map(|s| s.1) != Some(sim.step) {
+            write_snapshot(ctx, sim)?;
+            snapshots.push((sim.time, sim.step));
+        }
+        let (mut grains_pvd, mut contacts_pvd) = (PvdCollection::new(), PvdCollection::new());
+        for (time, step) in &snapshots {
+            let [g, c] = snapshot_files(*step);
+            grains_pvd.push(*time, g.clone())?;
+            contacts_pvd.push(*time, c.clone())?;
+            files.push(g);
+            files.push(c);
+        }
+        grains_pvd.write(&ctx.path("grains.pvd"))?;
+        contacts_pvd.write(&ctx.path("contacts.pvd"))?;
+        files.push("grains.pvd".into());
+        files.push("contacts.pvd".into());
     }
     files.push(crate::protocol::CHECKPOINT_FILE.into());
     files.push(crate::protocol::LOG_FILE.into());
