@@ -1,11 +1,16 @@
 //! # grainwave-io
 //!
-//! Output writers shared by every grainwave experiment:
+//! Output writers shared by every grainwave experiment (formats and units: `docs/formats.md`):
 //!
 //! * [`write_json_atomic`]: any `Serialize` value as pretty-printed JSON;
 //! * [`CsvTable`] and [`write_csv_atomic`]: a small column-oriented CSV table (numbers and text);
 //! * [`grains_csv`] / [`write_grains_csv`]: one row per grain of a [`Snapshot`](grainwave_core::snapshot::Snapshot),
-//!   with dimension-dependent columns.
+//!   with dimension-dependent columns;
+//! * [`npy`] and [`npz`]: NumPy `.npy` arrays and `.npz` archives, written and read back;
+//! * [`Series`]: named `f64` columns (time series, profiles) saved as `.npz` + `.csv`;
+//! * [`vtk`]: VTK XML files for ParaView — grains as points, contacts as lines, `.pvd` time series;
+//! * [`plot`]: line plots, histograms and pictures of 2D packings as PNG + SVG, text from an
+//!   embedded font.
 //!
 //! Every file is written through [`grainwave_core::checkpoint::atomic_write`] (a temporary file in
 //! the same directory, synced, then renamed), so a reader never sees a half-written output even if
@@ -30,6 +35,7 @@ mod grains_table;
 mod json;
 pub mod npy;
 pub mod npz;
+pub mod plot;
 mod series;
 mod table;
 pub mod vtk;

@@ -320,7 +320,8 @@ fn npy_header(descr: &str, shape: &[usize]) -> Vec<u8> {
     };
     let mut dict = format!("{{'descr': '{descr}', 'fortran_order': False, 'shape': {shape_text}, }}");
     // Version 1.0 has a 2-byte header length; NumPy switches to 2.0 (4 bytes) beyond 65535.
-    let version1 = 10 + dict.len() + 1 <= u16::MAX as usize;
+    let padded_v1 = (10 + dict.len() + 1).div_ceil(ALIGN) * ALIGN - 10;
+    let version1 = padded_v1 <= u16::MAX as usize;
     let prefix = if version1 { 10 } else { 12 };
     let total = (prefix + dict.len() + 1).div_ceil(ALIGN) * ALIGN;
     while prefix + dict.len() + 1 < total {

@@ -49,7 +49,8 @@ fn numpy_loads_npy_files_with_right_shapes_dtypes_and_values() {
     let f32s = vec![0.1f32, -2.5, f32::MIN_POSITIVE];
     let u8s = vec![0u8, 128, 255];
     let bools = vec![true, false, false, true];
-    let cases: Vec<(&str, Box<dyn Fn(&std::path::Path)>)> = vec![
+    type Writer<'a> = Box<dyn Fn(&std::path::Path) + 'a>;
+    let cases: Vec<(&str, Writer)> = vec![
         ("f64_4x2x2", Box::new(|p| write_npy(p, &[4, 2, 2], &f64s).unwrap())),
         ("i64_3x2", Box::new(|p| write_npy(p, &[3, 2], &i64s).unwrap())),
         ("i32", Box::new(|p| write_npy(p, &[3], &i32s).unwrap())),
