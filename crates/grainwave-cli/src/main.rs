@@ -58,6 +58,11 @@ enum Command {
         /// A file or an output directory.
         path: PathBuf,
     },
+    /// Re-make the plots of a run from its saved data
+    Plot {
+        /// The output directory of the run.
+        dir: PathBuf,
+    },
     /// Print the config reference (Markdown; the source of docs/config.md)
     Reference,
     /// Print shell completions
@@ -190,6 +195,14 @@ fn run(cli: &Cli) -> Result<()> {
             }
             for l in inspect::describe(path)? {
                 println!("{l}");
+            }
+            Ok(())
+        }
+        Command::Plot { dir } => {
+            for f in registry::plot(dir)? {
+                if !cli.quiet {
+                    println!("{}", dir.join(f).display());
+                }
             }
             Ok(())
         }

@@ -116,6 +116,20 @@ pub fn resume(dir: &Path, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
     }
 }
 
+/// Re-makes the plots of the run in `dir` from its saved data (series and checkpoint). Returns
+/// the files written, relative to `dir`.
+pub fn plot(dir: &Path) -> Result<Vec<String>> {
+    let (file, tag) = checkpoint_tag(dir)?;
+    match tag.as_str() {
+        simulation::TAG => {
+            let state: simulation::SimulationState = load_state(&file, &tag)?;
+            let series = grainwave_io::Series::read_npz(&dir.join("series.npz"))?;
+            Ok(simulation::make_plots(dir, &series, state.picture().as_ref())?)
+        }
+        other => Err(ExperimentError::Resume { path: dir.to_path_buf(), reason: format!("its checkpoint holds `{other}`, which has no plots") }),
+    }
+}
+
 /// The config reference (`docs/config.md`), generated from the key definitions.
 pub fn reference_markdown() -> String {
     let mut s = String::from(

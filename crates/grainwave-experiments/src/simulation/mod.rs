@@ -15,7 +15,7 @@ mod outputs;
 
 pub use build::AnySim;
 pub use config::SimulationConfig;
-pub use outputs::{SimulationReport, WallReport};
+pub use outputs::{make_plots, SimulationReport, WallReport};
 
 use crate::config::{ConfigError, ConfigSource};
 use crate::error::Result;
@@ -121,6 +121,14 @@ pub fn prepare(src: &ConfigSource) -> Result<Prepared, ConfigError> {
 }
 
 impl SimulationState {
+    /// The current 2D snapshot (for packing pictures), if the run is 2D.
+    pub fn picture(&self) -> Option<Snapshot<D2>> {
+        match &self.sim {
+            AnySim::D2(s) => Some(s.snapshot()),
+            AnySim::D3(_) => None,
+        }
+    }
+
     /// A fresh state from a prepared config.
     pub fn new(p: Prepared) -> Self {
         SimulationState {

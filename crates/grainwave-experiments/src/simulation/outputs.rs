@@ -5,7 +5,9 @@ use crate::error::Result;
 use crate::protocol::RunContext;
 use grainwave_core::prelude::*;
 use grainwave_io::vtk::{write_contacts_vtp, write_grains_vtp, PvdCollection};
+use grainwave_io::plot::{LinePlot, Network, PackingPicture};
 use grainwave_io::{write_grains_csv, write_json_atomic, Series};
+use std::path::Path;
 use serde::{Deserialize, Serialize};
 
 /// Normal load and position of one wall at the end of the run.
@@ -142,6 +144,10 @@ pub fn write_final<D: Dim>(ctx: &mut RunContext<'_>, state: &SimulationState, si
     files.push(crate::protocol::CHECKPOINT_FILE.into());
     files.push(crate::protocol::LOG_FILE.into());
 
+    if state.config.output.plots {
+        files.extend(make_plots(ctx.out_dir(), &series, state.picture().as_ref())?);
+    }
+
     let p = sim.progress(&state.config.stop);
     let g = sim.gravity;
     let g_norm = g.norm();
@@ -182,4 +188,49 @@ pub fn write_final<D: Dim>(ctx: &mut RunContext<'_>, state: &SimulationState, si
     };
     write_json_atomic(&ctx.path("summary.json"), &report)?;
     Ok(report)
+}
+
+/// Draws the plots of a `simulation` run into `dir/plots/` from its series and, for 2D runs, its
+/// final snapshot: kinetic energy and accelerations vs time (log scale), wall loads vs time, and
+/// a picture of the packing with its force network. Returns the files, relative to `dir`.
+pub fn make_plots(dir: &Path, series: &Series, picture: Option<&Snapshot<D2>>) -> Result<Vec<String>> {
+    let plots = dir.join("plots");
+    let mut files = Vec::new();
+    let mut push = |stem: &str| {
+        files.push(format!("plots/{stem}.png"));
+        files.push(format!("plots/{stem}.svg"));
+    };
+    let time = series.column("time").unwrap_or(&[]);
+    if time.len() >= 2 {
+        let positive = |name: &str| -> (Vec<f64>, Vec<f64>) {
+            let y = series.column(name).unwrap_or(&[]);
+            time.iter().zip(y).filter(|(_, v)| **v > 0.0 && v.is_finite()).map(|(t, v)| (*t, *v)).unzip()
+        };
+        let (t_ke, ke) = positive("kinetic_energy_per_grain");
+        let (t_a, acc) = positive("max_acceleration");
+        if t_ke.len() >= 2 || t_a.len() >= 2 {
+            LinePlot::new("Relaxation")
+                .x_label("time")
+                .y_label("kinetic energy per grain, max acceleration")
+                .log_y()
+                .series("kinetic energy per grain", &t_ke, &ke)
+                .series("max acceleration", &t_a, &acc)
+                .save(&plots, "energy")?;
+            push("energy");
+        }
+        let loads: Vec<&str> = series.names().iter().map(String::as_str).filter(|n| n.starts_with("load_")).collect();
+        if !loads.is_empty() {
+            let mut plot = LinePlot::new("Wall loads").x_label("time").y_label("normal load [force]");
+            for name in &loads {
+                plot = plot.series(name.trim_start_matches("load_"), time, series.column(name).unwrap_or(&[]));
+            }
+            plot.save(&plots, "wall_loads")?;
+            push("wall_loads");
+        }
+    }
+    if let Some(snap) = picture.filter(|s| !s.is_empty()) {
+        PackingPicture::new(snap, "Final state: force network").network(Network::Force).save(&plots, "force_network")?;
+        push("force_network");
+    }
+    Ok(files)
 }

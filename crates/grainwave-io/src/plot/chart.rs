@@ -279,8 +279,11 @@ impl Chart {
     {
         let e = |e: DrawingAreaErrorKind<DB::ErrorType>| e.to_string();
         let (x_span, y_span) = (ranges.0 .1 - ranges.0 .0, ranges.1 .1 - ranges.1 .0);
-        let x_fmt = move |v: &f64| tick_label(snap_zero(*v, x_span));
-        let y_fmt = move |v: &f64| tick_label(snap_zero(*v, y_span));
+        // Rounding residues near zero are snapped on linear axes only: on a log axis every tick is
+        // a genuine (positive) value, however small.
+        let (log_x, log_y) = (self.log_x, self.log_y);
+        let x_fmt = move |v: &f64| tick_label(if log_x { *v } else { snap_zero(*v, x_span) });
+        let y_fmt = move |v: &f64| tick_label(if log_y { *v } else { snap_zero(*v, y_span) });
         chart
             .configure_mesh()
             .bold_line_style(GRID_BOLD)

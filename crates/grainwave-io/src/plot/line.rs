@@ -124,3 +124,23 @@ impl LinePlot {
         save(&self.chart, dir, stem)
     }
 }
+
+#[cfg(test)]
+mod log_axis_tests {
+    use super::*;
+
+    /// Regression test named after the bug it caught: on a log axis spanning 1e-14 … 1e2, ticks
+    /// below 1e-7 were labelled "0" (linear-axis zero snapping applied to log axes).
+    #[test]
+    fn small_log_ticks_are_not_labelled_zero() {
+        let x: Vec<f64> = (0..50).map(|k| k as f64).collect();
+        let y: Vec<f64> = (0..50).map(|k| 10f64.powf(2.0 - 16.0 * k as f64 / 49.0)).collect();
+        let dir = std::env::temp_dir().join(format!("grainwave-logticks-{}", std::process::id()));
+        let files = LinePlot::new("decay").log_y().series("y", &x, &y).save(&dir, "decay").unwrap();
+        let svg = std::fs::read_to_string(&files.svg).unwrap();
+        assert!(svg.contains("10⁻¹"), "small powers of ten are labelled");
+        let zero_labels = svg.matches(">0<").count();
+        assert!(zero_labels <= 1, "only the x axis may show a 0 label, found {zero_labels}");
+        std::fs::remove_dir_all(&dir).ok();
+    }
+}
