@@ -1,0 +1,50 @@
+//! Every example config runs and produces its plots, non-empty. Examples that are too big for
+//! the test suite (full-size studies) carry a line `# test: skip (<reason>)`.
+
+use grainwave_experiments::config::ConfigSource;
+use grainwave_experiments::protocol::{RunContext, SilentReporter};
+use grainwave_experiments::registry;
+use std::path::Path;
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+
+#[test]
+fn every_example_runs_and_draws_its_plots() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");
+    let mut examples: Vec<_> = std::fs::read_dir(&dir).unwrap().map(|e| e.unwrap().path()).filter(|p| p.extension().is_some_and(|e| e == "toml")).collect();
+    examples.sort();
+    assert!(!examples.is_empty());
+    let mut ran = 0;
+    for path in examples {
+        let text = std::fs::read_to_string(&path).unwrap();
+        if text.lines().any(|l| l.trim_start().starts_with("# test: skip")) {
+            eprintln!("skipping {} (marked `# test: skip`)", path.display());
+            continue;
+        }
+        let out = std::env::temp_dir().join(format!("grainwave-example-{}-{}", std::process::id(), path.file_stem().unwrap().to_string_lossy()));
+        let _ = std::fs::remove_dir_all(&out);
+        let src = ConfigSource::from_file(&path).unwrap();
+        let mut rep = SilentReporter;
+        let mut ctx = RunContext::new(&out, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
+        let t = std::time::Instant::now();
+        let summary = registry::run(&src, &mut ctx).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        eprintln!("{}: {:.1} s", path.display(), t.elapsed().as_secs_f64());
+        let files: Vec<String> = summary.report["files"].as_array().expect("the summary lists its files").iter().map(|f| f.as_str().unwrap().to_string()).collect();
+        let plots: Vec<&String> = files.iter().filter(|f| f.ends_with(".png") || f.ends_with(".svg")).collect();
+        assert!(!plots.is_empty(), "{} draws no plot", path.display());
+        for f in plots {
+            let bytes = std::fs::read(out.join(f)).unwrap_or_else(|e| panic!("{}: {f}: {e}", path.display()));
+            if f.ends_with(".png") {
+                assert!(bytes.starts_with(b"\x89PNG\r\n\x1a\n") && bytes.len() > 2000, "{f}: not a non-empty PNG");
+            } else {
+                let s = String::from_utf8_lossy(&bytes);
+                assert!(s.contains("<svg") && s.contains("<text") && (s.contains("<polyline") || s.contains("<circle") || s.contains("<path")), "{f}: empty SVG");
+            }
+        }
+        for f in &files {
+            assert!(out.join(f).exists(), "{}: listed file {f} missing", path.display());
+        }
+        ran += 1;
+    }
+    assert!(ran >= 1);
+}
