@@ -32,8 +32,24 @@
 //! the rolling/twisting torque on i. The dynamical matrix is D = Σ_c ∂²E_c/∂q∂q.
 //!
 //! The pre-stress term is the second-order change of the energy F_n ξ when the pair's axis turns:
-//! a transverse relative displacement d_⊥ rotates n̂ by d_⊥/|b| and turns the normal force with it.
-//! A flat wall has no such term (its normal does not turn).
+//! a transverse relative displacement d_⊥ rotates n̂ by δn̂ = d_⊥/|b| and turns the normal force
+//! with it. A flat wall has no such term (its normal does not turn).
+//!
+//! # Full linearization of the engine's contact law
+//!
+//! When the snapshot's contacts carry tangential forces F_t (frictional packings) the engine's
+//! forces have further first-order terms, which [`crate::dynamical::PreStress::Full`] adds:
+//!
+//! * the stored tangential force is kept in the tangent plane as n̂ turns (grainwave-core rotates
+//!   the history into the new tangent plane): δF_t = −n̂ (F_t·δn̂) on i;
+//! * the lever arms change with the overlap, δa = ½ d·n̂ for grain pairs (a = R − ξ/2) and δa = d·n̂
+//!   for walls (a = distance to the wall), and the contact point turns with n̂: the torques gain
+//!   δa_i n̂ × F_t + a_i δn̂ × F_t on i and δa_j n̂ × F_t + a_j δn̂ × F_t on j;
+//! * (3D) stored rolling and twisting torques M turn with n̂: δM = −n̂ (M_⊥·δn̂) + (M·n̂) δn̂.
+//!
+//! With these terms D is the exact Jacobian of the engine's (incremental, history-dependent) force
+//! law at the snapshot, to first order — but no longer symmetric (friction is not conservative), so
+//! it serves direct propagation only; modes, static solves and moduli need a symmetric D.
 //!
 //! # Affine strain
 //!
@@ -85,6 +101,12 @@ pub struct LinearContact<D: Dim> {
     pub normal_force: f64,
     /// Coefficient of the geometric pre-stress term, F_n/|b| (0 when the term is off, and for walls).
     pub prestress: f64,
+    /// Tangential force F_t on i in the snapshot (enters only the full linearization).
+    pub tangential_force: D::Vector,
+    /// Rolling + twisting torque on i in the snapshot (enters only the full linearization).
+    pub rolling_torque: D::AngVector,
+    /// Include the terms of the full linearization (see the module docs).
+    pub full_geometry: bool,
     /// The contact was sliding in the snapshot.
     pub sliding: bool,
 }
@@ -153,18 +175,38 @@ impl<D: Dim> LinearContact<D> {
         let n = self.normal;
         let (delta, d) = self.relative(ui, ti, uj, tj, affine);
         let dn = delta.dot(n);
-        let f = n * (self.normal_stiffness * dn) + (delta - n * dn) * self.tangential_stiffness;
+        let ft = (delta - n * dn) * self.tangential_stiffness;
+        let f = n * (self.normal_stiffness * dn) + ft;
         let fp = (d - n * d.dot(n)) * (-self.prestress);
-        let tq = D::cross(n, f);
+        // n̂ × f = n̂ × f_t: only the tangential part has a moment (exactly zero when frictionless)
+        let tq = D::cross(n, ft);
         let th = tj - ti;
         let m = D::ang_perp(th, n) * self.rolling_stiffness + D::about_normal(self.twisting_stiffness * D::twist(th, n), n);
-        ContactResponse {
+        let mut r = ContactResponse {
             force_i: f + fp,
             torque_i: tq * self.lever_i + m,
             force_j: -(f + fp),
             torque_j: tq * self.lever_j - m,
             spring_force: f,
+        };
+        if self.full_geometry {
+            let ftan = self.tangential_force;
+            let opening = d.dot(n);
+            let (dn, da_i, da_j) = match self.j {
+                Partner::Grain(_) => ((d - n * opening) / self.branch.norm(), 0.5 * opening, 0.5 * opening),
+                Partner::Wall(_) => (D::Vector::ZERO, opening, 0.0),
+            };
+            let df = n * (-ftan.dot(dn));
+            let nxf = D::cross(n, ftan);
+            let dnxf = D::cross(dn, ftan);
+            let mt = self.rolling_torque;
+            let dm = D::about_normal(-D::twist(D::ang_perp(mt, n), dn), n) + D::about_normal(D::twist(mt, n), dn);
+            r.force_i += df;
+            r.force_j -= df;
+            r.torque_i += nxf * da_i + dnxf * self.lever_i + dm;
+            r.torque_j += nxf * da_j + dnxf * self.lever_j - dm;
         }
+        r
     }
 
     /// Elastic energy E_c (see the module docs) of the given displacements.

@@ -80,13 +80,29 @@ pub enum SlidingContacts {
     Free,
 }
 
+/// Geometric terms of the contact forces (see [`crate::contact`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PreStress {
+    /// Stiffnesses only (default): D = Σ_c Gᵀ K G, symmetric and positive semi-definite.
+    #[default]
+    None,
+    /// The pre-stress term of SPEC §5.4, −(F_n/|r_ij|) on the relative transverse displacement of
+    /// grain pairs: D is then the Hessian of the elastic energy (frictionless packings) — symmetric,
+    /// possibly indefinite.
+    Normal,
+    /// `Normal` plus the first-order terms of the stored tangential forces and rolling torques
+    /// (rotation with the normal, lever-arm changes): the exact Jacobian of the engine's contact
+    /// forces at a frictional snapshot. Not symmetric: for direct propagation only.
+    Full,
+}
+
 /// Options of [`DynamicalMatrix::assemble`].
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default, deny_unknown_fields)]
 pub struct AssemblyOptions {
-    /// Include the geometric pre-stress term −(F_n/|r_ij|) on the relative transverse displacement
-    /// of grain pairs (SPEC §5.4; default off).
-    pub prestress: bool,
+    /// Geometric pre-stress terms (SPEC §5.4; default [`PreStress::None`]).
+    pub prestress: PreStress,
     /// Keep or remove rattlers (default keep).
     pub rattlers: Rattlers,
     /// Threshold of force-carrying contacts below which a grain is a rattler (default: 2 with
@@ -100,7 +116,7 @@ pub struct AssemblyOptions {
 
 impl Default for AssemblyOptions {
     fn default() -> Self {
-        AssemblyOptions { prestress: false, rattlers: Rattlers::Keep, rattler_min_contacts: None, sliding: SlidingContacts::Stick, rolling: true }
+        AssemblyOptions { prestress: PreStress::None, rattlers: Rattlers::Keep, rattler_min_contacts: None, sliding: SlidingContacts::Stick, rolling: true }
     }
 }
 
@@ -212,7 +228,7 @@ impl<D: Dim> DynamicalMatrix<D> {
             };
             let k_t = if c.sliding && options.sliding == SlidingContacts::Free { 0.0 } else { c.tangential_stiffness };
             let prestress = match j {
-                Partner::Grain(_) if options.prestress => c.normal_force / c.branch.norm(),
+                Partner::Grain(_) if options.prestress != PreStress::None => c.normal_force / c.branch.norm(),
                 _ => 0.0,
             };
             for (name, v) in [("normal_stiffness", c.normal_stiffness), ("tangential_stiffness", k_t), ("normal_force", c.normal_force)] {
@@ -233,6 +249,9 @@ impl<D: Dim> DynamicalMatrix<D> {
                 twisting_stiffness: k_tw,
                 normal_force: c.normal_force,
                 prestress,
+                tangential_force: c.tangential_force,
+                rolling_torque: if options.rolling { c.rolling_torque } else { D::AngVector::ZERO },
+                full_geometry: options.prestress == PreStress::Full,
                 sliding: c.sliding,
             });
         }
@@ -287,6 +306,11 @@ impl<D: Dim> DynamicalMatrix<D> {
     /// Options used for assembly.
     pub fn options(&self) -> &AssemblyOptions {
         &self.options
+    }
+
+    /// True unless the full (non-symmetric) linearization was assembled.
+    pub fn is_symmetric(&self) -> bool {
+        self.options.prestress != PreStress::Full
     }
 
     /// Grain kind of the snapshot.
@@ -454,6 +478,7 @@ impl<D: Dim> DynamicalMatrix<D> {
             constraint_load,
             imposed: uc,
             dropped,
+            symmetric: self.is_symmetric(),
         })
     }
 }
@@ -638,9 +663,24 @@ pub struct LinearSystem {
     constraint_load: Vec<f64>,
     imposed: Vec<f64>,
     dropped: Vec<usize>,
+    symmetric: bool,
 }
 
 impl LinearSystem {
+    /// True unless D is the full (non-symmetric) linearization ([`PreStress::Full`]).
+    pub fn is_symmetric(&self) -> bool {
+        self.symmetric
+    }
+
+    /// Error unless D is symmetric (modes, static solves and moduli need it).
+    pub(crate) fn require_symmetric(&self, what: &str) -> Result<()> {
+        if self.symmetric {
+            Ok(())
+        } else {
+            Err(LinearError::NotSymmetric { what: what.into() })
+        }
+    }
+
     /// Number of free dofs.
     pub fn dofs(&self) -> usize {
         self.free.len()

@@ -92,6 +92,12 @@ pub enum LinearError {
         /// Requested tolerance.
         tolerance: f64,
     },
+    /// A method that needs a symmetric D got the full (non-symmetric) linearization.
+    #[error("{what} needs a symmetric dynamical matrix; the full linearization (`prestress = \"full\"`) is not symmetric and serves direct propagation only")]
+    NotSymmetric {
+        /// The method.
+        what: String,
+    },
     /// Time propagation produced non-finite values.
     #[error("direct propagation blew up at t = {time:.6e} (step {step}, dt = {dt:.4e}): the time step exceeds the stability limit of the largest frequency")]
     Unstable {

@@ -78,7 +78,7 @@ pub mod reference;
 pub mod statics;
 
 pub use dofs::{Constraints, DofLayout};
-pub use dynamical::{AssemblyOptions, DynamicalMatrix, LinearSystem, Rattlers, SlidingContacts, ZeroRows};
+pub use dynamical::{AssemblyOptions, DynamicalMatrix, LinearSystem, PreStress, Rattlers, SlidingContacts, ZeroRows};
 pub use error::{LinearError, Result};
 pub use linalg::eigen::{EigenOptions, Modes};
 pub use statics::{solve_static, StaticOptions, StaticSolution};
@@ -86,7 +86,7 @@ pub use statics::{solve_static, StaticOptions, StaticSolution};
 /// The names most programs need.
 pub mod prelude {
     pub use crate::dofs::{Constraints, DofLayout};
-    pub use crate::dynamical::{AssemblyOptions, DynamicalMatrix, LinearSystem, Rattlers, SlidingContacts, ZeroRows};
+    pub use crate::dynamical::{AssemblyOptions, DynamicalMatrix, LinearSystem, PreStress, Rattlers, SlidingContacts, ZeroRows};
     pub use crate::error::{LinearError, Result};
     pub use crate::linalg::eigen::{EigenOptions, Modes};
     pub use crate::linalg::symplectic::Scheme;

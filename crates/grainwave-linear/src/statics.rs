@@ -75,6 +75,7 @@ pub struct StaticSolution {
 /// Solves D_ff u = `load` + (−D_fc u_c) on the free dofs of `system` (the load of the imposed
 /// displacements is added automatically).
 pub fn solve_static(system: &LinearSystem, load: &[f64], options: &StaticOptions) -> Result<StaticSolution> {
+    system.require_symmetric("the static solver (conjugate gradient)")?;
     let n = system.dofs();
     LinearError::check_len("load", n, load.len())?;
     if !(options.tolerance > 0.0) {

@@ -51,6 +51,7 @@ pub struct Modes {
 impl Modes {
     /// Solves D v = ω² M v for every mode of `system`.
     pub fn compute(system: &LinearSystem, options: &EigenOptions) -> Result<Modes> {
+        system.require_symmetric("the eigen-decomposition")?;
         let n = system.dofs();
         if n > options.max_dense_dofs {
             return Err(LinearError::TooLargeForDense { dofs: n, limit: options.max_dense_dofs, gib: 3.0 * (n * n * 8) as f64 / (1u64 << 30) as f64 });

@@ -103,3 +103,93 @@ pub fn relax(sim: &mut Simulation<D2>, tol: f64, max_steps: u64) {
         assert!(sim.step - start < max_steps, "packing did not relax: {p:?}, piston acceleration {piston_acc:e}");
     }
 }
+
+/// Hooke law (k_n, k_t = ratio · k_n, friction μ), undamped.
+pub fn hooke_params(k_n: f64, ratio: f64, friction: f64) -> ContactParams {
+    let mut p = ContactParams::preset("hooke_cundall_strack");
+    p.normal_stiffness = Some(k_n);
+    p.tangential_stiffness_ratio = Some(ratio);
+    p.friction = Some(friction);
+    p
+}
+
+/// A compressed triangular lattice of `rows` × `cols` grains (spacing 1, one lattice direction
+/// along x), radii 0.515 (1 + 0.02 u), u uniform in [−1, 1]: every nearest-neighbour pair overlaps
+/// by at least 0.009 and at most 0.051, next-nearest neighbours are far apart. `walls`: periodic in
+/// x with a bottom and a top wall 0.5 from the outer rows' centres (wall overlaps 0.005 … 0.025);
+/// otherwise periodic in x and y (`rows` even). `mass`: Some(m) gives every grain mass m. Grains
+/// listed in `rattlers` get radius 0.3: they touch nothing.
+#[allow(clippy::too_many_arguments)]
+pub fn lattice_2d(rows: usize, cols: usize, kind: GrainKind, params: &ContactParams, walls: bool, mass: Option<f64>, seed: u64, rattlers: &[usize]) -> SimulationBuilder<D2> {
+    use rand::RngExt;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let dy = 3f64.sqrt() / 2.0;
+    let y0 = 1.0;
+    let mut grains = Grains::<D2>::new(kind);
+    for (k, p) in grainwave_core::placement::triangular_lattice(rows, cols, 1.0, [0.3, y0]).into_iter().enumerate() {
+        let mut r = 0.515 * (1.0 + 0.02 * (2.0 * rng.random::<f64>() - 1.0));
+        if rattlers.contains(&k) {
+            r = 0.3;
+        }
+        match mass {
+            Some(m) => grains.push_with_mass(DVec2::new(p[0], p[1]), r, m, DVec2::ZERO),
+            None => grains.push(DVec2::new(p[0], p[1]), r, 1.0, DVec2::ZERO),
+        };
+    }
+    let law = params.build(Partner::Grain, "contact").unwrap();
+    let lx = cols as f64;
+    let domain = if walls {
+        let wall_law = params.build(Partner::Wall, "contact.wall").unwrap();
+        let top = y0 + (rows - 1) as f64 * dy + 0.5;
+        Domain::new(DVec2::new(0.0, y0 - 0.5), DVec2::new(lx, top), [true, false, false])
+            .with_wall(Wall::axis_aligned("bottom", 1, y0 - 0.5, true, wall_law))
+            .with_wall(Wall::axis_aligned("top", 1, top, false, wall_law))
+    } else {
+        assert!(rows % 2 == 0);
+        Domain::new(DVec2::new(0.0, y0 - 0.5 * dy), DVec2::new(lx, y0 - 0.5 * dy + rows as f64 * dy), [true, true, false])
+    };
+    SimulationBuilder::new(grains, domain, law).max_initial_overlap(0.2).seed(seed)
+}
+
+/// A compressed FCC block of n × n × layers cubic cells (nearest-neighbour distance 1), radii as in
+/// [`lattice_2d`]; periodic in x and y, and in z unless `walls` (then walls 0.5 below/above the
+/// outer layers). Grains listed in `rattlers` get radius 0.3.
+pub fn lattice_3d(n: usize, layers: usize, params: &ContactParams, walls: bool, mass: Option<f64>, seed: u64, rattlers: &[usize]) -> SimulationBuilder<D3> {
+    use glam::DVec3;
+    use rand::RngExt;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let a = 2f64.sqrt();
+    let basis = [[0.0, 0.0, 0.0], [0.5, 0.5, 0.0], [0.5, 0.0, 0.5], [0.0, 0.5, 0.5]];
+    let mut grains = Grains::<D3>::new(GrainKind::Sphere);
+    let z0 = 1.0;
+    let mut zmax: f64 = 0.0;
+    for i in 0..n {
+        for j in 0..n {
+            for k in 0..layers {
+                for b in basis {
+                    let p = DVec3::new((i as f64 + b[0]) * a + 0.1, (j as f64 + b[1]) * a + 0.1, (k as f64 + b[2]) * a + z0);
+                    zmax = zmax.max(p.z);
+                    let mut r = 0.515 * (1.0 + 0.02 * (2.0 * rng.random::<f64>() - 1.0));
+                    if rattlers.contains(&grains.len()) {
+                        r = 0.3;
+                    }
+                    match mass {
+                        Some(m) => grains.push_with_mass(p, r, m, DVec3::ZERO),
+                        None => grains.push(p, r, 1.0, DVec3::ZERO),
+                    };
+                }
+            }
+        }
+    }
+    let law = params.build(Partner::Grain, "contact").unwrap();
+    let l = n as f64 * a;
+    let domain = if walls {
+        let wall_law = params.build(Partner::Wall, "contact.wall").unwrap();
+        Domain::new(DVec3::new(0.0, 0.0, z0 - 0.5), DVec3::new(l, l, zmax + 0.5), [true, true, false])
+            .with_wall(Wall::axis_aligned("bottom", 2, z0 - 0.5, true, wall_law))
+            .with_wall(Wall::axis_aligned("top", 2, zmax + 0.5, false, wall_law))
+    } else {
+        Domain::new(DVec3::new(0.0, 0.0, z0 - 0.25 * a), DVec3::new(l, l, z0 - 0.25 * a + layers as f64 * a), [true, true, true])
+    };
+    SimulationBuilder::new(grains, domain, law).max_initial_overlap(0.2).seed(seed)
+}
