@@ -33,7 +33,14 @@ fn norm(v: &[f64]) -> f64 {
 
 /// Relative mismatch ‖δF_engine + D q‖ / ‖D q‖ for pre-stress on and off.
 fn engine_mismatch<D: Dim>(builder: SimulationBuilder<D>, delta: f64, seed: u64) -> (f64, f64) {
-    let mut sim = builder.dt(1.0).build().unwrap();
+    let sim = builder.dt(1.0).build().unwrap();
+    let e = mismatches(sim, delta, seed, &[PreStress::Normal, PreStress::None]);
+    (e[0], e[1])
+}
+
+/// Relative mismatches ‖δF_engine + D q‖ / ‖D q‖ of one engine step (dt = 1, grains of huge mass)
+/// moving the grains by q, for each linearization in `variants`.
+fn mismatches<D: Dim>(mut sim: Simulation<D>, delta: f64, seed: u64, variants: &[PreStress]) -> Vec<f64> {
     let snap = sim.snapshot();
     assert!(snap.contacts.iter().any(|c| matches!(c.j, Counterpart::Wall(_))) || sim.domain.walls.is_empty());
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -84,7 +91,7 @@ fn engine_mismatch<D: Dim>(builder: SimulationBuilder<D>, delta: f64, seed: u64)
         let r: Vec<f64> = df.iter().zip(&y).map(|(a, b)| a + b).collect();
         norm(&r) / norm(&y)
     };
-    (mismatch(PreStress::Normal), mismatch(PreStress::None))
+    variants.iter().map(|&v| mismatch(v)).collect()
 }
 
 fn check(name: &str, (on, off): (f64, f64)) {
@@ -118,6 +125,48 @@ fn dynamical_matrix_linearizes_engine_forces_3d() {
     p.twisting_stiffness = Some(1.0);
     let b = lattice_3d(2, 2, &p, false, Some(1e20), 5, &[]);
     check("3D Hooke + rolling + twisting, periodic", engine_mismatch(b, 1e-7, 15));
+}
+
+/// At a frictional equilibrium the contacts carry tangential forces F_t, whose rotation with the
+/// normals and lever-arm changes are first-order terms of the engine's forces: the full
+/// linearization ([`PreStress::Full`]) must match the engine to the second-order residue
+/// (tolerance 1e-4; δ = 1e-8 — weak contacts have overlaps far below the typical 5e-3, so δ is 10 ×
+/// smaller than in the fresh-lattice tests). Measured: 7.3e-5, 7.5e-6, 8.1e-7 for δ = 1e-7, 1e-8,
+/// 1e-9 — proportional to δ, so no first-order term is missing — and 3.3e-6 at δ = 1e-10, where
+/// round-off of the positions (~12, ulp 2e-15) takes over. The SPEC's normal term alone leaves a
+/// mismatch of order F_t/(k_n|r|) (measured 3.5e-4), no pre-stress 2.4e-3.
+///
+/// State: a 150-grain E1 packing relaxed with grainwave-core (max acceleration < 1e-10), damping off,
+/// friction raised to 1e3 (contacts on the Coulomb cone would respond one-sidedly; no force changes),
+/// piston frozen, masses and inertias × 1e20 (the step then moves the grains by exactly q).
+#[test]
+fn full_linearization_matches_engine_forces_at_a_frictional_equilibrium() {
+    let mut sim = prepare_packing(&PackingSpec::e1(150, 12.0, 3));
+    let stick = |law: &mut ContactLaw| {
+        law.damping = grainwave_core::contact::NormalDamping::None;
+        law.tangential_damping = grainwave_core::contact::TangentialDamping::None;
+        law.friction = 1e3;
+    };
+    stick(&mut sim.law);
+    for w in sim.domain.walls.iter_mut() {
+        stick(&mut w.law);
+        w.motion = WallMotion::Fixed;
+        w.speed = 0.0;
+    }
+    for k in 0..sim.len() {
+        sim.grains.mass[k] *= 1e20;
+        sim.grains.inertia[k] *= 1e20;
+        sim.grains.vel[k] = DVec2::ZERO;
+        sim.grains.omega[k] = 0.0;
+    }
+    sim.dt = 1.0;
+    sim.refresh_forces().unwrap();
+    let snap = sim.snapshot();
+    let ft: f64 = snap.contacts.iter().map(|c| c.tangential_force.length() / c.normal_force).fold(0.0, f64::max);
+    let e = mismatches(sim, 1e-8, 31, &[PreStress::Full, PreStress::Normal, PreStress::None]);
+    eprintln!("frictional equilibrium (max |F_t|/F_n = {ft:.3}): ‖δF + Dq‖/‖Dq‖ = {:.2e} full, {:.2e} normal pre-stress, {:.2e} none", e[0], e[1], e[2]);
+    assert!(e[0] < 1e-4, "full linearization: {:e}", e[0]);
+    assert!(e[1] > 10.0 * e[0] && e[2] > e[1], "{e:?}");
 }
 
 /// Elastic energy of the contacts touching grains `touch`, at positions `x`, computed from the
