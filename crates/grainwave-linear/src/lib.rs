@@ -28,7 +28,7 @@
 //! | static response D u = f with zero modes handled | [`solve_static`] |
 //! | moduli C₁₁, C₁₂, C₂₂, C₃₃ / 6 × 6 Voigt, local moduli, continuum speeds | [`moduli`] |
 //! | affine moduli of spring networks, half-plane criterion r | [`lattice`] |
-//! | reference systems: 1D chain, triangular lattice | [`reference`] |
+//! | reference systems: 1D chain, triangular lattice | [`reference`](mod@reference) |
 //!
 //! Signal metrics of the pulses (leading edge, peak, widths, c_tof, exponents) live in the
 //! `grainwave-analysis` crate.

@@ -17,8 +17,8 @@
 //! strains γ = 2ε_αβ), so σ = C ε and W/V = ½ εᵀ C ε. With pre-stress off, σ = C ε is exactly the
 //! change of the contact stress σ_αβ = (1/V) Σ_c f_α b_β. The matrix C is the same whether strains
 //! and stresses are counted positive in compression (SPEC §5.3) or in extension, since both flip.
-//! In the SPEC's 2D notation (axis 1 = x, periodic; axis 2 = y, piston axis): C₁₁ = C[0][0],
-//! C₁₂ = C[0][1], C₂₂ = C[1][1], and σ₁₂ = 2C₃₃ε₁₂ gives C₃₃ = C[2][2].
+//! In the SPEC's 2D notation (axis 1 = x, periodic; axis 2 = y, piston axis): C₁₁ = `C[0][0]`,
+//! C₁₂ = `C[0][1]`, C₂₂ = `C[1][1]`, and σ₁₂ = 2C₃₃ε₁₂ gives C₃₃ = `C[2][2]`.
 //!
 //! **Volume V** ([`VolumeConvention`]): the periodic lengths and the distances between opposite
 //! walls span the cell; `sphere2d` uses V = area × mean diameter (the 3D stress of E1), `disk` the
@@ -178,7 +178,7 @@ impl ElasticModuli {
     pub fn c22(&self) -> f64 {
         self.voigt[1][1]
     }
-    /// C₃₃ of SPEC §5.3 (σ₁₂ = 2C₃₃ε₁₂; in 3D the xy shear, Voigt [5][5]).
+    /// C₃₃ of SPEC §5.3 (σ₁₂ = 2C₃₃ε₁₂; in 3D the xy shear, Voigt `[5][5]`).
     pub fn c33(&self) -> f64 {
         let k = self.voigt.len() - 1;
         self.voigt[k][k]

@@ -45,7 +45,9 @@ pub struct StaticOptions {
     pub max_iterations: Option<usize>,
     /// Project out rigid translations that are null vectors of D (default true).
     pub deflate_rigid_translations: bool,
-    /// Tikhonov regularization η: solve (D + η diag D) u = f (default 0: none).
+    /// Tikhonov regularization η: solve (D + η diag D) u = f (default 0: none). The regularized
+    /// matrix has a condition number ~1/η, so its attainable relative residual is ~1e-16/η: raise
+    /// `tolerance` accordingly.
     pub regularization: f64,
 }
 

@@ -19,11 +19,13 @@ pub struct PackingSpec {
     pub damping_fraction: f64,
     pub seed: u64,
     pub max_acceleration: f64,
+    /// Area fraction of the initial gas.
+    pub gas_fraction: f64,
 }
 
 impl PackingSpec {
     pub fn e1(grains: usize, width: f64, seed: u64) -> Self {
-        PackingSpec { grains, width, pressure: 1e-4, friction: 0.5, damping_fraction: 0.2, seed, max_acceleration: 1e-10 }
+        PackingSpec { grains, width, pressure: 1e-4, friction: 0.5, damping_fraction: 0.2, seed, max_acceleration: 1e-10, gas_fraction: 0.3 }
     }
 }
 
@@ -36,15 +38,27 @@ pub fn hertz_params(friction: f64, zeta: f64) -> ContactParams {
     p
 }
 
-/// Prepares the packing: a loose gas (area fraction 0.3) compressed by the piston with damping,
+/// Prepares the packing: a loose gas (area fraction `gas_fraction`, default 0.3) compressed by the piston with damping,
 /// then relaxed with velocity quenching (all velocities, piston included, are zeroed whenever the
 /// power F·v of the grains becomes negative) until the largest grain acceleration (and the
 /// piston's) is below `max_acceleration`.
 pub fn prepare_packing(spec: &PackingSpec) -> Simulation<D2> {
+    prepare_packing_with(spec, &mut |_, _| {})
+}
+
+/// [`prepare_packing`] with a progress callback (see [`relax`]).
+pub fn prepare_packing_with(spec: &PackingSpec, report: &mut dyn FnMut(&Simulation<D2>, f64)) -> Simulation<D2> {
+    let mut sim = gas(spec);
+    relax(&mut sim, spec.max_acceleration, 20_000_000, report);
+    sim
+}
+
+/// The initial gas of [`prepare_packing`] between the bottom wall and the piston.
+pub fn gas(spec: &PackingSpec) -> Simulation<D2> {
     let mut rng = ChaCha8Rng::seed_from_u64(spec.seed);
     let radii = SizeDistribution::UniformDiameter { mean_diameter: 1.0, spread: 0.2 }.sample(spec.grains, &mut rng).unwrap();
     let area: f64 = radii.iter().map(|r| std::f64::consts::PI * r * r).sum();
-    let height = area / (spec.width * 0.3);
+    let height = area / (spec.width * spec.gas_fraction);
     let hi = DVec2::new(spec.width, height);
     let pos = random_gas::<D2>(&radii, DVec2::ZERO, hi, [true, false, false], &mut rng, 100_000).unwrap();
     let mut grains = Grains::<D2>::new(GrainKind::Sphere2d);
@@ -63,13 +77,12 @@ pub fn prepare_packing(spec: &PackingSpec) -> Simulation<D2> {
             Wall::axis_aligned("top", 1, height, false, wall_law)
                 .with_motion(WallMotion::Piston { mass: piston_mass, force: TimeFunction::constant(force) }),
         );
-    let mut sim = SimulationBuilder::new(grains, domain, law).dt_fraction(0.05).expected_overlap(0.02).seed(spec.seed).build().unwrap();
-    relax(&mut sim, spec.max_acceleration, 20_000_000);
-    sim
+    SimulationBuilder::new(grains, domain, law).dt_fraction(0.05).expected_overlap(0.02).seed(spec.seed).build().unwrap()
 }
 
-/// Relaxes with quenching until max acceleration < `tol` (grains and pistons).
-pub fn relax(sim: &mut Simulation<D2>, tol: f64, max_steps: u64) {
+/// Relaxes with quenching until max acceleration < `tol` (grains and pistons); `report` sees the
+/// simulation and its largest acceleration every 10 steps.
+pub fn relax(sim: &mut Simulation<D2>, tol: f64, max_steps: u64, report: &mut dyn FnMut(&Simulation<D2>, f64)) {
     let stop = StopCriteria { step_limit: Some(u64::MAX), ..Default::default() };
     let start = sim.step;
     loop {
@@ -97,6 +110,7 @@ pub fn relax(sim: &mut Simulation<D2>, tol: f64, max_steps: u64) {
             }
         }
         let p = sim.progress(&stop);
+        report(sim, p.max_acceleration.max(piston_acc));
         if p.max_acceleration < tol && piston_acc < tol {
             return;
         }
