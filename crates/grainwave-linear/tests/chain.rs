@@ -49,6 +49,22 @@ fn check_chain(n: usize) {
     }
 }
 
+/// Participation ratios of the chain's modes in closed form: with e_k = (2/(N+1)) sin²(nπk/(N+1)),
+/// Σ_k sin⁴(nπk/(N+1)) = 3(N+1)/8, so P_n = 1/(N Σ e_k²) = 2(N+1)/(3N) — except for n = (N+1)/2,
+/// where sin⁴ is 1 on odd k and 0 on even k: P = (N+1)/(2N).
+#[test]
+fn chain_participation_ratios_match_the_closed_form() {
+    for n in [9usize, 10] {
+        let chain = ChainSpec { grains: n, ..ChainSpec::default() };
+        let (_, _, modes) = generic(&chain);
+        for (k, &p) in modes.participation().iter().enumerate() {
+            let mode = k + 1;
+            let expected = if 2 * mode == n + 1 { (n + 1) as f64 / (2 * n) as f64 } else { 2.0 * (n + 1) as f64 / (3 * n) as f64 };
+            assert!((p - expected).abs() < 1e-12, "N = {n}, mode {mode}: P = {p} vs {expected}");
+        }
+    }
+}
+
 #[test]
 fn chain_of_10_matches_the_closed_form() {
     check_chain(10);

@@ -146,6 +146,57 @@ fn local_moduli_of_a_lattice_between_walls_approach_the_bulk_moduli() {
     }
 }
 
+/// 3D: a perfect periodic FCC packing of equal spheres (nearest-neighbour distance 1, cube side
+/// a = √2) with central springs k has the textbook cubic moduli C₁₁ = 2k/a, C₁₂ = C₄₄ = k/a; with
+/// tangential springs too, imposed-strain and affine moduli still coincide (cubic symmetry leaves
+/// no axial vector linear in a symmetric strain, so the grains do not rotate). Tolerance 1e-9.
+#[test]
+fn fcc_lattice_has_textbook_cubic_moduli() {
+    use glam::DVec3;
+    for ratio in [0.0_f64, 0.4] {
+        let k = 3.0;
+        let params = hooke_params(k, ratio.max(1e-300), if ratio > 0.0 { 1e3 } else { 0.0 });
+        let law = params.build(Partner::Grain, "contact").unwrap();
+        let a = 2f64.sqrt();
+        let n = 2;
+        let mut grains = Grains::<D3>::new(GrainKind::Sphere);
+        for i in 0..n {
+            for j in 0..n {
+                for l in 0..n {
+                    for b in [[0.0, 0.0, 0.0], [0.5, 0.5, 0.0], [0.5, 0.0, 0.5], [0.0, 0.5, 0.5]] {
+                        grains.push(DVec3::new((i as f64 + b[0]) * a + 0.1, (j as f64 + b[1]) * a + 0.1, (l as f64 + b[2]) * a + 0.1), 0.51, 1.0, DVec3::ZERO);
+                    }
+                }
+            }
+        }
+        let side = n as f64 * a;
+        let domain = Domain::new(DVec3::ZERO, DVec3::splat(side), [true, true, true]);
+        let snap = SimulationBuilder::new(grains, domain, law).max_initial_overlap(0.1).build().unwrap().snapshot();
+        assert_eq!(snap.contacts.len(), 6 * 32, "12 neighbours per sphere");
+        let dm = DynamicalMatrix::assemble(&snap, &AssemblyOptions::default()).unwrap();
+        let m = elastic_moduli(&dm, &ModuliOptions::default()).unwrap();
+        let scale = 2.0 * k / a;
+        for i in 0..6 {
+            for j in 0..6 {
+                assert!((m.voigt[i][j] - m.affine[i][j]).abs() < 1e-9 * scale, "k_t/k_n = {ratio}: C[{i}][{j}] relaxed {} vs affine {}", m.voigt[i][j], m.affine[i][j]);
+            }
+        }
+        if ratio == 0.0 {
+            for i in 0..6 {
+                for j in 0..6 {
+                    let expected = match (i, j) {
+                        (i, j) if i == j && i < 3 => 2.0 * k / a,
+                        (i, j) if i < 3 && j < 3 => k / a,
+                        (i, j) if i == j => k / a,
+                        _ => 0.0,
+                    };
+                    assert!((m.voigt[i][j] - expected).abs() < 1e-9 * scale, "C[{i}][{j}] = {} vs {expected}", m.voigt[i][j]);
+                }
+            }
+        }
+    }
+}
+
 /// The triangular reference lattice of SPEC §5.6 is built in exact equilibrium under its pressure.
 #[test]
 fn triangular_reference_lattice_is_in_equilibrium() {
@@ -164,4 +215,43 @@ fn triangular_reference_lattice_is_in_equilibrium() {
         }
         assert_eq!(snap.contacts.len(), 3 * spec.columns * spec.rows, "c·r horizontal + 2c(r − 1) oblique bonds + 2c wall contacts");
     }
+    // polydisperse: placed without overlap, the top wall a piston under p L_x d̄
+    let spec = TriangularLatticeSpec { rows: 6, columns: 8, polydispersity: 0.2, piston: true, seed: 4, ..Default::default() };
+    let sim = spec.build().unwrap();
+    assert!(sim.snapshot().contacts.is_empty());
+    let d: Vec<f64> = sim.grains.radius.iter().map(|r| 2.0 * r).collect();
+    assert!(d.iter().all(|&x| (0.8..=1.2).contains(&x)) && d.iter().any(|&x| x < 0.95) && d.iter().any(|&x| x > 1.05));
+    match &sim.domain.walls[1].motion {
+        WallMotion::Piston { force, .. } => {
+            let lx = sim.domain.length(0);
+            assert!((force.eval(0.0) - spec.pressure * lx * spec.diameter).abs() < 1e-15);
+        }
+        other => panic!("top wall should be a piston, not {other:?}"),
+    }
+}
+
+/// Static solves with imposed displacements: the free equations D_ff u_f = f_f − D_fc u_c hold on
+/// the full dof vector (constrained dofs at their values), for a chain and a lattice.
+#[test]
+fn static_solves_honour_imposed_displacements() {
+    let snap = perfect_lattice(8, 8, 1.0, 0.5);
+    let dm = DynamicalMatrix::assemble(&snap, &AssemblyOptions::default()).unwrap();
+    let layout = *dm.layout();
+    let mut c = Constraints::new();
+    c.fix_translation(&layout, 0, &[0.01, -0.02]);
+    c.fix_grain(&layout, 17);
+    c.fix(layout.rotation(30, 0), 0.03);
+    let system = dm.free_system(&c, ZeroRows::Keep).unwrap();
+    assert_eq!(system.dofs(), layout.total() - 6);
+    let f: Vec<f64> = (0..system.dofs()).map(|k| ((k * 31) % 7) as f64 * 1e-3).collect();
+    let sol = solve_static(&system, &f, &StaticOptions::default()).unwrap();
+    assert_eq!(sol.rigid_modes, 0, "fixed grains pin the translations");
+    let u = system.expand(&sol.displacement).unwrap();
+    assert_eq!((u[layout.translation(0, 0)], u[layout.translation(0, 1)], u[layout.rotation(30, 0)]), (0.01, -0.02, 0.03));
+    let mut du = vec![0.0; layout.total()];
+    dm.apply(&u, &mut du);
+    let r = system.restrict(&du).unwrap();
+    let err = r.iter().zip(&f).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
+    let scale = f.iter().fold(0.0_f64, |a, b| a.max(b.abs()));
+    assert!(err < 1e-9 * scale, "{err:e}");
 }

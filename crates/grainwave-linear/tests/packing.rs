@@ -204,6 +204,22 @@ fn direct_propagation_with_prestress_matches_molecular_dynamics() {
     assert!(full < normal && normal < none, "full {full:e}, normal {normal:e}, none {none:e}");
 }
 
+/// Sliding contacts keep k_t by default and lose it with `SlidingContacts::Free` (every seventh
+/// contact is marked sliding, so the test does not depend on how many the relaxation left).
+#[test]
+fn sliding_contacts_option() {
+    let mut snap = packing().snapshot();
+    for c in snap.contacts.iter_mut().step_by(7) {
+        c.sliding = true;
+    }
+    let stick = DynamicalMatrix::assemble(&snap, &AssemblyOptions::default()).unwrap();
+    let free = DynamicalMatrix::assemble(&snap, &AssemblyOptions { sliding: SlidingContacts::Free, ..Default::default() }).unwrap();
+    for (a, b) in stick.contacts().iter().zip(free.contacts()) {
+        assert!(a.tangential_stiffness > 0.0);
+        assert_eq!(b.tangential_stiffness == 0.0, a.sliding);
+    }
+}
+
 fn sym_eigenvalues(c: &[Vec<f64>]) -> Vec<f64> {
     let n = c.len();
     let m = faer::Mat::<f64>::from_fn(n, n, |i, j| c[i][j]);
