@@ -23,7 +23,7 @@
 //! | D and M, sparse (CSR) or matrix-free, rattlers kept/removed, pre-stress on/off | [`DynamicalMatrix::assemble`], [`DynamicalMatrix::apply`] |
 //! | constrained dofs (fixed or imposed displacements) | [`Constraints`], [`DynamicalMatrix::free_system`] |
 //! | all modes D v = ω² M v, participation ratios | [`Modes::compute`] |
-//! | pulse: source/detector walls, initial conditions A and B, modal sum Σ a_n b_n sin/cos ω_n t | [`pulse`] |
+//! | pulse: source/detector walls, initial conditions A and B, modal sum Σ a_n b_n sin/cos ω_n t; one-call [`pulse::modal_pulse`] and [`pulse::direct_pulse`] | [`pulse`] |
 //! | direct propagation with a symplectic scheme, dt from ω_max | [`propagation`] |
 //! | static response D u = f with zero modes handled | [`solve_static`] |
 //! | moduli C₁₁, C₁₂, C₂₂, C₃₃ / 6 × 6 Voigt, local moduli, continuum speeds | [`moduli`] |
@@ -92,6 +92,6 @@ pub mod prelude {
     pub use crate::linalg::symplectic::Scheme;
     pub use crate::moduli::{elastic_moduli, local_modulus, ElasticModuli, LocalLoading, ModuliOptions, VolumeConvention};
     pub use crate::propagation::{propagate_signal, MatrixFree, PropagationOptions, Propagator, StiffnessOperator};
-    pub use crate::pulse::{detector_vector, source_vector, InitialCondition, InitialState, ModalSignal, PulseSetup};
+    pub use crate::pulse::{detector_vector, direct_pulse, modal_pulse, source_vector, InitialCondition, InitialState, ModalPulse, ModalSignal, PulseSetup};
     pub use crate::statics::{solve_static, StaticOptions, StaticSolution};
 }
