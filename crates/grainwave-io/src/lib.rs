@@ -33,6 +33,7 @@
 mod error;
 mod grains_table;
 mod json;
+pub mod lammps;
 pub mod npy;
 pub mod npz;
 pub mod plot;
