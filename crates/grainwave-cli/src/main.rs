@@ -5,6 +5,7 @@
 //! input (unknown flag, invalid config, invalid thread count); 130 interrupted by Ctrl-C or
 //! SIGTERM (the state is saved: `grainwave resume DIR` continues).
 
+mod bench;
 mod inspect;
 mod progress;
 
@@ -70,6 +71,9 @@ enum Command {
         /// Shell: bash, zsh, fish, elvish or powershell.
         shell: clap_complete::Shell,
     },
+    /// Throughput on the LAMMPS benchmark packings (particle-steps per second), optionally with
+    /// LAMMPS run back to back; see BENCHMARKS.md
+    Bench(bench::BenchArgs),
 }
 
 #[derive(Debug, Args)]
@@ -214,6 +218,7 @@ fn run(cli: &Cli) -> Result<()> {
             clap_complete::generate(*shell, &mut Cli::command(), "grainwave", &mut std::io::stdout());
             Ok(())
         }
+        Command::Bench(args) => bench::run(args, cli.quiet),
     }
 }
 

@@ -9,6 +9,7 @@
 //! [`demo`] is an embedded `simulation` config: a gas of disks settling under gravity.
 #![warn(missing_docs)]
 
+pub mod bench;
 pub mod config;
 pub mod demo;
 mod error;

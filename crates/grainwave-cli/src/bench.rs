@@ -1,0 +1,113 @@
+//! `grainwave bench`: throughput on the LAMMPS benchmark packings, optionally with LAMMPS run
+//! back to back on the same case (see BENCHMARKS.md and docs/bench.md).
+
+use anyhow::{bail, Result};
+use clap::Args;
+use grainwave_experiments::bench::{median, run_grainwave, run_lammps, write_results, BenchCase, BenchConfig, BenchResult, LammpsCommand};
+use std::path::PathBuf;
+
+/// Arguments of `grainwave bench`.
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// Cases to run: hertz3d, hooke3d, hooke2d, walled2d (default: the three LAMMPS cases).
+    #[arg(value_name = "CASE", value_parser = parse_case)]
+    pub cases: Vec<BenchCase>,
+
+    /// Directory holding the packings (pack3d_062.data.gz, pack2d_084.data.gz) and the LAMMPS
+    /// decks (bench3d.lmp, bench2d.lmp).
+    #[arg(long, value_name = "DIR")]
+    pub dir: PathBuf,
+
+    /// Number of steps (default: 2000 for the 3D cases, 5000 for the 2D ones, as the decks).
+    #[arg(long, value_name = "N")]
+    pub steps: Option<u64>,
+
+    /// Engineering shear rate of the periodic cell (LAMMPS `fix deform xy erate`), 0 = static.
+    #[arg(long, value_name = "RATE", default_value_t = 0.0)]
+    pub shear: f64,
+
+    /// Runs per case (each from the file); medians are printed when more than one.
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+    pub repeat: u32,
+
+    /// Also run LAMMPS (this executable, e.g. `lmp`) on the same case, alternating with grainwave.
+    #[arg(long, value_name = "LMP")]
+    pub lammps: Option<String>,
+
+    /// MPI processes for LAMMPS (through `mpirun` when more than 1).
+    #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
+    pub lammps_procs: u32,
+
+    /// Write every measurement to this JSON file.
+    #[arg(long, value_name = "FILE")]
+    pub json: Option<PathBuf>,
+}
+
+fn parse_case(s: &str) -> std::result::Result<BenchCase, String> {
+    BenchCase::from_name(s).ok_or_else(|| {
+        let names: Vec<&str> = BenchCase::ALL.iter().map(|c| c.name()).collect();
+        format!("unknown case `{s}` (available: {})", names.join(", "))
+    })
+}
+
+/// Runs the benchmarks and prints one line per run, then the medians.
+pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
+    if !args.shear.is_finite() {
+        bail!("--shear must be a finite rate");
+    }
+    let cases = if args.cases.is_empty() { vec![BenchCase::Hertz3d, BenchCase::Hooke3d, BenchCase::Hooke2d] } else { args.cases.clone() };
+    let lammps = args.lammps.as_ref().map(|exe| LammpsCommand { executable: exe.clone(), processes: args.lammps_procs as usize });
+    let mut all: Vec<BenchResult> = Vec::new();
+    let say = |r: &BenchResult| {
+        if !quiet {
+            println!(
+                "{:<9} {:<8} shear {:<5} N {:>6} steps {:>5} workers {} | {:>8.3} s  {:>10.4e} particle-steps/s  contacts/grain {:.4}  rebuilds {:>4}  peak mem {:>6.1} MiB  KE {:.6e}",
+                r.code,
+                r.case,
+                r.shear,
+                r.grains,
+                r.steps,
+                r.workers,
+                r.loop_seconds,
+                r.particle_steps_per_second,
+                r.contacts_per_grain,
+                r.neighbor_rebuilds,
+                r.peak_memory_bytes as f64 / (1024.0 * 1024.0),
+                r.kinetic_energy
+            );
+        }
+    };
+    for &case in &cases {
+        let cfg = BenchConfig { case, dir: args.dir.clone(), steps: args.steps, shear: args.shear };
+        for _ in 0..args.repeat {
+            let r = rayon::scope(|_| run_grainwave(&cfg))?;
+            say(&r);
+            all.push(r);
+            if let Some(lmp) = &lammps {
+                let r = run_lammps(&cfg, lmp)?;
+                say(&r);
+                all.push(r);
+            }
+        }
+    }
+    if !quiet && args.repeat > 1 {
+        println!("medians over {} runs:", args.repeat);
+        for &case in &cases {
+            let rate = |code: &str| {
+                let v: Vec<f64> = all.iter().filter(|r| r.code == code && r.case == case.name()).map(|r| r.particle_steps_per_second).collect();
+                median(&v)
+            };
+            let gw = rate("grainwave");
+            if lammps.is_some() {
+                let lmp = rate("lammps");
+                println!("  {:<8} grainwave {gw:.4e}  lammps {lmp:.4e}  ratio {:.3}", case.name(), gw / lmp);
+            } else {
+                println!("  {:<8} grainwave {gw:.4e}", case.name());
+            }
+        }
+    }
+    if let Some(path) = &args.json {
+        write_results(path, &all)?;
+    }
+    Ok(())
+}

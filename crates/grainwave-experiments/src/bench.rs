@@ -1,0 +1,413 @@
+//! Throughput benchmarks, side by side with LAMMPS on the same packings.
+//!
+//! The three cases of the LAMMPS decks `bench3d.lmp` and `bench2d.lmp` (dense packings stored as
+//! LAMMPS data files) are reproduced with the same grains, contact law, time step, skin and
+//! number of steps:
+//!
+//! | case | packing | law (LAMMPS) | grainwave preset | dt |
+//! |---|---|---|---|---|
+//! | `hertz3d` | `pack3d_062.data.gz`, 32 000 spheres | `granular hertz/material 1e5 0.5 0.3 tangential mindlin NULL 1.0 0.5 damping tsuji` | `hertz_mindlin`, E = 1e5, ν = 0.3, Tsuji e = 0.5, γ_t = γ_n, μ = 0.5 | 1e-3 |
+//! | `hooke3d` | same | `gran/hooke/history 1e4 NULL 50 NULL 0.5 1` | `hooke_cundall_strack`, k_n = 1e4, k_t = 2/7 k_n, γ_n = 50 m*, γ_t = γ_n/2, μ = 0.5 | 1e-3 |
+//! | `hooke2d` | `pack2d_084.data.gz`, 16 384 disks | `gran/hooke/history 2e4 NULL 50 NULL 0.2 1` | same with k_n = 2e4, μ = 0.2 | 2e-4 |
+//! | `walled2d` | the 2D packing inside four walls | — | E2 law: Hooke, e = 0.92, k_t = k_n/2, μ = 0.2, weak rolling resistance, frictionless walls | 2e-4 |
+//!
+//! Every case starts, like the decks, with all translational velocities set to zero (angular
+//! velocities are kept from the file) and uses a Verlet skin of 0.1 checked every step.
+//! Throughput is N × steps / (wall-clock time of the stepping loop), as LAMMPS's "Loop time".
+//!
+//! The sheared variants (`shear` > 0, LAMMPS `fix deform 1 xy erate shear remap v`) tilt the
+//! periodic cell at the engineering shear rate `shear` (tilt rate = shear × L_y): Lees–Edwards
+//! boundaries, the grains themselves are not moved.
+
+use crate::Result;
+use glam::DVec2;
+use grainwave_core::contact::{ContactParams, Partner};
+use grainwave_core::dim::{Dim, VectorOps};
+use grainwave_core::domain::{Domain, Wall};
+use grainwave_core::grains::Grains;
+use grainwave_core::sim::SimulationBuilder;
+use grainwave_core::CoreError;
+use grainwave_io::lammps::{read_data, read_text, ImportOptions};
+use serde::Serialize;
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::time::Instant;
+
+/// A benchmark case.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum BenchCase {
+    /// 3D Hertz–Mindlin with Tsuji damping on the 32 000-sphere packing.
+    Hertz3d,
+    /// 3D Hooke + Cundall–Strack on the 32 000-sphere packing.
+    Hooke3d,
+    /// 2D Hooke + Cundall–Strack on the 16 384-disk periodic packing.
+    Hooke2d,
+    /// 2D E2-style walled packing: the 16 384 disks inside four frictionless walls.
+    Walled2d,
+}
+
+impl BenchCase {
+    /// All cases, in order.
+    pub const ALL: [BenchCase; 4] = [BenchCase::Hertz3d, BenchCase::Hooke3d, BenchCase::Hooke2d, BenchCase::Walled2d];
+
+    /// Name used on the command line and in reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            BenchCase::Hertz3d => "hertz3d",
+            BenchCase::Hooke3d => "hooke3d",
+            BenchCase::Hooke2d => "hooke2d",
+            BenchCase::Walled2d => "walled2d",
+        }
+    }
+
+    /// Parses a case name.
+    pub fn from_name(name: &str) -> Option<Self> {
+        Self::ALL.into_iter().find(|c| c.name() == name)
+    }
+
+    /// Packing file inside the benchmark directory.
+    pub fn data_file(self) -> &'static str {
+        match self {
+            BenchCase::Hertz3d | BenchCase::Hooke3d => "pack3d_062.data.gz",
+            BenchCase::Hooke2d | BenchCase::Walled2d => "pack2d_084.data.gz",
+        }
+    }
+
+    /// Number of steps of the LAMMPS decks' reference runs.
+    pub fn default_steps(self) -> u64 {
+        match self {
+            BenchCase::Hertz3d | BenchCase::Hooke3d => 2000,
+            BenchCase::Hooke2d | BenchCase::Walled2d => 5000,
+        }
+    }
+
+    /// Time step.
+    pub fn dt(self) -> f64 {
+        match self {
+            BenchCase::Hertz3d | BenchCase::Hooke3d => 1e-3,
+            BenchCase::Hooke2d | BenchCase::Walled2d => 2e-4,
+        }
+    }
+
+    /// The LAMMPS deck and its variables, when LAMMPS can run this case.
+    fn lammps_deck(self) -> Option<(&'static str, Vec<(&'static str, &'static str)>)> {
+        match self {
+            BenchCase::Hertz3d => Some(("bench3d.lmp", vec![("law", "hertz")])),
+            BenchCase::Hooke3d => Some(("bench3d.lmp", vec![("law", "hooke")])),
+            BenchCase::Hooke2d => Some(("bench2d.lmp", vec![])),
+            BenchCase::Walled2d => None,
+        }
+    }
+
+    /// Grain–grain contact parameters (same law as the LAMMPS deck).
+    pub fn contact(self) -> ContactParams {
+        match self {
+            BenchCase::Hertz3d => ContactParams {
+                young: Some(1.0e5),
+                poisson: Some(0.3),
+                tsuji_restitution: Some(0.5),
+                tangential_damping_ratio: Some(1.0),
+                friction: Some(0.5),
+                ..ContactParams::preset("hertz_mindlin")
+            },
+            BenchCase::Hooke3d => ContactParams {
+                normal_stiffness: Some(1.0e4),
+                normal_damping_rate: Some(50.0),
+                friction: Some(0.5),
+                ..ContactParams::preset("hooke_cundall_strack")
+            },
+            BenchCase::Hooke2d => ContactParams {
+                normal_stiffness: Some(2.0e4),
+                normal_damping_rate: Some(50.0),
+                friction: Some(0.2),
+                ..ContactParams::preset("hooke_cundall_strack")
+            },
+            // E2 (SPEC §6.1): γ_n for e ≈ 0.92, k_t = k_n/2, γ_t = γ_n/2, μ = 0.2, weak rolling
+            // resistance (k_r = 0.01 k_n R̄², μ_r = 0.01).
+            BenchCase::Walled2d => ContactParams {
+                normal_stiffness: Some(2.0e4),
+                restitution: Some(0.92),
+                tangential_stiffness_ratio: Some(0.5),
+                friction: Some(0.2),
+                rolling_stiffness: Some(0.01 * 2.0e4 * 0.25),
+                rolling_friction: Some(0.01),
+                ..ContactParams::preset("hooke_cundall_strack")
+            },
+        }
+    }
+}
+
+/// What to run.
+#[derive(Clone, Debug)]
+pub struct BenchConfig {
+    /// The case.
+    pub case: BenchCase,
+    /// Directory holding the packings (`pack3d_062.data.gz`, `pack2d_084.data.gz`) and decks.
+    pub dir: PathBuf,
+    /// Number of steps (default: the case's).
+    pub steps: Option<u64>,
+    /// Engineering shear rate of the periodic cell (0: static box).
+    pub shear: f64,
+}
+
+/// What one run measured.
+#[derive(Clone, Debug, Serialize)]
+pub struct BenchResult {
+    /// `grainwave` or `lammps`.
+    pub code: String,
+    /// Case name.
+    pub case: String,
+    /// Engineering shear rate.
+    pub shear: f64,
+    /// Number of grains.
+    pub grains: usize,
+    /// Steps timed.
+    pub steps: u64,
+    /// Worker threads (grainwave) or MPI processes (LAMMPS).
+    pub workers: usize,
+    /// Wall-clock time of the stepping loop (s).
+    pub loop_seconds: f64,
+    /// N × steps / loop time.
+    pub particle_steps_per_second: f64,
+    /// Mean number of grain–grain contacts per grain at the end (each contact counted for both
+    /// grains, walls not counted), as LAMMPS's `compute contact/atom`.
+    pub contacts_per_grain: f64,
+    /// Neighbor-list builds during the loop.
+    pub neighbor_rebuilds: u64,
+    /// Peak memory (bytes): grainwave's resident set high-water mark (whole process so far);
+    /// LAMMPS's own per-rank estimate × ranks.
+    pub peak_memory_bytes: u64,
+    /// Translational kinetic energy at the end.
+    pub kinetic_energy: f64,
+}
+
+/// Runs one grainwave benchmark (in the current rayon pool).
+pub fn run_grainwave(cfg: &BenchConfig) -> Result<BenchResult> {
+    let path = cfg.dir.join(cfg.case.data_file());
+    let data = read_data(&path).map_err(|e| CoreError::Inconsistent(e.to_string()))?;
+    let steps = cfg.steps.unwrap_or(cfg.case.default_steps());
+    let opts = ImportOptions::default();
+    match cfg.case {
+        BenchCase::Hertz3d | BenchCase::Hooke3d => {
+            let (grains, domain) = data.to_packing_3d(&opts).map_err(|e| CoreError::Inconsistent(e.to_string()))?;
+            time_run(cfg, grains, domain, steps)
+        }
+        BenchCase::Hooke2d => {
+            let (grains, domain) = data.to_packing_2d(&opts).map_err(|e| CoreError::Inconsistent(e.to_string()))?;
+            time_run(cfg, grains, domain, steps)
+        }
+        BenchCase::Walled2d => {
+            let (grains, domain) = data.to_packing_2d(&opts).map_err(|e| CoreError::Inconsistent(e.to_string()))?;
+            let (grains, domain) = walled(grains, domain, &cfg.case.contact())?;
+            time_run(cfg, grains, domain, steps)
+        }
+    }
+}
+
+/// The periodic 2D packing closed by four frictionless walls, each touching the outermost disk
+/// along its axis (no grain overlaps a wall at the start; the grains near the walls lose the
+/// contacts they had across the periodic boundary).
+fn walled(grains: Grains<grainwave_core::dim::D2>, domain: Domain<grainwave_core::dim::D2>, params: &ContactParams) -> Result<(Grains<grainwave_core::dim::D2>, Domain<grainwave_core::dim::D2>)> {
+    let mut wall_params = params.clone();
+    wall_params.friction = Some(0.0);
+    wall_params.rolling_stiffness = None;
+    wall_params.rolling_friction = None;
+    let wall_law = wall_params.build(Partner::Wall, "contact.wall")?;
+    let lo = grains.pos.iter().zip(&grains.radius).fold(DVec2::splat(f64::INFINITY), |m, (p, r)| m.min(*p - DVec2::splat(*r)));
+    let hi = grains.pos.iter().zip(&grains.radius).fold(DVec2::splat(f64::NEG_INFINITY), |m, (p, r)| m.max(*p + DVec2::splat(*r)));
+    let mut d = Domain::new(lo.min(domain.lo), hi.max(domain.hi), [false; 3]);
+    d = d
+        .with_wall(Wall::axis_aligned("left", 0, lo.x, true, wall_law))
+        .with_wall(Wall::axis_aligned("right", 0, hi.x, false, wall_law))
+        .with_wall(Wall::axis_aligned("bottom", 1, lo.y, true, wall_law))
+        .with_wall(Wall::axis_aligned("top", 1, hi.y, false, wall_law));
+    Ok((grains, d))
+}
+
+fn time_run<D: Dim>(cfg: &BenchConfig, mut grains: Grains<D>, domain: Domain<D>, steps: u64) -> Result<BenchResult> {
+    for v in grains.vel.iter_mut() {
+        *v = D::Vector::ZERO; // `velocity all set 0 0 0`
+    }
+    if cfg.shear != 0.0 {
+        return Err(CoreError::Inconsistent("sheared cells are not supported yet".into()).into());
+    }
+    let law = cfg.case.contact().build(Partner::Grain, "contact")?;
+    let mut sim = SimulationBuilder::new(grains, domain, law).dt(cfg.case.dt()).skin(0.1).max_initial_overlap(0.3).build()?;
+    let builds0 = sim.nlist.builds;
+    let start = Instant::now();
+    sim.steps(steps)?;
+    let loop_seconds = start.elapsed().as_secs_f64();
+    let n = sim.len();
+    let ke = grainwave_core::util::det_sum(n, |k| 0.5 * sim.grains.mass[k] * sim.grains.vel[k].norm2());
+    // grain–grain contacts, each counted for both grains (LAMMPS `compute contact/atom`)
+    let wall_contacts = sim.nlist.wall_pairs.iter().filter(|p| p.state.in_contact()).count() as u64;
+    let grain_contacts = (sim.counters.contacts - wall_contacts) as f64;
+    Ok(BenchResult {
+        code: "grainwave".into(),
+        case: cfg.case.name().into(),
+        shear: cfg.shear,
+        grains: n,
+        steps,
+        workers: rayon::current_num_threads(),
+        loop_seconds,
+        particle_steps_per_second: n as f64 * steps as f64 / loop_seconds,
+        contacts_per_grain: 2.0 * grain_contacts / n as f64,
+        neighbor_rebuilds: sim.nlist.builds - builds0,
+        peak_memory_bytes: peak_rss_bytes(),
+        kinetic_energy: ke,
+    })
+}
+
+/// Resident-set high-water mark of this process (Linux `VmHWM`), 0 where unknown.
+pub fn peak_rss_bytes() -> u64 {
+    std::fs::read_to_string("/proc/self/status")
+        .ok()
+        .and_then(|s| s.lines().find(|l| l.starts_with("VmHWM:")).and_then(|l| l.split_whitespace().nth(1)?.parse::<u64>().ok()))
+        .map_or(0, |kib| kib * 1024)
+}
+
+/// How to start LAMMPS.
+#[derive(Clone, Debug)]
+pub struct LammpsCommand {
+    /// The LAMMPS executable (e.g. `lmp`).
+    pub executable: String,
+    /// MPI processes (1: run directly; more: through `mpirun`).
+    pub processes: usize,
+}
+
+/// Runs the LAMMPS deck of `cfg.case` and reads its loop time and final thermo line. The
+/// packing is decompressed into a temporary directory first.
+pub fn run_lammps(cfg: &BenchConfig, lmp: &LammpsCommand) -> Result<BenchResult> {
+    let (deck, vars) = cfg
+        .case
+        .lammps_deck()
+        .ok_or_else(|| CoreError::Inconsistent(format!("case `{}` has no LAMMPS deck", cfg.case.name())))?;
+    let steps = cfg.steps.unwrap_or(cfg.case.default_steps());
+    let tmp = std::env::temp_dir().join(format!("grainwave-bench-{}", std::process::id()));
+    std::fs::create_dir_all(&tmp).map_err(|e| io_error("cannot create", &tmp, e))?;
+    let data_gz = cfg.dir.join(cfg.case.data_file());
+    let data = tmp.join(cfg.case.data_file().trim_end_matches(".gz"));
+    if !data.exists() {
+        let text = read_text(&data_gz).map_err(|e| CoreError::Inconsistent(e.to_string()))?;
+        std::fs::write(&data, text).map_err(|e| io_error("cannot write", &data, e))?;
+    }
+    let mut cmd = if lmp.processes > 1 {
+        let mut c = Command::new("mpirun");
+        c.args(["--allow-run-as-root", "--mca", "btl", "self,tcp", "-np", &lmp.processes.to_string(), &lmp.executable]);
+        c
+    } else {
+        Command::new(&lmp.executable)
+    };
+    cmd.current_dir(&tmp).args(["-log", "none", "-in"]).arg(cfg.dir.join(deck).canonicalize().map_err(|e| io_error("cannot find", &cfg.dir.join(deck), e))?);
+    let shear = format!("{}", cfg.shear);
+    let nsteps = steps.to_string();
+    let data_name = data.file_name().unwrap().to_string_lossy().into_owned();
+    let mut all_vars = vec![("data", data_name.as_str()), ("nsteps", nsteps.as_str()), ("shear", shear.as_str())];
+    all_vars.extend(vars);
+    for (k, v) in all_vars {
+        cmd.args(["-var", k, v]);
+    }
+    let out = cmd.output().map_err(|e| io_error("cannot start", Path::new(&lmp.executable), e))?;
+    let text = String::from_utf8_lossy(&out.stdout).into_owned();
+    if !out.status.success() {
+        return Err(CoreError::Inconsistent(format!("LAMMPS failed ({}):\n{}{}", out.status, text, String::from_utf8_lossy(&out.stderr))).into());
+    }
+    parse_lammps_output(&text, cfg, lmp.processes)
+}
+
+fn io_error(action: &str, path: &Path, error: std::io::Error) -> crate::ExperimentError {
+    CoreError::Io { action: action.into(), path: path.display().to_string(), error }.into()
+}
+
+/// Reads "Loop time of T on P procs for S steps with N atoms", the last thermo line
+/// (step ke c_zave ...), "Neighbor list builds = B" and the per-rank memory estimate.
+fn parse_lammps_output(text: &str, cfg: &BenchConfig, procs: usize) -> Result<BenchResult> {
+    let bad = |what: &str| CoreError::Inconsistent(format!("cannot find {what} in the LAMMPS output:\n{text}"));
+    let loop_line = text.lines().find(|l| l.starts_with("Loop time of")).ok_or_else(|| bad("the loop time"))?;
+    let w: Vec<&str> = loop_line.split_whitespace().collect();
+    let num = |k: usize| w.get(k).and_then(|s| s.parse::<f64>().ok()).ok_or_else(|| bad("the loop time"));
+    let (seconds, steps, atoms) = (num(3)?, num(8)? as u64, num(11)? as usize);
+    let loop_at = text.find("Loop time of").unwrap_or(0);
+    let thermo = text[..loop_at]
+        .lines()
+        .rev()
+        .map(|l| l.split_whitespace().collect::<Vec<_>>())
+        .find(|w| w.len() >= 3 && w[0].parse::<u64>().is_ok_and(|s| s == steps) && w[1].parse::<f64>().is_ok())
+        .ok_or_else(|| bad("the last thermo line"))?;
+    let builds = text
+        .lines()
+        .find_map(|l| l.strip_prefix("Neighbor list builds = ")?.trim().parse::<u64>().ok())
+        .ok_or_else(|| bad("the neighbor list builds"))?;
+    let memory_mib = text
+        .lines()
+        .find_map(|l| {
+            let rest = l.split("allocation (min/avg/max) = ").nth(1)?;
+            rest.split('|').nth(2)?.split_whitespace().next()?.parse::<f64>().ok()
+        })
+        .unwrap_or(0.0);
+    Ok(BenchResult {
+        code: "lammps".into(),
+        case: cfg.case.name().into(),
+        shear: cfg.shear,
+        grains: atoms,
+        steps,
+        workers: procs,
+        loop_seconds: seconds,
+        particle_steps_per_second: atoms as f64 * steps as f64 / seconds,
+        contacts_per_grain: thermo[2].parse().unwrap_or(f64::NAN),
+        neighbor_rebuilds: builds,
+        peak_memory_bytes: (memory_mib * procs as f64 * 1024.0 * 1024.0) as u64,
+        kinetic_energy: thermo[1].parse().unwrap_or(f64::NAN),
+    })
+}
+
+/// Writes results as a JSON array (atomically).
+pub fn write_results(path: &Path, results: &[BenchResult]) -> Result<()> {
+    grainwave_io::write_json_atomic(path, &results)?;
+    Ok(())
+}
+
+/// Median of `values` (the mean of the middle two for an even count); NaN when empty.
+pub fn median(values: &[f64]) -> f64 {
+    let mut v = values.to_vec();
+    v.sort_by(f64::total_cmp);
+    match v.len() {
+        0 => f64::NAN,
+        n if n % 2 == 1 => v[n / 2],
+        n => 0.5 * (v[n / 2 - 1] + v[n / 2]),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parses_the_lammps_log() {
+        let log = "\
+Per MPI rank memory allocation (min/avg/max) = 24.02 | 24.02 | 24.02 Mbytes
+Step KinEng c_zave v_phinow Press 
+       0            0      5.90875         0.62    194.58159 
+    2000    2.6993005      5.95275         0.62    183.21134 
+Loop time of 15.2738 on 1 procs for 2000 steps with 32000 atoms
+
+Neighbor list builds = 10
+";
+        let cfg = BenchConfig { case: BenchCase::Hertz3d, dir: PathBuf::new(), steps: None, shear: 0.0 };
+        let r = parse_lammps_output(log, &cfg, 1).unwrap();
+        assert_eq!((r.grains, r.steps, r.neighbor_rebuilds), (32000, 2000, 10));
+        assert_eq!(r.loop_seconds, 15.2738);
+        assert_eq!(r.contacts_per_grain, 5.95275);
+        assert_eq!(r.kinetic_energy, 2.6993005);
+        assert!((r.particle_steps_per_second - 32000.0 * 2000.0 / 15.2738).abs() < 1e-6);
+        assert_eq!(r.peak_memory_bytes, (24.02 * 1024.0 * 1024.0) as u64);
+    }
+
+    #[test]
+    fn medians() {
+        assert_eq!(median(&[3.0, 1.0, 2.0]), 2.0);
+        assert_eq!(median(&[4.0, 1.0, 2.0, 3.0]), 2.5);
+        assert!(median(&[]).is_nan());
+    }
+}
