@@ -61,7 +61,7 @@ impl<D: Dim> Domain<D> {
             if self.periodic[k] {
                 let l = self.length(k);
                 let dk = d.get(k);
-                d.set(k, dk - l * (dk / l).round());
+                d.set(k, dk - l * nearest_integer(dk / l));
             }
         }
         d
@@ -131,11 +131,36 @@ impl<D: Dim> Domain<D> {
     }
 }
 
+/// The integer nearest to `x` (ties to even), as a float.
+///
+/// `f64::round` is a library call on the baseline x86-64 target (no SSE4.1 `roundsd`); adding and
+/// subtracting 1.5 × 2⁵² rounds in two instructions, exactly, for |x| < 2⁵¹ — pair vectors are at
+/// most a few box lengths. Larger or non-finite values take the library path.
+#[inline]
+pub fn nearest_integer(x: f64) -> f64 {
+    const SHIFT: f64 = 6_755_399_441_055_744.0; // 1.5 × 2⁵²
+    if x.abs() < 2_251_799_813_685_248.0 {
+        // 2⁵¹
+        (x + SHIFT) - SHIFT
+    } else {
+        x.round()
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::dim::D2;
     use glam::DVec2;
+
+    #[test]
+    fn nearest_integer_rounds_exactly() {
+        for (x, n) in [(0.0, 0.0), (0.49999999999999994, 0.0), (0.5, 0.0), (1.5, 2.0), (-2.5, -2.0), (-0.7, -1.0), (3.2e9 + 0.6, 3.2e9 + 1.0)] {
+            assert_eq!(nearest_integer(x), n, "{x}");
+        }
+        assert_eq!(nearest_integer(1e300), 1e300);
+        assert!(nearest_integer(f64::NAN).is_nan());
+    }
 
     #[test]
     fn minimum_image_and_wrap() {
