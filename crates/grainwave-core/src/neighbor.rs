@@ -1,11 +1,15 @@
-//! Neighbor search: a cell list builds a Verlet half-list with a skin; per-pair contact history
-//! lives in the list and is carried across rebuilds by stable id pair.
+//! Neighbor search: a cell list builds a Verlet half-list with a skin; the per-pair contact
+//! history is stored alongside it (structure of arrays, in list order) and carried across rebuilds
+//! by stable id pair.
+//!
+//! **Layout.** Pair (i, j) is stored once, with i < j (storage indices), under grain i: the pairs
+//! of grain i are `owner_start[i]..owner_start[i + 1]`, sorted by j. The contact history of pair
+//! `p` is `spring[p]`, `overlap[p]`, … in the same order, so the force loop reads the list and the
+//! histories as straight streams with no lookup. Grain–wall candidates are kept sorted by
+//! (grain, wall).
 //!
 //! The list is rebuilt when a grain has moved more than half the skin since the last build (or a
-//! wall has moved so that a new grain–wall contact could have formed). Pairs are stored sorted by
-//! storage index (i, j), i < j, and grain–wall candidates by (grain, wall): this fixed order is
-//! what makes the per-grain force reduction — and therefore the whole run — independent of the
-//! number of threads.
+//! wall has moved so that a new grain–wall contact could have formed).
 
 use crate::contact::ContactState;
 use crate::dim::{Dim, VectorOps};
@@ -13,11 +17,11 @@ use crate::domain::Domain;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-/// A grain–grain candidate pair (storage indices) with its contact state.
+/// A grain–grain candidate pair with its contact state, as returned by [`NeighborList::pairs`].
 #[derive(Clone, Copy, Debug, Serialize, Deserialize)]
 #[serde(bound = "")]
 pub struct Pair<D: Dim> {
-    /// First grain (storage index), i < j.
+    /// First grain (storage index), i < j: forces and histories are those acting on it.
     pub i: u32,
     /// Second grain (storage index).
     pub j: u32,
@@ -37,14 +41,70 @@ pub struct WallPair<D: Dim> {
     pub state: ContactState<D>,
 }
 
+/// The grain–grain half-list with the contact histories (see the module documentation).
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+#[serde(bound = "")]
+pub struct PairList<D: Dim> {
+    /// Pairs of grain `i` (as the smaller index) are `owner_start[i]..owner_start[i + 1]`.
+    pub(crate) owner_start: Vec<u32>,
+    /// Partner grain (storage index, larger than the owner's) of each pair, sorted per owner.
+    pub(crate) partner: Vec<u32>,
+    /// Tangential history of each pair: the spring s (linear law) or the elastic force (Mindlin), on the owner.
+    pub(crate) spring: Vec<<D as Dim>::Vector>,
+    /// Overlap at the last evaluation (0: not in contact).
+    pub(crate) overlap: Vec<f64>,
+    /// Sliding at the last evaluation.
+    pub(crate) sliding: Vec<bool>,
+    /// Rolling spring (on the owner).
+    pub(crate) rolling: Vec<<D as Dim>::AngVector>,
+    /// Twisting spring.
+    pub(crate) twist: Vec<f64>,
+}
+
+impl<D: Dim> PairList<D> {
+    /// Number of candidate pairs.
+    pub fn len(&self) -> usize {
+        self.partner.len()
+    }
+
+    /// True when there is no candidate pair.
+    pub fn is_empty(&self) -> bool {
+        self.partner.is_empty()
+    }
+
+    /// Contact state of pair `p`.
+    #[inline]
+    pub(crate) fn state(&self, p: usize) -> ContactState<D> {
+        ContactState {
+            spring: self.spring[p],
+            rolling: self.rolling[p],
+            twist: self.twist[p],
+            overlap: self.overlap[p],
+            sliding: self.sliding[p],
+        }
+    }
+
+    /// Every pair, sorted by (i, j).
+    pub fn iter(&self) -> impl Iterator<Item = Pair<D>> + '_ {
+        (0..self.owner_start.len().saturating_sub(1)).flat_map(move |i| {
+            (self.owner_start[i] as usize..self.owner_start[i + 1] as usize).map(move |p| Pair { i: i as u32, j: self.partner[p], state: self.state(p) })
+        })
+    }
+
+    /// The owner of pair `p`.
+    pub(crate) fn owner_of(&self, p: usize) -> usize {
+        self.owner_start.partition_point(|&s| s as usize <= p) - 1
+    }
+}
+
 /// Verlet neighbor list with contact histories.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(bound = "")]
 pub struct NeighborList<D: Dim> {
     /// Skin distance added to the contact distance.
     pub skin: f64,
-    /// Grain–grain candidates sorted by (i, j).
-    pub pairs: Vec<Pair<D>>,
+    /// Grain–grain candidates and their histories.
+    pub list: PairList<D>,
     /// Grain–wall candidates sorted by (grain, wall).
     pub wall_pairs: Vec<WallPair<D>>,
     /// Grain positions at the last build.
@@ -57,15 +117,11 @@ pub struct NeighborList<D: Dim> {
     pub stale: bool,
 }
 
-/// Per-grain adjacency derived from the list (not stored in checkpoints: rebuilt on demand).
+/// Per-grain index of the grain–wall candidates (not stored in checkpoints: rebuilt on demand).
 #[derive(Clone, Debug, Default)]
-pub struct Adjacency {
-    /// `start[g]..start[g+1]` indexes `entries` for grain g.
+pub struct WallIndex {
+    /// `start[g]..start[g+1]` are the grain's entries in `wall_pairs`.
     pub start: Vec<u32>,
-    /// `(pair_index << 1) | role`, role 0 when g is the pair's `i`, 1 when it is `j`; in pair order.
-    pub entries: Vec<u32>,
-    /// `wall_start[g]..wall_start[g+1]` are the grain's entries in `wall_pairs`.
-    pub wall_start: Vec<u32>,
 }
 
 impl<D: Dim> NeighborList<D> {
@@ -73,7 +129,7 @@ impl<D: Dim> NeighborList<D> {
     pub fn new(skin: f64) -> Self {
         NeighborList {
             skin,
-            pairs: Vec::new(),
+            list: PairList::default(),
             wall_pairs: Vec::new(),
             ref_pos: Vec::new(),
             ref_wall_pos: Vec::new(),
@@ -82,24 +138,24 @@ impl<D: Dim> NeighborList<D> {
         }
     }
 
-    /// Number of pairs currently in contact.
-    pub fn contact_count(&self) -> usize {
-        self.pairs.iter().filter(|p| p.state.in_contact()).count()
-            + self.wall_pairs.iter().filter(|p| p.state.in_contact()).count()
+    /// Every grain–grain candidate pair with its state, sorted by (i, j).
+    pub fn pairs(&self) -> impl Iterator<Item = Pair<D>> + '_ {
+        self.list.iter()
     }
 
-    /// True when the list must be rebuilt before the next force evaluation.
-    pub fn needs_rebuild(&self, pos: &[D::Vector], domain: &Domain<D>) -> bool {
+    /// Number of pairs currently in contact.
+    pub fn contact_count(&self) -> usize {
+        self.list.overlap.iter().filter(|&&o| o > 0.0).count() + self.wall_pairs.iter().filter(|p| p.state.in_contact()).count()
+    }
+
+    /// True when the list must be rebuilt before the next force evaluation. `max_displacement2`
+    /// is the largest squared displacement of a grain since the last build, when the caller has
+    /// it already (it is computed here otherwise).
+    pub fn needs_rebuild(&self, pos: &[D::Vector], domain: &Domain<D>, max_displacement2: Option<f64>) -> bool {
         if self.stale || self.ref_pos.len() != pos.len() || self.ref_wall_pos.len() != domain.walls.len() {
             return true;
         }
-        let max_d2 = pos
-            .par_iter()
-            .with_min_len(4096)
-            .zip(self.ref_pos.par_iter())
-            .map(|(&x, &r)| domain.displacement(r, x).norm2())
-            // NaN-propagating max: a non-finite position forces a rebuild, whose checks report it
-            .reduce(|| 0.0, |a, b| if a.is_nan() || b.is_nan() { f64::NAN } else { a.max(b) });
+        let max_d2 = max_displacement2.unwrap_or_else(|| max_displacement2_since(&self.ref_pos, pos, domain));
         let max_d = max_d2.sqrt();
         if !(2.0 * max_d <= self.skin) {
             return true;
@@ -117,14 +173,15 @@ impl<D: Dim> NeighborList<D> {
     /// pair that was in contact (matched by the stable ids `ids`).
     pub fn rebuild(&mut self, pos: &[D::Vector], radius: &[f64], ids: &[u32], domain: &Domain<D>) {
         let n = pos.len();
-        // Old contacts keyed by stable ids.
-        let mut old: Vec<((u32, u32), ContactState<D>)> = self
-            .pairs
+        // Old contacts keyed by stable ids (smaller id first), with the orientation they were
+        // stored in (histories act on the grain of smaller storage index).
+        let mut old: Vec<(u64, bool, ContactState<D>)> = self
+            .list
             .iter()
             .filter(|p| p.state.in_contact())
             .map(|p| {
                 let (a, b) = (ids[p.i as usize], ids[p.j as usize]);
-                ((a.min(b), a.max(b)), p.state)
+                (id_key(a, b), a < b, p.state)
             })
             .collect();
         old.sort_unstable_by_key(|e| e.0);
@@ -136,19 +193,29 @@ impl<D: Dim> NeighborList<D> {
             .collect();
         old_wall.sort_unstable_by_key(|e| e.0);
 
-        let candidates = build_pairs(pos, radius, domain, self.skin);
-        self.pairs = candidates
-            .into_iter()
-            .map(|(i, j)| {
-                let (a, b) = (ids[i as usize], ids[j as usize]);
-                let key = (a.min(b), a.max(b));
-                let state = match old.binary_search_by_key(&key, |e| e.0) {
-                    Ok(k) => old[k].1,
-                    Err(_) => ContactState::default(),
-                };
-                Pair { i, j, state }
-            })
-            .collect();
+        let mut list = build_list::<D>(pos, radius, domain, self.skin);
+        if !old.is_empty() {
+            for i in 0..n {
+                let a = ids[i];
+                for p in list.owner_start[i] as usize..list.owner_start[i + 1] as usize {
+                    let b = ids[list.partner[p] as usize];
+                    if let Ok(e) = old.binary_search_by_key(&id_key(a, b), |e| e.0) {
+                        let (_, stored_ascending, mut s) = old[e];
+                        if stored_ascending != (a < b) {
+                            // the storage order of the two grains changed: histories act on the other one
+                            s.spring = -s.spring;
+                            s.rolling = -s.rolling;
+                        }
+                        list.spring[p] = s.spring;
+                        list.overlap[p] = s.overlap;
+                        list.sliding[p] = s.sliding;
+                        list.rolling[p] = s.rolling;
+                        list.twist[p] = s.twist;
+                    }
+                }
+            }
+        }
+        self.list = list;
 
         let mut wall_pairs = Vec::new();
         for g in 0..n {
@@ -170,34 +237,44 @@ impl<D: Dim> NeighborList<D> {
         self.stale = false;
     }
 
-    /// Builds the per-grain adjacency of the current lists.
-    pub fn adjacency(&self, n: usize) -> Adjacency {
-        let mut count = vec![0u32; n + 1];
-        for p in &self.pairs {
-            count[p.i as usize + 1] += 1;
-            count[p.j as usize + 1] += 1;
-        }
-        for g in 0..n {
-            count[g + 1] += count[g];
-        }
-        let start = count.clone();
-        let mut fill = count;
-        let mut entries = vec![0u32; self.pairs.len() * 2];
-        for (k, p) in self.pairs.iter().enumerate() {
-            let k = k as u32;
-            entries[fill[p.i as usize] as usize] = k << 1;
-            fill[p.i as usize] += 1;
-            entries[fill[p.j as usize] as usize] = (k << 1) | 1;
-            fill[p.j as usize] += 1;
-        }
-        let mut wall_start = vec![0u32; n + 1];
+    /// Builds the per-grain index of the grain–wall candidates.
+    pub fn wall_index(&self, n: usize) -> WallIndex {
+        let mut start = vec![0u32; n + 1];
         for wp in &self.wall_pairs {
-            wall_start[wp.grain as usize + 1] += 1;
+            start[wp.grain as usize + 1] += 1;
         }
         for g in 0..n {
-            wall_start[g + 1] += wall_start[g];
+            start[g + 1] += start[g];
         }
-        Adjacency { start, entries, wall_start }
+        WallIndex { start }
+    }
+}
+
+/// Key of an unordered id pair.
+#[inline]
+fn id_key(a: u32, b: u32) -> u64 {
+    ((a.min(b) as u64) << 32) | a.max(b) as u64
+}
+
+/// Largest squared displacement (nearest image) between `reference` and `pos`; NaN when a
+/// position is not finite.
+pub fn max_displacement2_since<D: Dim>(reference: &[D::Vector], pos: &[D::Vector], domain: &Domain<D>) -> f64 {
+    let image = domain.image();
+    pos.par_iter()
+        .with_min_len(4096)
+        .zip(reference.par_iter())
+        .map(|(&x, &r)| image.displacement(r, x).norm2())
+        // NaN-propagating max: a non-finite position forces a rebuild, whose checks report it
+        .reduce(|| 0.0, nan_max)
+}
+
+/// max(a, b), NaN when either is NaN.
+#[inline]
+pub fn nan_max(a: f64, b: f64) -> f64 {
+    if a.is_nan() || b.is_nan() {
+        f64::NAN
+    } else {
+        a.max(b)
     }
 }
 
@@ -223,42 +300,54 @@ impl CellGrid {
         (c[2] * self.n[1] + c[1]) * self.n[0] + c[0]
     }
 
-    /// Distinct cells within one cell of `c` (wrapping periodic axes), sorted.
-    fn neighbors(&self, c: [usize; 3], dim: usize, out: &mut Vec<usize>) {
-        out.clear();
-        let mut ranges: [Vec<usize>; 3] = [vec![0], vec![0], vec![0]];
-        for k in 0..dim {
-            let mut r = Vec::with_capacity(3);
-            for off in [-1i64, 0, 1] {
-                let v = c[k] as i64 + off;
-                let n = self.n[k] as i64;
-                if self.periodic[k] {
-                    r.push(v.rem_euclid(n) as usize);
-                } else if v >= 0 && v < n {
-                    r.push(v as usize);
-                }
+    /// Distinct coordinates within one cell of `c` along axis `k` (wrapping periodic axes), sorted.
+    fn range(&self, c: usize, k: usize) -> ([usize; 3], usize) {
+        let mut r = [0usize; 3];
+        let mut len = 0;
+        let n = self.n[k] as i64;
+        for off in [-1i64, 0, 1] {
+            let v = c as i64 + off;
+            let v = if self.periodic[k] {
+                v.rem_euclid(n)
+            } else if v >= 0 && v < n {
+                v
+            } else {
+                continue;
+            };
+            if !r[..len].contains(&(v as usize)) {
+                r[len] = v as usize;
+                len += 1;
             }
-            r.sort_unstable();
-            r.dedup();
-            ranges[k] = r;
         }
-        for &z in &ranges[2] {
-            for &y in &ranges[1] {
-                for &x in &ranges[0] {
+        r[..len].sort_unstable();
+        (r, len)
+    }
+
+    /// Cells within one cell of `c` in every axis but `fixed`, whose coordinate is `layer`
+    /// (`fixed` = 3: no fixed axis), sorted.
+    fn neighbors(&self, c: [usize; 3], dim: usize, fixed: usize, layer: usize, out: &mut Vec<usize>) {
+        out.clear();
+        let mut ranges = [([0usize; 3], 1usize); 3];
+        for (k, range) in ranges.iter_mut().enumerate().take(dim) {
+            *range = if k == fixed { ([layer, 0, 0], 1) } else { self.range(c[k], k) };
+        }
+        for &z in &ranges[2].0[..ranges[2].1] {
+            for &y in &ranges[1].0[..ranges[1].1] {
+                for &x in &ranges[0].0[..ranges[0].1] {
                     out.push(self.flat([x, y, z]));
                 }
             }
         }
         out.sort_unstable();
-        out.dedup();
     }
 }
 
-/// All pairs (i, j), i < j, with |r_ij| < R_i + R_j + skin, sorted by (i, j).
-pub fn build_pairs<D: Dim>(pos: &[D::Vector], radius: &[f64], domain: &Domain<D>, skin: f64) -> Vec<(u32, u32)> {
+/// Builds the half-list (histories at zero) of all pairs with |r_ij| < R_i + R_j + skin.
+fn build_list<D: Dim>(pos: &[D::Vector], radius: &[f64], domain: &Domain<D>, skin: f64) -> PairList<D> {
     let n = pos.len();
+    let mut list = PairList::<D> { owner_start: vec![0; n + 1], ..Default::default() };
     if n < 2 {
-        return Vec::new();
+        return list;
     }
     let r_max = radius.iter().cloned().fold(0.0, f64::max);
     let cutoff = 2.0 * r_max + skin;
@@ -299,38 +388,40 @@ pub fn build_pairs<D: Dim>(pos: &[D::Vector], radius: &[f64], domain: &Domain<D>
     let n_cells = counts[0] * counts[1] * counts[2];
 
     // Counting sort of grains into cells (grain order kept within a cell).
-    let cell: Vec<usize> = pos.iter().map(|&x| grid.flat(grid.cell_of(x, D::D))).collect();
+    let cell: Vec<[usize; 3]> = pos.iter().map(|&x| grid.cell_of(x, D::D)).collect();
     let mut start = vec![0usize; n_cells + 1];
-    for &c in &cell {
-        start[c + 1] += 1;
+    for c in &cell {
+        start[grid.flat(*c) + 1] += 1;
     }
     for c in 0..n_cells {
         start[c + 1] += start[c];
     }
     let mut fill = start.clone();
     let mut items = vec![0u32; n];
-    for (g, &c) in cell.iter().enumerate() {
-        items[fill[c]] = g as u32;
-        fill[c] += 1;
+    for (g, c) in cell.iter().enumerate() {
+        let f = grid.flat(*c);
+        items[fill[f]] = g as u32;
+        fill[f] += 1;
     }
 
     const CHUNK: usize = 1024;
-    let chunks: Vec<Vec<(u32, u32)>> = (0..n.div_ceil(CHUNK))
+    let image = domain.image();
+    let chunks: Vec<Vec<u32>> = (0..n.div_ceil(CHUNK))
         .into_par_iter()
         .map(|chunk| {
-            let mut out = Vec::new();
+            let mut partners = Vec::new();
             let mut cells = Vec::with_capacity(27);
             let mut js: Vec<u32> = Vec::new();
+            let mut sizes = Vec::with_capacity(CHUNK);
             for i in chunk * CHUNK..((chunk + 1) * CHUNK).min(n) {
-                let ci = grid.cell_of(pos[i], D::D);
-                grid.neighbors(ci, D::D, &mut cells);
+                grid.neighbors(cell[i], D::D, 3, 0, &mut cells);
                 js.clear();
                 for &c in &cells {
                     for &j in &items[start[c]..start[c + 1]] {
                         if (j as usize) <= i {
                             continue;
                         }
-                        let d = domain.displacement(pos[i], pos[j as usize]);
+                        let d = image.displacement(pos[i], pos[j as usize]);
                         let reach = radius[i] + radius[j as usize] + skin;
                         if d.norm2() < reach * reach {
                             js.push(j);
@@ -338,17 +429,33 @@ pub fn build_pairs<D: Dim>(pos: &[D::Vector], radius: &[f64], domain: &Domain<D>
                     }
                 }
                 js.sort_unstable();
-                out.extend(js.iter().map(|&j| (i as u32, j)));
+                sizes.push(js.len() as u32);
+                partners.extend_from_slice(&js);
             }
+            // sizes first, then partners, in one vector
+            let mut out = sizes;
+            out.extend_from_slice(&partners);
             out
         })
         .collect();
-    let total: usize = chunks.iter().map(Vec::len).sum();
-    let mut pairs = Vec::with_capacity(total);
-    for c in chunks {
-        pairs.extend(c);
+    let total: usize = chunks.iter().enumerate().map(|(c, v)| v.len() - (((c + 1) * CHUNK).min(n) - c * CHUNK)).sum();
+    list.partner = Vec::with_capacity(total);
+    for (c, v) in chunks.iter().enumerate() {
+        let len = ((c + 1) * CHUNK).min(n) - c * CHUNK;
+        let (sizes, partners) = v.split_at(len);
+        list.partner.extend_from_slice(partners);
+        for (k, &sz) in sizes.iter().enumerate() {
+            let i = c * CHUNK + k;
+            list.owner_start[i + 1] = list.owner_start[i] + sz;
+        }
     }
-    pairs
+    let m = list.len();
+    list.spring = vec![D::Vector::ZERO; m];
+    list.overlap = vec![0.0; m];
+    list.sliding = vec![false; m];
+    list.rolling = vec![D::AngVector::ZERO; m];
+    list.twist = vec![0.0; m];
+    list
 }
 
 #[cfg(test)]
@@ -372,21 +479,28 @@ mod tests {
         v
     }
 
+    /// Every pair once, sorted.
+    fn check<D: Dim>(pos: &[D::Vector], radius: &[f64], domain: &Domain<D>, skin: f64) {
+        let list = build_list(pos, radius, domain, skin);
+        let found: Vec<(u32, u32)> = list.iter().map(|p| (p.i, p.j)).collect();
+        assert_eq!(found, brute(pos, radius, domain, skin));
+    }
+
     #[test]
     fn cell_list_matches_brute_force_2d_and_3d() {
         let mut rng = ChaCha8Rng::seed_from_u64(3);
-        for periodic in [[true, true, true], [false, true, false], [false, false, false]] {
+        for periodic in [[true, true, true], [false, true, false], [false, false, false], [true, false, true]] {
             let d2: Domain<D2> = Domain::new(DVec2::ZERO, DVec2::new(7.0, 5.0), periodic);
             let pos: Vec<DVec2> = (0..300).map(|_| DVec2::new(rng.random::<f64>() * 7.0, rng.random::<f64>() * 5.0)).collect();
             let rad: Vec<f64> = (0..300).map(|_| 0.1 + 0.2 * rng.random::<f64>()).collect();
-            assert_eq!(build_pairs(&pos, &rad, &d2, 0.05), brute(&pos, &rad, &d2, 0.05));
+            check(&pos, &rad, &d2, 0.05);
             // small periodic box: fewer than 3 cells along an axis
             let d3: Domain<D3> = Domain::new(DVec3::ZERO, DVec3::new(1.3, 4.0, 2.0), periodic);
             let pos: Vec<DVec3> = (0..200)
                 .map(|_| DVec3::new(rng.random::<f64>() * 1.3, rng.random::<f64>() * 4.0, rng.random::<f64>() * 2.0))
                 .collect();
             let rad: Vec<f64> = (0..200).map(|_| 0.1 + 0.1 * rng.random::<f64>()).collect();
-            assert_eq!(build_pairs(&pos, &rad, &d3, 0.1), brute(&pos, &rad, &d3, 0.1));
+            check(&pos, &rad, &d3, 0.1);
         }
     }
 }

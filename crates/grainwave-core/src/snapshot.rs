@@ -130,10 +130,22 @@ impl<D: Dim> Simulation<D> {
     pub fn contact_records(&self) -> Vec<ContactRecord<D>> {
         let g = &self.grains;
         let mut out = Vec::new();
-        for p in &self.nlist.pairs {
-            if !p.state.in_contact() {
-                continue;
-            }
+        // Grain i is the pair's lower storage index, whichever grain owns it in the list.
+        let mut pairs: Vec<crate::neighbor::Pair<D>> = self
+            .nlist
+            .pairs()
+            .filter(|p| p.state.in_contact())
+            .map(|mut p| {
+                if p.i > p.j {
+                    std::mem::swap(&mut p.i, &mut p.j);
+                    p.state.spring = -p.state.spring;
+                    p.state.rolling = -p.state.rolling;
+                }
+                p
+            })
+            .collect();
+        pairs.sort_unstable_by_key(|p| (p.i, p.j));
+        for p in &pairs {
             let (i, j) = (p.i as usize, p.j as usize);
             let r = self.domain.displacement(g.pos[i], g.pos[j]);
             if let Some(kin) = pair_kinematics::<D>(r, g.radius[i], g.radius[j], g.mass[i], g.mass[j], g.vel[i], g.vel[j], g.omega[i], g.omega[j]) {

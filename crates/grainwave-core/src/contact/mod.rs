@@ -22,6 +22,7 @@ mod damping;
 mod kinematics;
 mod normal;
 mod params;
+mod parts;
 mod rolling;
 mod tangential;
 
@@ -33,6 +34,7 @@ pub use damping::{
 pub use kinematics::{pair_kinematics, wall_kinematics, Kinematics};
 pub use normal::{NormalElastic, NormalResponse};
 pub use params::{ContactParams, Partner, PRESETS};
+pub use parts::{LawParts, Specialized};
 pub use rolling::{Rolling, Twisting};
 pub use tangential::{Tangential, TangentialDamping};
 
@@ -118,72 +120,80 @@ fn into_tangent_plane<V: VectorOps>(v: V, n: V) -> V {
     }
 }
 
+/// Evaluates a contact law given by its parts (see [`LawParts`]): the one implementation behind
+/// [`ContactLaw::evaluate`] and the engine's specialised kernels, so both give the same bits.
+#[inline(always)]
+pub(crate) fn evaluate_parts<D: Dim, P: LawParts>(law: &P, kin: &Kinematics<D>, state: &mut ContactState<D>, dt: f64) -> ContactOutput<D> {
+    let n = kin.normal;
+    let NormalResponse { force: f_el, stiffness: k_n, secant } = law.normal().response(kin.overlap, kin.r_eff);
+    let gamma_n = law.damping().coefficient(kin.m_eff, k_n, secant);
+    let f_n = (f_el - gamma_n * kin.v_n).max(0.0);
+
+    let tangential = law.tangential();
+    let k_t = tangential.stiffness(kin.overlap, kin.r_eff);
+    let mut sliding = false;
+    let f_t = match tangential {
+        Tangential::None => D::Vector::ZERO,
+        Tangential::Linear { .. } => {
+            let gamma_t = law.tangential_damping().coefficient(kin.m_eff, k_t, gamma_n);
+            let s = into_tangent_plane(state.spring, n) + kin.v_t * dt;
+            let trial = s * k_t + kin.v_t * gamma_t;
+            let (f, slid) = coulomb_cap(trial, law.friction() * f_n);
+            sliding = slid;
+            state.spring = if slid { f / k_t } else { s };
+            f
+        }
+        Tangential::Mindlin { rescale_on_unloading, .. } => {
+            let gamma_t = law.tangential_damping().coefficient(kin.m_eff, k_t, gamma_n);
+            let mut elastic = into_tangent_plane(state.spring, n);
+            if rescale_on_unloading && state.overlap > 0.0 && kin.overlap < state.overlap {
+                // k_t ∝ √ξ
+                elastic *= (kin.overlap / state.overlap).sqrt();
+            }
+            elastic += kin.v_t * (k_t * dt);
+            let trial = elastic + kin.v_t * gamma_t;
+            let (f, slid) = coulomb_cap(trial, law.friction() * f_n);
+            sliding = slid;
+            state.spring = if slid { f } else { elastic };
+            f
+        }
+    };
+
+    let mut m_r = match law.rolling() {
+        Rolling::None => D::AngVector::ZERO,
+        Rolling::SpringDashpot { stiffness, damping, friction } => {
+            let theta = into_tangent_plane_ang::<D>(state.rolling, n) + kin.w_roll * dt;
+            let trial = theta * stiffness + kin.w_roll * damping;
+            let (m, slid) = coulomb_cap(trial, friction * kin.r_eff * f_n);
+            state.rolling = if slid { m / stiffness } else { theta };
+            m
+        }
+    };
+    if let Twisting::SpringDashpot { stiffness, damping, friction } = law.twisting() {
+        let phi = state.twist + kin.w_twist * dt;
+        let trial = phi * stiffness + kin.w_twist * damping;
+        let (m, slid) = coulomb_cap(trial, friction * kin.r_eff * f_n);
+        state.twist = if slid { m / stiffness } else { phi };
+        m_r += D::about_normal(m, n);
+    }
+    state.overlap = kin.overlap;
+    state.sliding = sliding;
+    ContactOutput {
+        normal_force: f_n,
+        tangential_force: f_t,
+        rolling_torque: m_r,
+        normal_stiffness: k_n,
+        tangential_stiffness: k_t,
+        sliding,
+    }
+}
+
 impl ContactLaw {
     /// Evaluates the law for a contact with kinematics `kin` over a step `dt`, updating `state`.
     /// Assumes `kin.overlap > 0`.
     #[inline]
     pub fn evaluate<D: Dim>(&self, kin: &Kinematics<D>, state: &mut ContactState<D>, dt: f64) -> ContactOutput<D> {
-        let n = kin.normal;
-        let NormalResponse { force: f_el, stiffness: k_n, secant } = self.normal.response(kin.overlap, kin.r_eff);
-        let gamma_n = self.damping.coefficient(kin.m_eff, k_n, secant);
-        let f_n = (f_el - gamma_n * kin.v_n).max(0.0);
-
-        let k_t = self.tangential.stiffness(kin.overlap, kin.r_eff);
-        let mut sliding = false;
-        let f_t = match self.tangential {
-            Tangential::None => D::Vector::ZERO,
-            Tangential::Linear { .. } => {
-                let gamma_t = self.tangential_damping.coefficient(kin.m_eff, k_t, gamma_n);
-                let s = into_tangent_plane(state.spring, n) + kin.v_t * dt;
-                let trial = s * k_t + kin.v_t * gamma_t;
-                let (f, slid) = coulomb_cap(trial, self.friction * f_n);
-                sliding = slid;
-                state.spring = if slid { f / k_t } else { s };
-                f
-            }
-            Tangential::Mindlin { rescale_on_unloading, .. } => {
-                let gamma_t = self.tangential_damping.coefficient(kin.m_eff, k_t, gamma_n);
-                let mut elastic = into_tangent_plane(state.spring, n);
-                if rescale_on_unloading && state.overlap > 0.0 && kin.overlap < state.overlap {
-                    // k_t ∝ √ξ
-                    elastic *= (kin.overlap / state.overlap).sqrt();
-                }
-                elastic += kin.v_t * (k_t * dt);
-                let trial = elastic + kin.v_t * gamma_t;
-                let (f, slid) = coulomb_cap(trial, self.friction * f_n);
-                sliding = slid;
-                state.spring = if slid { f } else { elastic };
-                f
-            }
-        };
-
-        let mut m_r = match self.rolling {
-            Rolling::None => D::AngVector::ZERO,
-            Rolling::SpringDashpot { stiffness, damping, friction } => {
-                let theta = into_tangent_plane_ang::<D>(state.rolling, n) + kin.w_roll * dt;
-                let trial = theta * stiffness + kin.w_roll * damping;
-                let (m, slid) = coulomb_cap(trial, friction * kin.r_eff * f_n);
-                state.rolling = if slid { m / stiffness } else { theta };
-                m
-            }
-        };
-        if let Twisting::SpringDashpot { stiffness, damping, friction } = self.twisting {
-            let phi = state.twist + kin.w_twist * dt;
-            let trial = phi * stiffness + kin.w_twist * damping;
-            let (m, slid) = coulomb_cap(trial, friction * kin.r_eff * f_n);
-            state.twist = if slid { m / stiffness } else { phi };
-            m_r += D::about_normal(m, n);
-        }
-        state.overlap = kin.overlap;
-        state.sliding = sliding;
-        ContactOutput {
-            normal_force: f_n,
-            tangential_force: f_t,
-            rolling_torque: m_r,
-            normal_stiffness: k_n,
-            tangential_stiffness: k_t,
-            sliding,
-        }
+        evaluate_parts(self, kin, state, dt)
     }
 
     /// Elastic energy stored in a contact: normal part + tangential spring (½ k_t s² for the

@@ -56,15 +56,23 @@ impl<D: Dim> Domain<D> {
     /// Vector from `from` to `to`, nearest periodic image.
     #[inline]
     pub fn displacement(&self, from: D::Vector, to: D::Vector) -> D::Vector {
-        let mut d = to - from;
+        self.image().displacement(from, to)
+    }
+
+    /// The periodic cell in the form the force loop uses (inverse lengths precomputed); its
+    /// [`PeriodicImage::displacement`] is bitwise equal to [`Domain::displacement`].
+    #[inline]
+    pub fn image(&self) -> PeriodicImage<D> {
+        let mut length = D::Vector::ZERO;
+        let mut inverse = D::Vector::ZERO;
         for k in 0..D::D {
             if self.periodic[k] {
                 let l = self.length(k);
-                let dk = d.get(k);
-                d.set(k, dk - l * nearest_integer(dk / l));
+                length.set(k, l);
+                inverse.set(k, 1.0 / l);
             }
         }
-        d
+        PeriodicImage { length, inverse }
     }
 
     /// Maps `x` back into the periodic cell, counting crossings in `image`.
@@ -128,6 +136,28 @@ impl<D: Dim> Domain<D> {
             }
         }
         Ok(())
+    }
+}
+
+/// Minimum-image arithmetic of a [`Domain`] with the inverse cell lengths precomputed.
+#[derive(Clone, Copy, Debug)]
+pub struct PeriodicImage<D: Dim> {
+    /// Cell length along periodic axes, 0 along the others.
+    length: D::Vector,
+    /// 1 / length along periodic axes, 0 along the others (so that no image is ever taken).
+    inverse: D::Vector,
+}
+
+impl<D: Dim> PeriodicImage<D> {
+    /// Vector from `from` to `to`, nearest periodic image: per axis d − L·nint(d/L), branch-free.
+    #[inline(always)]
+    pub fn displacement(&self, from: D::Vector, to: D::Vector) -> D::Vector {
+        let mut d = to - from;
+        for k in 0..D::D {
+            let dk = d.get(k);
+            d.set(k, dk - self.length.get(k) * nearest_integer(dk * self.inverse.get(k)));
+        }
+        d
     }
 }
 

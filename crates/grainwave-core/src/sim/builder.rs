@@ -249,9 +249,9 @@ impl<D: Dim> SimulationBuilder<D> {
 impl<D: Dim> Simulation<D> {
     /// Refuses initial overlaps beyond `tolerance` × the smaller radius (walls: × the radius).
     fn check_initial_overlaps(&mut self, tolerance: f64) -> Result<()> {
-        self.prepare_neighbors()?;
+        self.prepare_neighbors(None)?;
         let g = &self.grains;
-        for p in &self.nlist.pairs {
+        for p in self.nlist.pairs() {
             let (i, j) = (p.i as usize, p.j as usize);
             let d = self.domain.displacement(g.pos[i], g.pos[j]).norm();
             let xi = g.radius[i] + g.radius[j] - d;

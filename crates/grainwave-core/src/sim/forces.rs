@@ -1,17 +1,32 @@
-//! Force evaluation: every pair writes its own slot of a pair buffer (in parallel), then every
-//! grain sums its slots in the fixed adjacency order (in parallel over grains). No floating-point
-//! sum depends on how work is split among threads, so results are bitwise identical for any
-//! thread count.
+//! Force evaluation: one pass over the neighbor list that also completes every grain.
+//!
+//! **Fixed summation order.** The force (and torque) on grain g is summed over its partners in
+//! increasing storage index, starting from zero, then the walls in list order, then the body
+//! force, then external loads — whatever the number of threads, the way work is split, or when
+//! the neighbor list was last rebuilt. Results are therefore bitwise identical for any number of
+//! threads.
+//!
+//! **How.** Grains are cut into contiguous blocks (one per thread-sized piece of work; a single
+//! block with one thread). Pair (i, j), i < j, is *intra-block* when both grains are in one
+//! block, *cross-block* otherwise. Phase A evaluates the cross-block pairs (in parallel) into a
+//! small buffer. Phase B walks each block (blocks in parallel) grain by grain in increasing
+//! index: every grain starts from the sum of its cross-block contributions from lower blocks
+//! (whose partners all have smaller indices), receives the intra-block contributions of smaller
+//! owners as they are evaluated, then adds its own pairs in increasing partner index (evaluated
+//! now, or read from the buffer). At that point its force is complete, so the same loop adds
+//! walls, body force and loads, checks finiteness and applies velocity Verlet's second half
+//! kick: one pass over the grains, no per-pair force buffer for intra-block pairs, and each pair
+//! evaluated exactly once.
 
-use super::{PairForce, Simulation, WallForce};
-use crate::contact::{pair_kinematics, wall_kinematics, ContactLaw, ContactOutput, ContactState, Kinematics};
+use super::{CrossForce, CrossIndex, Simulation, WallForce};
+use crate::contact::{evaluate_parts, pair_kinematics, wall_kinematics, ContactLaw, ContactState, LawParts, Rolling, Specialized, Twisting};
 use crate::dim::{Dim, VectorOps};
-use crate::domain::WallMotion;
+use crate::domain::{PeriodicImage, WallMotion};
 use crate::error::{CoreError, Result};
-use crate::grains::Grains;
+use crate::neighbor::PairList;
 use rayon::prelude::*;
 
-/// Per-evaluation statistics, merged associatively (so deterministically).
+/// Per-evaluation statistics, merged associatively and commutatively (so deterministically).
 #[derive(Clone, Copy, Debug, Default)]
 pub(super) struct ForceStats {
     pub changes: u64,
@@ -19,9 +34,15 @@ pub(super) struct ForceStats {
     pub sliding: u64,
     /// (overlap / smaller radius, is_wall, index) of the deepest contact.
     pub deepest: (f64, u8, usize),
+    /// First grain whose force or torque is not finite (usize::MAX: none).
+    pub bad: usize,
 }
 
 impl ForceStats {
+    fn new() -> Self {
+        ForceStats { bad: usize::MAX, ..Default::default() }
+    }
+
     fn merge(a: Self, b: Self) -> Self {
         let deepest = if b.deepest.0 > a.deepest.0 || (b.deepest.0 == a.deepest.0 && (b.deepest.1, b.deepest.2) < (a.deepest.1, a.deepest.2)) {
             b.deepest
@@ -33,45 +54,310 @@ impl ForceStats {
             contacts: a.contacts + b.contacts,
             sliding: a.sliding + b.sliding,
             deepest,
+            bad: a.bad.min(b.bad),
         }
     }
 }
 
-/// Evaluates one contact given its kinematics (or `None` when apart), updating the state.
-#[inline]
-fn contact<D: Dim>(
-    law: &ContactLaw,
-    kin: Option<Kinematics<D>>,
-    state: &mut ContactState<D>,
+/// Smallest block (grains): below it, handing work to another thread costs more than it gains.
+const MIN_BLOCK: usize = 512;
+
+/// Number of grains per block for `n` grains on `threads` threads: one block for one thread,
+/// otherwise a few blocks per thread so that the work can be balanced.
+pub(super) fn block_len(n: usize, threads: usize) -> usize {
+    if threads <= 1 || n < 2 * MIN_BLOCK {
+        return n.max(1);
+    }
+    n.div_ceil(4 * threads).max(MIN_BLOCK)
+}
+
+/// Read-only inputs of the pair evaluations.
+struct Inputs<'a, D: Dim> {
+    image: PeriodicImage<D>,
     dt: f64,
-) -> Option<(Kinematics<D>, ContactOutput<D>, bool)> {
-    match kin {
+    pos: &'a [D::Vector],
+    radius: &'a [f64],
+    mass: &'a [f64],
+    owner_start: &'a [u32],
+    partner: &'a [u32],
+}
+
+/// The mutable history of a contiguous range of pairs starting at pair `base`.
+struct History<'a, D: Dim> {
+    base: usize,
+    spring: &'a mut [D::Vector],
+    overlap: &'a mut [f64],
+    sliding: &'a mut [bool],
+    rolling: &'a mut [D::AngVector],
+    twist: &'a mut [f64],
+}
+
+impl<D: Dim> History<'_, D> {
+    /// Splits at absolute pair index `at`.
+    fn split(self, at: usize) -> (Self, Self) {
+        let k = at - self.base;
+        let (s0, s1) = self.spring.split_at_mut(k);
+        let (o0, o1) = self.overlap.split_at_mut(k);
+        let (l0, l1) = self.sliding.split_at_mut(k);
+        let (r0, r1) = self.rolling.split_at_mut(k);
+        let (t0, t1) = self.twist.split_at_mut(k);
+        (
+            History { base: self.base, spring: s0, overlap: o0, sliding: l0, rolling: r0, twist: t0 },
+            History { base: at, spring: s1, overlap: o1, sliding: l1, rolling: r1, twist: t1 },
+        )
+    }
+}
+
+/// One grain as the pair kernel sees it.
+#[derive(Clone, Copy)]
+struct Body<D: Dim> {
+    x: D::Vector,
+    v: D::Vector,
+    w: D::AngVector,
+    r: f64,
+    m: f64,
+}
+
+/// Force on i and torques on i and j of one pair.
+struct PairOut<D: Dim> {
+    force: D::Vector,
+    torque_i: D::AngVector,
+    torque_j: D::AngVector,
+}
+
+/// Evaluates pair `p` (absolute index) between `a` (the smaller index) and `b` (grain `j`),
+/// updating its history and the statistics. `None` when the grains are apart.
+#[inline(always)]
+fn eval_pair<D: Dim, P: LawParts>(law: &P, inp: &Inputs<D>, h: &mut History<D>, p: usize, a: &Body<D>, b: &Body<D>, st: &mut ForceStats) -> Option<PairOut<D>> {
+    let q = p - h.base;
+    let r = inp.image.displacement(a.x, b.x);
+    let was = h.overlap[q];
+    match pair_kinematics::<D>(r, a.r, b.r, a.m, b.m, a.v, b.v, a.w, b.w) {
         None => {
-            if state.in_contact() {
-                *state = ContactState::default();
+            if was > 0.0 {
+                // the contact opened: forget its history
+                h.spring[q] = D::Vector::ZERO;
+                h.overlap[q] = 0.0;
+                h.sliding[q] = false;
+                h.rolling[q] = D::AngVector::ZERO;
+                h.twist[q] = 0.0;
+                st.changes += 1;
             }
             None
         }
         Some(kin) => {
-            let formed = !state.in_contact();
-            let out = law.evaluate(&kin, state, dt);
-            Some((kin, out, formed))
+            let resists_rolling = law.rolling() != Rolling::None || law.twisting() != Twisting::None;
+            let mut state = ContactState {
+                spring: h.spring[q],
+                rolling: if resists_rolling { h.rolling[q] } else { D::AngVector::ZERO },
+                twist: if resists_rolling { h.twist[q] } else { 0.0 },
+                overlap: was,
+                sliding: h.sliding[q],
+            };
+            let o = evaluate_parts(law, &kin, &mut state, inp.dt);
+            h.spring[q] = state.spring;
+            h.overlap[q] = state.overlap;
+            h.sliding[q] = state.sliding;
+            if resists_rolling {
+                h.rolling[q] = state.rolling;
+                h.twist[q] = state.twist;
+            }
+            st.changes += (was <= 0.0) as u64;
+            st.contacts += 1;
+            st.sliding += o.sliding as u64;
+            let r_min = a.r.min(b.r);
+            if kin.overlap > st.deepest.0 * r_min {
+                let ratio = kin.overlap / r_min;
+                if ratio > st.deepest.0 {
+                    st.deepest = (ratio, 0, p);
+                }
+            }
+            let n = kin.normal;
+            let t = D::cross(n, o.tangential_force);
+            Some(PairOut {
+                force: o.tangential_force - n * o.normal_force,
+                torque_i: t * kin.lever_i + o.rolling_torque,
+                torque_j: t * kin.lever_j - o.rolling_torque,
+            })
         }
     }
 }
 
+/// Phase A: the cross-block pairs of blocks `blocks`, into `out` (slots from `slot_base`).
+fn cross_pairs<D: Dim, P: LawParts>(
+    law: &P,
+    inp: &Inputs<D>,
+    vel: &[D::Vector],
+    omega: &[D::AngVector],
+    cross: &CrossIndex<D>,
+    blocks: std::ops::Range<usize>,
+    mut h: History<D>,
+    out: &mut [CrossForce<D>],
+    slot_base: usize,
+) -> ForceStats {
+    if blocks.len() > 1 {
+        let mid = (blocks.start + blocks.end) / 2;
+        let (h0, h1) = h.split(inp.owner_start[(mid * cross.block_len).min(cross.n)] as usize);
+        let s = cross.block_slot_start[mid] as usize;
+        let (o0, o1) = out.split_at_mut(s - slot_base);
+        let (a, b) = rayon::join(
+            || cross_pairs(law, inp, vel, omega, cross, blocks.start..mid, h0, o0, slot_base),
+            || cross_pairs(law, inp, vel, omega, cross, mid..blocks.end, h1, o1, s),
+        );
+        return ForceStats::merge(a, b);
+    }
+    let mut st = ForceStats::new();
+    let b = blocks.start;
+    for i in b * cross.block_len..((b + 1) * cross.block_len).min(cross.n) {
+        let a = Body { x: inp.pos[i], v: vel[i], w: omega[i], r: inp.radius[i], m: inp.mass[i] };
+        let mut slot = cross.cross_slot[i] as usize - slot_base;
+        for p in cross.cross_begin[i] as usize..inp.owner_start[i + 1] as usize {
+            let j = inp.partner[p] as usize;
+            let bj = Body { x: inp.pos[j], v: vel[j], w: omega[j], r: inp.radius[j], m: inp.mass[j] };
+            out[slot] = match eval_pair(law, inp, &mut h, p, &a, &bj, &mut st) {
+                Some(o) => CrossForce { force: o.force, torque_i: o.torque_i, torque_j: o.torque_j },
+                None => CrossForce::default(),
+            };
+            slot += 1;
+        }
+    }
+    st
+}
+
+/// What completes a grain once its pair forces are summed.
+struct Finish<'a, D: Dim> {
+    gravity: D::Vector,
+    inertia: &'a [f64],
+    wall_start: &'a [u32],
+    wall_force: &'a [WallForce<D>],
+    /// (grain, force, torque) of the external loads now, sorted by grain (stable).
+    loads: &'a [(usize, D::Vector, D::AngVector)],
+    /// Velocity Verlet's half kick h (forces only when `None`).
+    kick: Option<f64>,
+}
+
+/// The per-grain arrays of a block of grains starting at grain `base`.
+struct Grain<'a, D: Dim> {
+    base: usize,
+    force: &'a mut [D::Vector],
+    torque: &'a mut [D::AngVector],
+    vel: &'a mut [D::Vector],
+    omega: &'a mut [D::AngVector],
+}
+
+impl<D: Dim> Grain<'_, D> {
+    fn split(self, at: usize) -> (Self, Self) {
+        let k = at - self.base;
+        let (f0, f1) = self.force.split_at_mut(k);
+        let (t0, t1) = self.torque.split_at_mut(k);
+        let (v0, v1) = self.vel.split_at_mut(k);
+        let (w0, w1) = self.omega.split_at_mut(k);
+        (Grain { base: self.base, force: f0, torque: t0, vel: v0, omega: w0 }, Grain { base: at, force: f1, torque: t1, vel: v1, omega: w1 })
+    }
+}
+
+/// Phase B: blocks `blocks` (see the module documentation).
+#[allow(clippy::too_many_arguments)]
+fn blocks_pass<D: Dim, P: LawParts>(
+    law: &P,
+    inp: &Inputs<D>,
+    cross: &CrossIndex<D>,
+    fin: &Finish<D>,
+    blocks: std::ops::Range<usize>,
+    h: History<D>,
+    g: Grain<D>,
+) -> ForceStats {
+    if blocks.len() > 1 {
+        let mid = (blocks.start + blocks.end) / 2;
+        let at = (mid * cross.block_len).min(cross.n);
+        let (h0, h1) = h.split(inp.owner_start[at] as usize);
+        let (g0, g1) = g.split(at);
+        let (a, b) = rayon::join(|| blocks_pass(law, inp, cross, fin, blocks.start..mid, h0, g0), || blocks_pass(law, inp, cross, fin, mid..blocks.end, h1, g1));
+        return ForceStats::merge(a, b);
+    }
+    block(law, inp, cross, fin, blocks.start, h, g)
+}
+
+/// Phase B for one block.
+#[inline(always)]
+fn block<D: Dim, P: LawParts>(law: &P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, mut h: History<D>, g: Grain<D>) -> ForceStats {
+    let mut st = ForceStats::new();
+    let (g0, g1) = (b * cross.block_len, ((b + 1) * cross.block_len).min(cross.n));
+    let Grain { force, torque, vel, omega, .. } = g;
+    // Contributions of cross-block pairs with lower blocks (partners of smaller index), in order.
+    for j in g0..g1 {
+        let mut f = D::Vector::ZERO;
+        let mut t = D::AngVector::ZERO;
+        for &s in &cross.in_slot[cross.in_start[j] as usize..cross.in_start[j + 1] as usize] {
+            let c = &cross.forces[s as usize];
+            f -= c.force;
+            t += c.torque_j;
+        }
+        force[j - g0] = f;
+        torque[j - g0] = t;
+    }
+    let mut load = fin.loads.partition_point(|l| l.0 < g0);
+    for i in g0..g1 {
+        let li = i - g0;
+        let a = Body { x: inp.pos[i], v: vel[li], w: omega[li], r: inp.radius[i], m: inp.mass[i] };
+        let mut fi = force[li];
+        let mut ti = torque[li];
+        let cb = cross.cross_begin[i] as usize;
+        for p in inp.owner_start[i] as usize..cb {
+            let j = inp.partner[p] as usize;
+            let lj = j - g0;
+            let bj = Body { x: inp.pos[j], v: vel[lj], w: omega[lj], r: inp.radius[j], m: inp.mass[j] };
+            if let Some(o) = eval_pair(law, inp, &mut h, p, &a, &bj, &mut st) {
+                fi += o.force;
+                ti += o.torque_i;
+                force[lj] -= o.force;
+                torque[lj] += o.torque_j;
+            }
+        }
+        for c in &cross.forces[cross.cross_slot[i] as usize..cross.cross_slot[i] as usize + (inp.owner_start[i + 1] as usize - cb)] {
+            fi += c.force;
+            ti += c.torque_i;
+        }
+        // the grain's pair forces are complete: walls, body force, loads, check, kick
+        for c in &fin.wall_force[fin.wall_start[i] as usize..fin.wall_start[i + 1] as usize] {
+            fi += c.force;
+            ti += c.torque;
+        }
+        fi = fi + fin.gravity * a.m;
+        while load < fin.loads.len() && fin.loads[load].0 == i {
+            fi += fin.loads[load].1;
+            ti += fin.loads[load].2;
+            load += 1;
+        }
+        if !(fi.is_finite_vec() && ti.is_finite_vec()) {
+            st.bad = st.bad.min(i);
+        } else if let Some(hk) = fin.kick {
+            vel[li] += fi * (hk / a.m);
+            omega[li] += ti * (hk / fin.inertia[i]);
+        }
+        force[li] = fi;
+        torque[li] = ti;
+    }
+    st
+}
+
 impl<D: Dim> Simulation<D> {
-    /// Rebuilds the neighbor list if needed, and the derived adjacency and buffers.
-    pub(crate) fn prepare_neighbors(&mut self) -> Result<()> {
-        if self.nlist.needs_rebuild(&self.grains.pos, &self.domain) {
+    /// Rebuilds the neighbor list if needed (`max_displacement2`: the largest squared
+    /// displacement since the last build, when already known), and the derived buffers.
+    pub(crate) fn prepare_neighbors(&mut self, max_displacement2: Option<f64>) -> Result<()> {
+        if self.nlist.needs_rebuild(&self.grains.pos, &self.domain, max_displacement2) {
             self.check_confinement()?;
             self.nlist.rebuild(&self.grains.pos, &self.grains.radius, &self.grains.id, &self.domain);
         }
-        if self.work.adjacency_builds != self.nlist.builds || self.work.pair_force.len() != self.nlist.pairs.len() {
-            self.work.adjacency = self.nlist.adjacency(self.grains.len());
-            self.work.pair_force = vec![PairForce::default(); self.nlist.pairs.len()];
+        let n = self.grains.len();
+        if self.work.wall_index_builds != self.nlist.builds || self.work.wall_force.len() != self.nlist.wall_pairs.len() {
+            self.work.wall_index = self.nlist.wall_index(n);
             self.work.wall_force = vec![WallForce::default(); self.nlist.wall_pairs.len()];
-            self.work.adjacency_builds = self.nlist.builds;
+            self.work.wall_index_builds = self.nlist.builds;
+        }
+        let len = self.work.block_len.unwrap_or_else(|| block_len(n, rayon::current_num_threads()));
+        if self.work.cross.builds != self.nlist.builds || self.work.cross.block_len != len || self.work.cross.n != n {
+            self.work.cross.rebuild(&self.nlist.list, n, len, self.nlist.builds);
         }
         Ok(())
     }
@@ -104,51 +390,22 @@ impl<D: Dim> Simulation<D> {
         }
     }
 
-    /// Computes all forces and torques at the current positions. Contact histories advance by
-    /// `dt_hist` (0 re-evaluates without advancing). With `use_eval` the velocities in the
-    /// workspace (Beeman's predicted velocities) are used instead of the grains' own.
-    pub(crate) fn compute_forces(&mut self, dt_hist: f64, use_eval: bool) -> Result<()> {
-        let Simulation { grains, domain, law, nlist, work, gravity, loads, time, safety, .. } = self;
-        let Grains { pos, radius, mass, force, torque, .. } = grains;
-        let (vel, omega) = if use_eval { (&work.vel_eval, &work.omega_eval) } else { (&grains.vel, &grains.omega) };
-        let (pos, radius, mass) = (&*pos, &*radius, &*mass);
-        let law = &*law;
-        let dom = &*domain;
+    /// Computes all forces and torques at the current positions (call
+    /// [`Simulation::prepare_neighbors`] first). Contact histories advance by `dt_hist` (0
+    /// re-evaluates without advancing). With `use_eval` the velocities in the workspace
+    /// (Beeman's predicted velocities) are used instead of the grains' own. With `kick = Some(h)`
+    /// the pass that completes each grain's force also advances its velocity by h·F/m and its
+    /// angular velocity by h·τ/I (velocity Verlet's second half kick).
+    pub(crate) fn compute_forces(&mut self, dt_hist: f64, use_eval: bool, kick: Option<f64>) -> Result<()> {
+        let specialized = self.law.specialize();
+        let time = self.time;
+        let Simulation { grains, domain, nlist, work, loads, gravity, .. } = self;
+        let n = grains.len();
 
-        let pair_stats = nlist
-            .pairs
-            .par_iter_mut()
-            .zip(work.pair_force.par_iter_mut())
-            .enumerate()
-            .with_min_len(512)
-            .map(|(k, (p, out))| {
-                let (i, j) = (p.i as usize, p.j as usize);
-                let r = dom.displacement(pos[i], pos[j]);
-                let kin = pair_kinematics::<D>(r, radius[i], radius[j], mass[i], mass[j], vel[i], vel[j], omega[i], omega[j]);
-                let was = p.state.in_contact();
-                match contact(law, kin, &mut p.state, dt_hist) {
-                    None => {
-                        *out = PairForce::default();
-                        ForceStats { changes: was as u64, ..Default::default() }
-                    }
-                    Some((kin, o, formed)) => {
-                        let n = kin.normal;
-                        let t = D::cross(n, o.tangential_force);
-                        out.force = o.tangential_force - n * o.normal_force;
-                        out.torque_i = t * kin.lever_i + o.rolling_torque;
-                        out.torque_j = t * kin.lever_j - o.rolling_torque;
-                        ForceStats {
-                            changes: formed as u64,
-                            contacts: 1,
-                            sliding: o.sliding as u64,
-                            deepest: (kin.overlap / radius[i].min(radius[j]), 0, k),
-                        }
-                    }
-                }
-            })
-            .reduce(ForceStats::default, ForceStats::merge);
-
+        // Grain–wall contacts, into their buffer.
         let walls = &domain.walls;
+        let (pos, radius, mass) = (&grains.pos, &grains.radius, &grains.mass);
+        let (vel, omega) = if use_eval { (&work.vel_eval[..], &work.omega_eval[..]) } else { (&grains.vel[..], &grains.omega[..]) };
         let wall_stats = nlist
             .wall_pairs
             .par_iter_mut()
@@ -160,59 +417,84 @@ impl<D: Dim> Simulation<D> {
                 let wall = &walls[wp.wall as usize];
                 let kin = wall_kinematics::<D>(wall.distance(pos[g]), wall.normal, wall.velocity(), radius[g], mass[g], vel[g], omega[g]);
                 let was = wp.state.in_contact();
-                match contact(&wall.law, kin, &mut wp.state, dt_hist) {
+                match kin {
                     None => {
                         *out = WallForce::default();
-                        ForceStats { changes: was as u64, ..Default::default() }
+                        if was {
+                            wp.state = ContactState::default();
+                        }
+                        ForceStats { changes: was as u64, ..ForceStats::new() }
                     }
-                    Some((kin, o, formed)) => {
+                    Some(kin) => {
+                        let o = wall.law.evaluate(&kin, &mut wp.state, dt_hist);
                         let n = kin.normal;
                         out.force = o.tangential_force - n * o.normal_force;
                         out.torque = D::cross(n, o.tangential_force) * kin.lever_i + o.rolling_torque;
                         ForceStats {
-                            changes: formed as u64,
+                            changes: !was as u64,
                             contacts: 1,
                             sliding: o.sliding as u64,
                             deepest: (kin.overlap / radius[g], 1, k),
+                            bad: usize::MAX,
                         }
                     }
                 }
             })
-            .reduce(ForceStats::default, ForceStats::merge);
-        let stats = ForceStats::merge(pair_stats, wall_stats);
+            .reduce(ForceStats::new, ForceStats::merge);
 
-        // Fixed-order reduction per grain.
-        let adj = &work.adjacency;
-        let pf = &work.pair_force;
-        let wf = &work.wall_force;
-        let g_acc = *gravity;
-        force.par_iter_mut().zip(torque.par_iter_mut()).enumerate().with_min_len(1024).for_each(|(g, (f, t))| {
-            let mut fs = D::Vector::ZERO;
-            let mut ts = D::AngVector::ZERO;
-            for &e in &adj.entries[adj.start[g] as usize..adj.start[g + 1] as usize] {
-                let p = &pf[(e >> 1) as usize];
-                if e & 1 == 0 {
-                    fs += p.force;
-                    ts += p.torque_i;
-                } else {
-                    fs -= p.force;
-                    ts += p.torque_j;
-                }
-            }
-            for w in &wf[adj.wall_start[g] as usize..adj.wall_start[g + 1] as usize] {
-                fs += w.force;
-                ts += w.torque;
-            }
-            *f = fs + g_acc * mass[g];
-            *t = ts;
-        });
+        // External loads now, by grain.
+        work.loads.clear();
         for load in loads.iter() {
             if let Some(k) = grains.index_of(load.grain) {
-                let s = load.profile.eval(*time);
-                grains.force[k] += load.force * s;
-                grains.torque[k] += load.torque * s;
+                let s = load.profile.eval(time);
+                work.loads.push((k, load.force * s, load.torque * s));
             }
         }
+        work.loads.sort_by_key(|l| l.0);
+
+        let list = &mut nlist.list;
+        let cross = &mut work.cross;
+        let mut forces = std::mem::take(&mut cross.forces);
+        let inp = Inputs { image: domain.image(), dt: dt_hist, pos, radius, mass, owner_start: &list.owner_start, partner: &list.partner };
+        let blocks = n.div_ceil(cross.block_len);
+
+        // Phase A: cross-block pairs.
+        let cross_stats = if forces.is_empty() {
+            ForceStats::new()
+        } else {
+            let h = History::of_parts(&mut list.spring, &mut list.overlap, &mut list.sliding, &mut list.rolling, &mut list.twist);
+            match specialized {
+                Specialized::HertzMindlin(law) => cross_pairs(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0),
+                Specialized::HookeCundallStrack(law) => cross_pairs(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0),
+                Specialized::General(law) => cross_pairs::<D, ContactLaw>(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0),
+            }
+        };
+        cross.forces = forces;
+
+        // Phase B: blocks, each grain completed as soon as its pairs are summed.
+        let fin = Finish {
+            gravity: *gravity,
+            inertia: &grains.inertia,
+            wall_start: &work.wall_index.start,
+            wall_force: &work.wall_force,
+            loads: &work.loads,
+            kick: if use_eval { None } else { kick },
+        };
+        let (gv, gw) = if use_eval { (&mut work.vel_eval, &mut work.omega_eval) } else { (&mut grains.vel, &mut grains.omega) };
+        let g = Grain { base: 0, force: &mut grains.force, torque: &mut grains.torque, vel: gv, omega: gw };
+        let h = History::of_parts(&mut list.spring, &mut list.overlap, &mut list.sliding, &mut list.rolling, &mut list.twist);
+        let cross = &work.cross;
+        let pair_stats = if n == 0 {
+            ForceStats::new()
+        } else {
+            match specialized {
+                Specialized::HertzMindlin(law) => blocks_pass(&law, &inp, cross, &fin, 0..blocks, h, g),
+                Specialized::HookeCundallStrack(law) => blocks_pass(&law, &inp, cross, &fin, 0..blocks, h, g),
+                Specialized::General(law) => blocks_pass::<D, ContactLaw>(&law, &inp, cross, &fin, 0..blocks, h, g),
+            }
+        };
+        let stats = ForceStats::merge(ForceStats::merge(pair_stats, cross_stats), wall_stats);
+
         // Forces on walls, in list order.
         for w in domain.walls.iter_mut() {
             w.force = D::Vector::ZERO;
@@ -227,15 +509,14 @@ impl<D: Dim> Simulation<D> {
         if stats.deepest.0 > self.counters.max_overlap_ratio_seen {
             self.counters.max_overlap_ratio_seen = stats.deepest.0;
         }
-        let g = &self.grains;
-        if let Some(k) = (0..g.len()).into_par_iter().find_first(|&k| !g.force[k].is_finite_vec() || !g.torque[k].is_finite_vec()) {
-            return Err(self.blow_up(k, "non-finite force or torque".into()));
+        if stats.bad < n {
+            return Err(self.blow_up(stats.bad, "non-finite force or torque".into()));
         }
-        if stats.deepest.0 > safety.max_overlap_fraction {
+        if stats.deepest.0 > self.safety.max_overlap_fraction {
             let (ratio, is_wall, idx) = stats.deepest;
             let (k, partner) = if is_wall == 0 {
-                let p = &self.nlist.pairs[idx];
-                (p.i as usize, format!("grain id {}", self.grains.id[p.j as usize]))
+                let list = &self.nlist.list;
+                (list.owner_of(idx), format!("grain id {}", self.grains.id[list.partner[idx] as usize]))
             } else {
                 let wp = &self.nlist.wall_pairs[idx];
                 (wp.grain as usize, format!("wall `{}`", self.domain.walls[wp.wall as usize].name))
@@ -259,5 +540,67 @@ impl<D: Dim> Simulation<D> {
                 w.accel = (force.eval(t) + w.force.dot(w.normal)) / mass;
             }
         }
+    }
+}
+
+impl<'a, D: Dim> History<'a, D> {
+    fn of_parts(
+        spring: &'a mut [D::Vector],
+        overlap: &'a mut [f64],
+        sliding: &'a mut [bool],
+        rolling: &'a mut [D::AngVector],
+        twist: &'a mut [f64],
+    ) -> Self {
+        History { base: 0, spring, overlap, sliding, rolling, twist }
+    }
+}
+
+impl<D: Dim> CrossIndex<D> {
+    /// Index of the cross-block pairs of `list` for `n` grains in blocks of `block_len`.
+    pub(super) fn rebuild(&mut self, list: &PairList<D>, n: usize, block_len: usize, builds: u64) {
+        let blocks = n.div_ceil(block_len);
+        self.builds = builds;
+        self.block_len = block_len;
+        self.n = n;
+        self.cross_begin.resize(n, 0);
+        self.cross_slot.resize(n, 0);
+        self.block_slot_start.clear();
+        let mut slots = 0u32;
+        for b in 0..blocks {
+            self.block_slot_start.push(slots);
+            let end = ((b + 1) * block_len).min(n);
+            for i in b * block_len..end {
+                let (s, e) = (list.owner_start[i] as usize, list.owner_start[i + 1] as usize);
+                let cb = s + list.partner[s..e].partition_point(|&j| (j as usize) < end);
+                self.cross_begin[i] = cb as u32;
+                self.cross_slot[i] = slots;
+                slots += (e - cb) as u32;
+            }
+        }
+        self.block_slot_start.push(slots);
+        // Incoming contributions per partner, in slot order (that is, by owner).
+        self.in_start.clear();
+        self.in_start.resize(n + 1, 0);
+        for i in 0..n {
+            for p in self.cross_begin[i] as usize..list.owner_start[i + 1] as usize {
+                self.in_start[list.partner[p] as usize + 1] += 1;
+            }
+        }
+        for j in 0..n {
+            self.in_start[j + 1] += self.in_start[j];
+        }
+        self.in_slot.resize(slots as usize, 0);
+        let mut fill = self.in_start.clone();
+        for i in 0..n {
+            let mut slot = self.cross_slot[i];
+            for p in self.cross_begin[i] as usize..list.owner_start[i + 1] as usize {
+                let j = list.partner[p] as usize;
+                self.in_slot[fill[j] as usize] = slot;
+                fill[j] += 1;
+                slot += 1;
+            }
+        }
+        self.forces.clear();
+        self.forces.resize(slots as usize, CrossForce::default());
     }
 }

@@ -4,9 +4,11 @@ use super::{Integrator, Simulation};
 use crate::dim::{Dim, VectorOps};
 use crate::domain::WallMotion;
 use crate::error::Result;
+use crate::neighbor::nan_max;
 use rayon::prelude::*;
 
-const MIN_LEN: usize = 1024;
+/// Grains per parallel work item of the per-grain passes.
+pub(crate) const MIN_LEN: usize = 1024;
 
 impl<D: Dim> Simulation<D> {
     /// Advances the simulation by one time step.
@@ -37,32 +39,40 @@ impl<D: Dim> Simulation<D> {
     fn step_verlet(&mut self) -> Result<()> {
         let dt = self.dt;
         let h = 0.5 * dt;
-        {
-            let g = &mut self.grains;
-            let dom = &self.domain;
+        // Kick, drift, wrap, turn, and measure how far the grains moved since the neighbor list
+        // was built.
+        let max_displacement2 = {
+            let Simulation { grains: g, domain: dom, nlist, .. } = self;
+            let image = dom.image();
+            let reference = &nlist.ref_pos;
+            let track = reference.len() == g.pos.len();
             g.pos
-                .par_iter_mut()
-                .zip(g.vel.par_iter_mut())
-                .zip(g.image.par_iter_mut())
-                .zip(g.force.par_iter())
-                .zip(g.mass.par_iter())
-                .with_min_len(MIN_LEN)
-                .for_each(|((((x, v), im), f), m)| {
-                    *v += *f * (h / m);
-                    *x += *v * dt;
-                    dom.wrap(x, im);
-                });
-            g.omega
-                .par_iter_mut()
-                .zip(g.orientation.par_iter_mut())
-                .zip(g.torque.par_iter())
-                .zip(g.inertia.par_iter())
-                .with_min_len(MIN_LEN)
-                .for_each(|(((w, o), t), i)| {
-                    *w += *t * (h / i);
-                    *o = D::rotate_orientation(*o, *w, dt);
-                });
-        }
+                .par_chunks_mut(MIN_LEN)
+                .zip(g.vel.par_chunks_mut(MIN_LEN))
+                .zip(g.image.par_chunks_mut(MIN_LEN))
+                .zip(g.force.par_chunks(MIN_LEN))
+                .zip(g.omega.par_chunks_mut(MIN_LEN))
+                .zip(g.orientation.par_chunks_mut(MIN_LEN))
+                .zip(g.torque.par_chunks(MIN_LEN))
+                .enumerate()
+                .map(|(c, ((((((x, v), im), f), w), o), t))| {
+                    let base = c * MIN_LEN;
+                    let mut max_d2 = 0.0;
+                    for k in 0..x.len() {
+                        let (m, inertia) = (g.mass[base + k], g.inertia[base + k]);
+                        v[k] += f[k] * (h / m);
+                        x[k] += v[k] * dt;
+                        dom.wrap(&mut x[k], &mut im[k]);
+                        w[k] += t[k] * (h / inertia);
+                        o[k] = D::rotate_orientation(o[k], w[k], dt);
+                        if track {
+                            max_d2 = nan_max(max_d2, image.displacement(reference[base + k], x[k]).norm2());
+                        }
+                    }
+                    max_d2
+                })
+                .reduce(|| 0.0, nan_max)
+        };
         let t0 = self.time;
         for w in &mut self.domain.walls {
             match &w.motion {
@@ -78,17 +88,9 @@ impl<D: Dim> Simulation<D> {
             }
         }
         self.time = t0 + dt;
-        self.prepare_neighbors()?;
-        self.compute_forces(dt, false)?;
-        {
-            let g = &mut self.grains;
-            g.vel.par_iter_mut().zip(g.force.par_iter()).zip(g.mass.par_iter()).with_min_len(MIN_LEN).for_each(|((v, f), m)| {
-                *v += *f * (h / m);
-            });
-            g.omega.par_iter_mut().zip(g.torque.par_iter()).zip(g.inertia.par_iter()).with_min_len(MIN_LEN).for_each(|((w, t), i)| {
-                *w += *t * (h / i);
-            });
-        }
+        self.prepare_neighbors(Some(max_displacement2))?;
+        // forces, then the second half kick in the same per-grain pass
+        self.compute_forces(dt, false, Some(h))?;
         self.update_piston_accelerations();
         let t1 = self.time;
         for w in &mut self.domain.walls {
@@ -109,10 +111,16 @@ impl<D: Dim> Simulation<D> {
             self.prev_acc = (0..n).map(|k| self.grains.force[k] / self.grains.mass[k]).collect();
             self.prev_ang_acc = (0..n).map(|k| self.grains.torque[k] / self.grains.inertia[k]).collect();
         }
-        // a(t) before the forces are overwritten.
-        let acc: Vec<D::Vector> = (0..n).into_par_iter().with_min_len(MIN_LEN).map(|k| self.grains.force[k] / self.grains.mass[k]).collect();
-        let ang: Vec<D::AngVector> =
-            (0..n).into_par_iter().with_min_len(MIN_LEN).map(|k| self.grains.torque[k] / self.grains.inertia[k]).collect();
+        // a(t) before the forces are overwritten (buffers kept between steps).
+        let mut acc = std::mem::take(&mut self.work.acc);
+        let mut ang = std::mem::take(&mut self.work.ang_acc);
+        acc.resize(n, D::Vector::ZERO);
+        ang.resize(n, D::AngVector::ZERO);
+        {
+            let g = &self.grains;
+            acc.par_iter_mut().zip(g.force.par_iter().zip(g.mass.par_iter())).with_min_len(MIN_LEN).for_each(|(a, (f, m))| *a = *f / *m);
+            ang.par_iter_mut().zip(g.torque.par_iter().zip(g.inertia.par_iter())).with_min_len(MIN_LEN).for_each(|(a, (t, i))| *a = *t / *i);
+        }
         {
             let Simulation { grains: g, domain: dom, prev_acc, prev_ang_acc, work, .. } = self;
             work.vel_eval.resize(n, D::Vector::ZERO);
@@ -143,7 +151,8 @@ impl<D: Dim> Simulation<D> {
                 });
         }
         let t0 = self.time;
-        let mut wall_accel = Vec::with_capacity(self.domain.walls.len());
+        let mut wall_accel = std::mem::take(&mut self.work.wall_accel);
+        wall_accel.clear();
         for w in &mut self.domain.walls {
             wall_accel.push(w.accel);
             match &w.motion {
@@ -161,8 +170,8 @@ impl<D: Dim> Simulation<D> {
             }
         }
         self.time = t0 + dt;
-        self.prepare_neighbors()?;
-        self.compute_forces(dt, true)?;
+        self.prepare_neighbors(None)?;
+        self.compute_forces(dt, true, None)?;
         {
             let Simulation { grains: g, prev_acc, prev_ang_acc, .. } = self;
             g.vel
@@ -186,8 +195,10 @@ impl<D: Dim> Simulation<D> {
                     *ap = *a;
                 });
         }
+        self.work.acc = acc;
+        self.work.ang_acc = ang;
         self.update_piston_accelerations();
-        for (w, a_old) in self.domain.walls.iter_mut().zip(wall_accel) {
+        for (w, &a_old) in self.domain.walls.iter_mut().zip(&wall_accel) {
             if let WallMotion::Piston { .. } = w.motion {
                 // undo the prediction, then apply the corrector
                 let v_t = w.speed - (3.0 * a_old - w.prev_accel) * 0.5 * dt;
@@ -195,6 +206,7 @@ impl<D: Dim> Simulation<D> {
                 w.prev_accel = a_old;
             }
         }
+        self.work.wall_accel = wall_accel;
         Ok(())
     }
 }

@@ -12,7 +12,7 @@ use crate::contact::{ContactLaw, ContactState};
 use crate::dim::{Dim, VectorOps};
 use crate::domain::Domain;
 use crate::grains::Grains;
-use crate::neighbor::{Adjacency, NeighborList};
+use crate::neighbor::{NeighborList, WallIndex};
 use crate::util::Fnv64;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -122,36 +122,91 @@ pub struct Simulation<D: Dim> {
     work: Workspace<D>,
 }
 
-/// Derived buffers, rebuilt when needed.
+/// Derived buffers, rebuilt when needed (allocated once, not per step).
 #[derive(Clone, Debug)]
 struct Workspace<D: Dim> {
-    pair_force: Vec<PairForce<D>>,
+    /// Cross-block pairs of the force pass.
+    cross: CrossIndex<D>,
+    /// Grains per block of the force pass, when fixed by hand (tests).
+    block_len: Option<usize>,
+    /// External loads of the current evaluation: (grain index, force, torque).
+    loads: Vec<(usize, D::Vector, D::AngVector)>,
     wall_force: Vec<WallForce<D>>,
-    adjacency: Adjacency,
-    adjacency_builds: u64,
+    wall_index: WallIndex,
+    wall_index_builds: u64,
+    /// Beeman: predicted velocities seen by the forces.
     vel_eval: Vec<D::Vector>,
     omega_eval: Vec<D::AngVector>,
+    /// Beeman: accelerations a(t) of the current step.
+    acc: Vec<D::Vector>,
+    ang_acc: Vec<D::AngVector>,
+    /// Beeman: wall accelerations of the current step.
+    wall_accel: Vec<f64>,
 }
 
 impl<D: Dim> Default for Workspace<D> {
     fn default() -> Self {
         Workspace {
-            pair_force: Vec::new(),
+            cross: CrossIndex::default(),
+            block_len: None,
+            loads: Vec::new(),
             wall_force: Vec::new(),
-            adjacency: Adjacency::default(),
-            adjacency_builds: u64::MAX,
+            wall_index: WallIndex::default(),
+            wall_index_builds: u64::MAX,
             vel_eval: Vec::new(),
             omega_eval: Vec::new(),
+            acc: Vec::new(),
+            ang_acc: Vec::new(),
+            wall_accel: Vec::new(),
         }
     }
 }
 
-/// Force and torques of one grain–grain pair (force on i; j gets the opposite).
+/// Force on i and torques on i and j of a pair whose grains are in different blocks of the force
+/// pass (see `forces`).
 #[derive(Clone, Copy, Debug, Default)]
-struct PairForce<D: Dim> {
+struct CrossForce<D: Dim> {
     force: D::Vector,
     torque_i: D::AngVector,
     torque_j: D::AngVector,
+}
+
+/// Which pairs of the neighbor list cross block boundaries, and where their forces go.
+#[derive(Clone, Debug)]
+struct CrossIndex<D: Dim> {
+    /// Neighbor-list build this index was made for.
+    builds: u64,
+    /// Grains per block.
+    block_len: usize,
+    /// Number of grains.
+    n: usize,
+    /// Per grain: its first pair whose partner lies in a later block.
+    cross_begin: Vec<u32>,
+    /// Per grain: buffer slot of that pair (its cross pairs use consecutive slots).
+    cross_slot: Vec<u32>,
+    /// First slot of each block.
+    block_slot_start: Vec<u32>,
+    /// Slots whose partner is grain j: `in_slot[in_start[j]..in_start[j + 1]]`, by owner.
+    in_start: Vec<u32>,
+    in_slot: Vec<u32>,
+    /// The buffer.
+    forces: Vec<CrossForce<D>>,
+}
+
+impl<D: Dim> Default for CrossIndex<D> {
+    fn default() -> Self {
+        CrossIndex {
+            builds: u64::MAX,
+            block_len: 0,
+            n: 0,
+            cross_begin: Vec::new(),
+            cross_slot: Vec::new(),
+            block_slot_start: Vec::new(),
+            in_start: Vec::new(),
+            in_slot: Vec::new(),
+            forces: Vec::new(),
+        }
+    }
 }
 
 /// Force and torque of one grain–wall contact on the grain.
@@ -181,7 +236,7 @@ impl<D: Dim> Simulation<D> {
     /// Elastic energy stored in all contacts (normal, tangential and rolling springs).
     pub fn elastic_energy(&self) -> f64 {
         let g = &self.grains;
-        let pairs = &self.nlist.pairs;
+        let pairs: Vec<crate::neighbor::Pair<D>> = self.nlist.pairs().collect();
         let e_pairs = crate::util::det_sum(pairs.len(), |k| {
             let p = &pairs[k];
             let (i, j) = (p.i as usize, p.j as usize);
@@ -233,7 +288,7 @@ impl<D: Dim> Simulation<D> {
             h.write_f64(s.overlap);
             h.write(&[s.sliding as u8]);
         };
-        for p in &self.nlist.pairs {
+        for p in self.nlist.pairs() {
             hist(&p.state);
         }
         for p in &self.nlist.wall_pairs {
@@ -246,6 +301,13 @@ impl<D: Dim> Simulation<D> {
             h.write_f64(w.speed);
         }
         h.finish()
+    }
+
+    /// Fixes the number of grains per block of the force pass (`None`: chosen from the number of
+    /// threads). Results do not depend on it — this exists to test exactly that.
+    #[doc(hidden)]
+    pub fn set_force_block_len(&mut self, len: Option<usize>) {
+        self.work.block_len = len.map(|l| l.max(1));
     }
 
     /// Adds a warning once. A warning starting like an earlier one (same first four words, e.g.
@@ -267,8 +329,8 @@ impl<D: Dim> Simulation<D> {
     /// Recomputes forces and torques at the current state without advancing time or histories
     /// (use after changing parameters, velocities or loads by hand).
     pub fn refresh_forces(&mut self) -> crate::Result<()> {
-        self.prepare_neighbors()?;
-        self.compute_forces(0.0, false)?;
+        self.prepare_neighbors(None)?;
+        self.compute_forces(0.0, false, None)?;
         self.update_piston_accelerations();
         if self.integrator == Integrator::Beeman {
             self.prev_acc = (0..self.len()).map(|k| self.grains.force[k] / self.grains.mass[k]).collect();

@@ -1,0 +1,239 @@
+//! A contact law seen through its parts, so that the force kernel can be compiled once per
+//! common combination of parts (branch-free) and once for the general [`ContactLaw`].
+//!
+//! [`evaluate_parts`](super::evaluate_parts) is written against [`LawParts`]. [`ContactLaw`]
+//! implements it by reading its enum fields at run time; [`HertzMindlin`] and
+//! [`HookeCundallStrack`] fix the normal and tangential parts and switch rolling and twisting
+//! off at compile time. Each part computes the same expression in every implementation, so a
+//! specialised kernel gives exactly the bits of the general one (tested).
+
+use super::{ContactLaw, NormalDamping, NormalElastic, Rolling, Tangential, TangentialDamping, Twisting};
+
+/// The parts of a contact law, as [`evaluate_parts`](super::evaluate_parts) reads them.
+pub trait LawParts: Copy + Send + Sync {
+    /// Normal elastic part.
+    fn normal(&self) -> NormalElastic;
+    /// Normal damping part.
+    fn damping(&self) -> NormalDamping;
+    /// Tangential elastic part.
+    fn tangential(&self) -> Tangential;
+    /// Tangential damping part.
+    fn tangential_damping(&self) -> TangentialDamping;
+    /// Coulomb coefficient.
+    fn friction(&self) -> f64;
+    /// Rolling resistance.
+    fn rolling(&self) -> Rolling;
+    /// Twisting resistance.
+    fn twisting(&self) -> Twisting;
+}
+
+impl LawParts for ContactLaw {
+    #[inline(always)]
+    fn normal(&self) -> NormalElastic {
+        self.normal
+    }
+    #[inline(always)]
+    fn damping(&self) -> NormalDamping {
+        self.damping
+    }
+    #[inline(always)]
+    fn tangential(&self) -> Tangential {
+        self.tangential
+    }
+    #[inline(always)]
+    fn tangential_damping(&self) -> TangentialDamping {
+        self.tangential_damping
+    }
+    #[inline(always)]
+    fn friction(&self) -> f64 {
+        self.friction
+    }
+    #[inline(always)]
+    fn rolling(&self) -> Rolling {
+        self.rolling
+    }
+    #[inline(always)]
+    fn twisting(&self) -> Twisting {
+        self.twisting
+    }
+}
+
+/// Hertz normal force, incremental Mindlin (no rescaling on unloading), any damping, Coulomb
+/// friction, no rolling or twisting resistance: the `hertz_mindlin` preset.
+#[derive(Clone, Copy, Debug)]
+pub struct HertzMindlin {
+    effective_modulus: f64,
+    effective_shear_modulus: f64,
+    damping: NormalDamping,
+    tangential_damping: TangentialDamping,
+    friction: f64,
+}
+
+/// Hooke normal force, linear Cundall–Strack spring, any damping, Coulomb friction, no rolling
+/// or twisting resistance: the `hooke_cundall_strack` preset.
+#[derive(Clone, Copy, Debug)]
+pub struct HookeCundallStrack {
+    normal_stiffness: f64,
+    tangential_stiffness: f64,
+    damping: NormalDamping,
+    tangential_damping: TangentialDamping,
+    friction: f64,
+}
+
+macro_rules! common_parts {
+    () => {
+        #[inline(always)]
+        fn damping(&self) -> NormalDamping {
+            self.damping
+        }
+        #[inline(always)]
+        fn tangential_damping(&self) -> TangentialDamping {
+            self.tangential_damping
+        }
+        #[inline(always)]
+        fn friction(&self) -> f64 {
+            self.friction
+        }
+        #[inline(always)]
+        fn rolling(&self) -> Rolling {
+            Rolling::None
+        }
+        #[inline(always)]
+        fn twisting(&self) -> Twisting {
+            Twisting::None
+        }
+    };
+}
+
+impl LawParts for HertzMindlin {
+    #[inline(always)]
+    fn normal(&self) -> NormalElastic {
+        NormalElastic::Hertz { effective_modulus: self.effective_modulus }
+    }
+    #[inline(always)]
+    fn tangential(&self) -> Tangential {
+        Tangential::Mindlin { effective_shear_modulus: self.effective_shear_modulus, rescale_on_unloading: false }
+    }
+    common_parts!();
+}
+
+impl LawParts for HookeCundallStrack {
+    #[inline(always)]
+    fn normal(&self) -> NormalElastic {
+        NormalElastic::Hooke { stiffness: self.normal_stiffness }
+    }
+    #[inline(always)]
+    fn tangential(&self) -> Tangential {
+        Tangential::Linear { stiffness: self.tangential_stiffness }
+    }
+    common_parts!();
+}
+
+/// A law recognised as one of the specialised combinations, or the general law.
+#[derive(Clone, Copy, Debug)]
+pub enum Specialized {
+    /// See [`HertzMindlin`].
+    HertzMindlin(HertzMindlin),
+    /// See [`HookeCundallStrack`].
+    HookeCundallStrack(HookeCundallStrack),
+    /// Anything else (rolling or twisting resistance, no friction, rescaled Mindlin, mixed
+    /// parts): evaluated through [`ContactLaw`] itself.
+    General(ContactLaw),
+}
+
+impl ContactLaw {
+    /// The fastest evaluation path for this law.
+    pub fn specialize(&self) -> Specialized {
+        if self.rolling != Rolling::None || self.twisting != Twisting::None {
+            return Specialized::General(*self);
+        }
+        let (damping, tangential_damping, friction) = (self.damping, self.tangential_damping, self.friction);
+        match (self.normal, self.tangential) {
+            (NormalElastic::Hertz { effective_modulus }, Tangential::Mindlin { effective_shear_modulus, rescale_on_unloading: false }) => {
+                Specialized::HertzMindlin(HertzMindlin { effective_modulus, effective_shear_modulus, damping, tangential_damping, friction })
+            }
+            (NormalElastic::Hooke { stiffness: normal_stiffness }, Tangential::Linear { stiffness: tangential_stiffness }) => {
+                Specialized::HookeCundallStrack(HookeCundallStrack { normal_stiffness, tangential_stiffness, damping, tangential_damping, friction })
+            }
+            _ => Specialized::General(*self),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::contact::{evaluate_parts, pair_kinematics, ContactParams, ContactState, Partner};
+    use crate::dim::{Dim, VectorOps, D2, D3};
+    use glam::{DVec2, DVec3};
+    use rand::{RngExt, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// Random contacts (overlaps, velocities, spins, stored histories, some sliding) evaluated
+    /// through the specialised parts and through the general law: same bits, same histories.
+    fn same_bits<D: Dim, P: LawParts>(special: &P, general: &ContactLaw, mk: impl Fn(&mut ChaCha8Rng) -> (D::Vector, D::Vector, D::AngVector, D::Vector)) {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        let (mut contacts, mut sliding) = (0, 0);
+        for _ in 0..2000 {
+            let (r, v, w, spring) = mk(&mut rng);
+            let (ri, rj) = (0.4 + 0.2 * rng.random::<f64>(), 0.4 + 0.2 * rng.random::<f64>());
+            let Some(kin) = pair_kinematics::<D>(r, ri, rj, 1.0 + rng.random::<f64>(), 0.5 + rng.random::<f64>(), D::Vector::ZERO, v, w, w * 0.3) else {
+                continue;
+            };
+            let state = ContactState::<D> { spring, overlap: if rng.random::<f64>() < 0.2 { 0.0 } else { kin.overlap * 1.01 }, ..Default::default() };
+            let (mut a, mut b) = (state, state);
+            let oa = evaluate_parts(special, &kin, &mut a, 1e-3);
+            let ob = evaluate_parts(general, &kin, &mut b, 1e-3);
+            assert_eq!(format!("{oa:?} {a:?}"), format!("{ob:?} {b:?}"));
+            contacts += 1;
+            sliding += oa.sliding as usize;
+        }
+        assert!(contacts > 1000 && sliding > 200 && sliding < contacts - 200, "{contacts} contacts, {sliding} sliding");
+    }
+
+    #[test]
+    fn specialised_kernels_give_the_bits_of_the_general_law() {
+        let mut hertz = ContactParams::preset("hertz_mindlin");
+        hertz.young = Some(1e5);
+        hertz.poisson = Some(0.3);
+        hertz.tsuji_restitution = Some(0.5);
+        let mut hooke = ContactParams::preset("hooke_cundall_strack");
+        hooke.normal_stiffness = Some(1e4);
+        hooke.normal_damping_rate = Some(50.0);
+        hooke.friction = Some(0.3);
+        let mut hertz_zeta = hertz.clone();
+        hertz_zeta.tsuji_restitution = None;
+        hertz_zeta.damping_fraction = Some(0.1);
+        let mut hooke_e = hooke.clone();
+        hooke_e.normal_damping_rate = None;
+        hooke_e.restitution = Some(0.8);
+        let mut checked = 0;
+        for p in [hertz, hooke, hertz_zeta, hooke_e] {
+            let law = p.build(Partner::Grain, "contact").unwrap();
+            let v3 = |rng: &mut ChaCha8Rng| DVec3::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5);
+            let mk3 = |rng: &mut ChaCha8Rng| (DVec3::new(0.9 + 0.1 * rng.random::<f64>(), 0.2 * rng.random::<f64>(), 0.1), v3(rng), v3(rng), v3(rng) * 10f64.powf(7.0 * rng.random::<f64>() - 3.0));
+            let mk2 = |rng: &mut ChaCha8Rng| {
+                let v = DVec2::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5);
+                (DVec2::new(0.9 + 0.1 * rng.random::<f64>(), 0.2 * rng.random::<f64>()), v, rng.random::<f64>() - 0.5, v * 10f64.powf(7.0 * rng.random::<f64>() - 3.0))
+            };
+            match law.specialize() {
+                Specialized::HertzMindlin(s) => {
+                    same_bits::<D3, _>(&s, &law, mk3);
+                    same_bits::<D2, _>(&s, &law, mk2);
+                }
+                Specialized::HookeCundallStrack(s) => {
+                    same_bits::<D3, _>(&s, &law, mk3);
+                    same_bits::<D2, _>(&s, &law, mk2);
+                }
+                Specialized::General(_) => panic!("{law:?} should be specialised"),
+            }
+            checked += 1;
+        }
+        assert_eq!(checked, 4);
+        // rolling resistance keeps the general path
+        let mut p = ContactParams::preset("hooke_cundall_strack");
+        p.normal_stiffness = Some(1e4);
+        p.rolling_stiffness = Some(1.0);
+        assert!(matches!(p.build(Partner::Grain, "contact").unwrap().specialize(), Specialized::General(_)));
+    }
+}

@@ -1,0 +1,63 @@
+//! The force pass cuts the grains into blocks (one per piece of parallel work) and sums every
+//! grain's force over its partners in increasing index whatever the cut: the bits of a run do not
+//! depend on the block length nor on the number of threads (see `sim::forces`).
+
+mod common;
+use common::*;
+use grainwave_core::contact::Partner;
+use grainwave_core::prelude::*;
+
+fn pool(n: usize) -> rayon::ThreadPool {
+    rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap()
+}
+
+fn hashes<D: Dim>(make: impl Fn() -> Simulation<D> + Sync, steps: u64) -> Vec<u64> {
+    let mut out = Vec::new();
+    for threads in [1, 2, 3] {
+        for len in [None, Some(1), Some(7), Some(64), Some(250), Some(100_000)] {
+            out.push(pool(threads).install(|| {
+                let mut sim = make();
+                sim.set_force_block_len(len);
+                sim.steps(steps).unwrap();
+                assert!(sim.nlist.builds > 1 && sim.counters.contacts > 0);
+                sim.state_hash()
+            }));
+        }
+    }
+    out
+}
+
+#[test]
+fn block_length_and_thread_count_do_not_change_a_bit_2d() {
+    // frictional, damped, with rolling resistance (general kernel) and without (specialised)
+    for rolling in [false, true] {
+        let mut p = hooke(1.0e3, Some(0.8), 0.3);
+        if rolling {
+            p.rolling_stiffness = Some(0.5);
+            p.rolling_friction = Some(0.05);
+        }
+        let law = p.build(Partner::Grain, "contact").unwrap();
+        let h = hashes(|| dense_2d(12, 15, law, 0.5, 21).build().unwrap(), 400);
+        assert!(h.iter().all(|&x| x == h[0]), "rolling {rolling}: {h:x?}");
+    }
+}
+
+#[test]
+fn block_length_and_thread_count_do_not_change_a_bit_3d_with_walls_and_gravity() {
+    use glam::DVec3;
+    let p = hertz(1.0e3, 0.3, 0.4, Some(0.05));
+    let law = p.build(Partner::Grain, "contact").unwrap();
+    let wall_law = p.build(Partner::Wall, "contact.wall").unwrap();
+    let make = || {
+        let mut sim = dense_3d(3, law, 0.2, 5).gravity(DVec3::new(0.0, 0.0, -0.5)).expected_overlap(0.05).build().unwrap();
+        // a floor below the lattice, and a load on one grain
+        let lo = sim.grains.pos.iter().map(|x| x.z).fold(f64::INFINITY, f64::min) - 0.6;
+        sim.domain.periodic[2] = false;
+        sim.domain.walls.push(Wall::axis_aligned("floor", 2, lo, true, wall_law));
+        sim.loads.push(ExternalLoad { grain: 3, force: DVec3::new(0.1, 0.0, 0.0), torque: DVec3::ZERO, profile: TimeFunction::Constant { value: 1.0 } });
+        sim.refresh().unwrap();
+        sim
+    };
+    let h = hashes(make, 300);
+    assert!(h.iter().all(|&x| x == h[0]), "{h:x?}");
+}
