@@ -61,7 +61,7 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
     let say = |r: &BenchResult| {
         if !quiet {
             println!(
-                "{:<9} {:<8} shear {:<5} N {:>6} steps {:>5} workers {} | {:>8.3} s  {:>10.4e} particle-steps/s  contacts/grain {:.4}  rebuilds {:>4}  peak mem {:>6.1} MiB  KE {:.6e}",
+                "{:<9} {:<8} shear {:<5} N {:>6} steps {:>5} workers {} | {:>8.3} s  {:>10.4e} particle-steps/s  contacts/grain {:.4}  rebuilds {:>4}  peak mem {:>6.1} MiB  KE {:.6e} {}",
                 r.code,
                 r.case,
                 r.shear,
@@ -73,7 +73,8 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
                 r.contacts_per_grain,
                 r.neighbor_rebuilds,
                 r.peak_memory_bytes as f64 / (1024.0 * 1024.0),
-                r.kinetic_energy
+                r.kinetic_energy,
+                r.state_hash
             );
         }
     };

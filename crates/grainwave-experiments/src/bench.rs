@@ -180,6 +180,9 @@ pub struct BenchResult {
     pub peak_memory_bytes: u64,
     /// Translational kinetic energy at the end.
     pub kinetic_energy: f64,
+    /// grainwave: fingerprint of the final state ([`grainwave_core::sim::Simulation::state_hash`]),
+    /// equal for any number of threads; empty for LAMMPS.
+    pub state_hash: String,
 }
 
 /// Runs one grainwave benchmark (in the current rayon pool).
@@ -256,6 +259,7 @@ fn time_run<D: Dim>(cfg: &BenchConfig, mut grains: Grains<D>, domain: Domain<D>,
         neighbor_rebuilds: sim.nlist.builds - builds0,
         peak_memory_bytes: peak_rss_bytes(),
         kinetic_energy: ke,
+        state_hash: format!("{:016x}", sim.state_hash()),
     })
 }
 
@@ -359,6 +363,7 @@ fn parse_lammps_output(text: &str, cfg: &BenchConfig, procs: usize) -> Result<Be
         neighbor_rebuilds: builds,
         peak_memory_bytes: (memory_mib * procs as f64 * 1024.0 * 1024.0) as u64,
         kinetic_energy: thermo[1].parse().unwrap_or(f64::NAN),
+        state_hash: String::new(),
     })
 }
 
