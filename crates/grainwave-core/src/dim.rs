@@ -250,20 +250,25 @@ impl Dim for D3 {
             return o;
         }
         // The rotation by the vector v = ω dt is the quaternion (sin(θ/2) v/θ, cos(θ/2)), θ = |v|.
-        // For the small angles of a time step, the series in x² = θ²/4 (no square root, no
-        // division, no library call) are exact to rounding: for x² < 1e-2 the first omitted terms,
-        // x¹²/12! and x¹⁰/11!, are below 1e-20.
+        // For the small angles of a time step, series in x² = θ²/4 (Horner form, multiplications
+        // only: no square root, division or library call) are exact to rounding: for x² < 1e-2
+        // the first omitted terms, x¹²/12! and x¹⁰/11!, are below 1e-20.
         let x2 = 0.25 * theta2;
         let r = if x2 < 1e-2 {
-            let half_sinc = 0.5 * (1.0 - x2 / 6.0 * (1.0 - x2 / 20.0 * (1.0 - x2 / 42.0 * (1.0 - x2 / 72.0 * (1.0 - x2 / 110.0)))));
-            let cos = 1.0 - x2 / 2.0 * (1.0 - x2 / 12.0 * (1.0 - x2 / 30.0 * (1.0 - x2 / 56.0 * (1.0 - x2 / 90.0))));
-            let a = v * half_sinc;
+            const S: [f64; 6] = [1.0, 1.0 / 6.0, 1.0 / 120.0, 1.0 / 5040.0, 1.0 / 362_880.0, 1.0 / 39_916_800.0];
+            const C: [f64; 6] = [1.0, 1.0 / 2.0, 1.0 / 24.0, 1.0 / 720.0, 1.0 / 40_320.0, 1.0 / 3_628_800.0];
+            let sinc = S[0] - x2 * (S[1] - x2 * (S[2] - x2 * (S[3] - x2 * (S[4] - x2 * S[5]))));
+            let cos = C[0] - x2 * (C[1] - x2 * (C[2] - x2 * (C[3] - x2 * (C[4] - x2 * C[5]))));
+            let a = v * (0.5 * sinc);
             DQuat::from_xyzw(a.x, a.y, a.z, cos)
         } else {
             DQuat::from_scaled_axis(v)
         };
-        (r * o).normalize()
+        // Renormalise with one Newton step for 1/|q| (|q| differs from 1 by rounding only).
+        let q = r * o;
+        q * (1.5 - 0.5 * q.length_squared())
     }
+
     fn orientation_rotation_vector(o: DQuat) -> [f64; 3] {
         o.to_scaled_axis().to_array()
     }

@@ -61,3 +61,49 @@ fn block_length_and_thread_count_do_not_change_a_bit_3d_with_walls_and_gravity()
     let h = hashes(make, 300);
     assert!(h.iter().all(|&x| x == h[0]), "{h:x?}");
 }
+
+#[test]
+fn specialised_window_kernels_give_the_bits_of_the_general_kernel() {
+    // Hertz–Mindlin (Tsuji and critical damping) and Hooke–Cundall–Strack (mass-proportional
+    // and restitution damping), 2D and 3D, 1 and 2 threads with several blocks.
+    let run = |general: bool, threads: usize, make: &(dyn Fn() -> Box<dyn FnMut(bool) -> u64> + Sync)| {
+        pool(threads).install(|| (make())(general))
+    };
+    let laws = {
+        let mut tsuji = hertz(1.0e3, 0.3, 0.4, None);
+        tsuji.tsuji_restitution = Some(0.5);
+        let mut rate = hooke(1.0e3, None, 0.3);
+        rate.normal_damping_rate = Some(5.0);
+        vec![tsuji, hertz(1.0e3, 0.3, 0.4, Some(0.05)), rate, hooke(1.0e3, Some(0.8), 0.3)]
+    };
+    for p in laws {
+        let law = p.build(Partner::Grain, "contact").unwrap();
+        assert!(!matches!(law.specialize(), grainwave_core::contact::Specialized::General(_)));
+        let make2 = move || -> Box<dyn FnMut(bool) -> u64> {
+            Box::new(move |general| {
+                let mut sim = dense_2d(30, 40, law, 0.5, 21).expected_overlap(0.05).build().unwrap();
+                sim.set_general_kernel(general);
+                sim.set_force_block_len(Some(300));
+                sim.steps(300).unwrap();
+                assert!(sim.counters.contacts > 0 && sim.nlist.builds > 1);
+                sim.state_hash()
+            })
+        };
+        let make3 = move || -> Box<dyn FnMut(bool) -> u64> {
+            Box::new(move |general| {
+                let mut sim = dense_3d(4, law, 0.3, 22).expected_overlap(0.05).build().unwrap();
+                sim.set_general_kernel(general);
+                sim.set_force_block_len(Some(50));
+                sim.steps(300).unwrap();
+                assert!(sim.counters.contacts > 0);
+                sim.state_hash()
+            })
+        };
+        for make in [&make2 as &(dyn Fn() -> Box<dyn FnMut(bool) -> u64> + Sync), &make3] {
+            let reference = run(true, 1, make);
+            for threads in [1, 2] {
+                assert_eq!(run(false, threads, make), reference, "{law:?}, {threads} threads");
+            }
+        }
+    }
+}

@@ -34,7 +34,7 @@ pub use damping::{
 pub use kinematics::{pair_kinematics, wall_kinematics, Kinematics};
 pub use normal::{NormalElastic, NormalResponse};
 pub use params::{ContactParams, Partner, PRESETS};
-pub use parts::{LawParts, Specialized};
+pub use parts::{HertzMindlin, HookeCundallStrack, LawParts, Specialized};
 pub use rolling::{Rolling, Twisting};
 pub use tangential::{Tangential, TangentialDamping};
 

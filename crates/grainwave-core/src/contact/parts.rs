@@ -62,22 +62,22 @@ impl LawParts for ContactLaw {
 /// friction, no rolling or twisting resistance: the `hertz_mindlin` preset.
 #[derive(Clone, Copy, Debug)]
 pub struct HertzMindlin {
-    effective_modulus: f64,
-    effective_shear_modulus: f64,
-    damping: NormalDamping,
-    tangential_damping: TangentialDamping,
-    friction: f64,
+    pub(crate) effective_modulus: f64,
+    pub(crate) effective_shear_modulus: f64,
+    pub(crate) damping: NormalDamping,
+    pub(crate) tangential_damping: TangentialDamping,
+    pub(crate) friction: f64,
 }
 
 /// Hooke normal force, linear Cundall–Strack spring, any damping, Coulomb friction, no rolling
 /// or twisting resistance: the `hooke_cundall_strack` preset.
 #[derive(Clone, Copy, Debug)]
 pub struct HookeCundallStrack {
-    normal_stiffness: f64,
-    tangential_stiffness: f64,
-    damping: NormalDamping,
-    tangential_damping: TangentialDamping,
-    friction: f64,
+    pub(crate) normal_stiffness: f64,
+    pub(crate) tangential_stiffness: f64,
+    pub(crate) damping: NormalDamping,
+    pub(crate) tangential_damping: TangentialDamping,
+    pub(crate) friction: f64,
 }
 
 macro_rules! common_parts {

@@ -18,6 +18,7 @@
 //! kick: one pass over the grains, no per-pair force buffer for intra-block pairs, and each pair
 //! evaluated exactly once.
 
+use super::lanes::{self, Window, WindowLaw, CAP};
 use super::{CrossForce, CrossIndex, Simulation, WallForce};
 use crate::contact::{evaluate_parts, pair_kinematics, wall_kinematics, ContactLaw, ContactState, LawParts, Rolling, Specialized, Twisting};
 use crate::dim::{Dim, VectorOps};
@@ -278,6 +279,52 @@ fn blocks_pass<D: Dim, P: LawParts>(
     block(law, inp, cross, fin, blocks.start, h, g)
 }
 
+/// Completes grain `i` (block starting at grain `g0`) once its intra-block pairs are summed into
+/// `force`/`torque`: its cross-block pairs in order, walls, body force, loads, finiteness check,
+/// kick.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn finish_grain<D: Dim>(
+    inp: &Inputs<D>,
+    cross: &CrossIndex<D>,
+    fin: &Finish<D>,
+    i: usize,
+    g0: usize,
+    force: &mut [D::Vector],
+    torque: &mut [D::AngVector],
+    vel: &mut [D::Vector],
+    omega: &mut [D::AngVector],
+    load: &mut usize,
+    st: &mut ForceStats,
+) {
+    let li = i - g0;
+    let (mut fi, mut ti) = (force[li], torque[li]);
+    let cb = cross.cross_begin[i] as usize;
+    for c in &cross.forces[cross.cross_slot[i] as usize..cross.cross_slot[i] as usize + (inp.owner_start[i + 1] as usize - cb)] {
+        fi += c.force;
+        ti += c.torque_i;
+    }
+    for c in &fin.wall_force[fin.wall_start[i] as usize..fin.wall_start[i + 1] as usize] {
+        fi += c.force;
+        ti += c.torque;
+    }
+    let m = inp.mass[i];
+    fi = fi + fin.gravity * m;
+    while *load < fin.loads.len() && fin.loads[*load].0 == i {
+        fi += fin.loads[*load].1;
+        ti += fin.loads[*load].2;
+        *load += 1;
+    }
+    if !(fi.is_finite_vec() && ti.is_finite_vec()) {
+        st.bad = st.bad.min(i);
+    } else if let Some(hk) = fin.kick {
+        vel[li] += fi * (hk / m);
+        omega[li] += ti * (hk / fin.inertia[i]);
+    }
+    force[li] = fi;
+    torque[li] = ti;
+}
+
 /// Phase B for one block.
 #[inline(always)]
 fn block<D: Dim, P: LawParts>(law: &P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, mut h: History<D>, g: Grain<D>) -> ForceStats {
@@ -314,29 +361,238 @@ fn block<D: Dim, P: LawParts>(law: &P, inp: &Inputs<D>, cross: &CrossIndex<D>, f
                 torque[lj] += o.torque_j;
             }
         }
-        for c in &cross.forces[cross.cross_slot[i] as usize..cross.cross_slot[i] as usize + (inp.owner_start[i + 1] as usize - cb)] {
-            fi += c.force;
-            ti += c.torque_i;
-        }
-        // the grain's pair forces are complete: walls, body force, loads, check, kick
-        for c in &fin.wall_force[fin.wall_start[i] as usize..fin.wall_start[i + 1] as usize] {
-            fi += c.force;
-            ti += c.torque;
-        }
-        fi = fi + fin.gravity * a.m;
-        while load < fin.loads.len() && fin.loads[load].0 == i {
-            fi += fin.loads[load].1;
-            ti += fin.loads[load].2;
-            load += 1;
-        }
-        if !(fi.is_finite_vec() && ti.is_finite_vec()) {
-            st.bad = st.bad.min(i);
-        } else if let Some(hk) = fin.kick {
-            vel[li] += fi * (hk / a.m);
-            omega[li] += ti * (hk / fin.inertia[i]);
-        }
         force[li] = fi;
         torque[li] = ti;
+        finish_grain(inp, cross, fin, i, g0, force, torque, vel, omega, &mut load, &mut st);
+    }
+    st
+}
+
+
+/// Where the velocities of a window's grains come from: the whole arrays (phase A) or a block
+/// starting at grain `base` (phase B).
+#[derive(Clone, Copy)]
+struct Velocities<'a, D: Dim> {
+    base: usize,
+    vel: &'a [D::Vector],
+    omega: &'a [D::AngVector],
+}
+
+/// Adds pair `p` = (i, j) to window `w` (inputs copied in).
+///
+/// Indices come from the neighbor list and the cross index, which only hold valid grains and
+/// pairs of the block being processed; they are checked in debug builds.
+#[inline(always)]
+fn push_pair<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &History<D>, v: Velocities<D>, p: usize, i: usize, j: usize) {
+    let k = w.len & (CAP - 1);
+    debug_assert!(w.len < CAP && j < inp.pos.len() && i >= v.base && j - v.base < v.vel.len() && p - h.base < h.spring.len());
+    w.pair[k] = p as u32;
+    w.i[k] = i as u32;
+    w.j[k] = j as u32;
+    // SAFETY: see above.
+    unsafe {
+        let (xi, xj) = (*inp.pos.get_unchecked(i), *inp.pos.get_unchecked(j));
+        lanes::put(&mut w.r, k, xj - xi);
+        let (vi, vj) = (*v.vel.get_unchecked(i - v.base), *v.vel.get_unchecked(j - v.base));
+        lanes::put(&mut w.v_rel, k, vj - vi);
+        lanes::put(&mut w.w_i, k, *v.omega.get_unchecked(i - v.base));
+        lanes::put(&mut w.w_j, k, *v.omega.get_unchecked(j - v.base));
+        w.rad_i[k] = *inp.radius.get_unchecked(i);
+        w.rad_j[k] = *inp.radius.get_unchecked(j);
+        w.mass_i[k] = *inp.mass.get_unchecked(i);
+        w.mass_j[k] = *inp.mass.get_unchecked(j);
+        lanes::put(&mut w.spring, k, *h.spring.get_unchecked(p - h.base));
+    }
+    w.len += 1;
+}
+
+/// Evaluates window `w` and stores the new histories and the statistics (as `eval_pair`).
+#[inline(always)]
+fn eval_window<D: Dim, L: WindowLaw>(law: &L, inp: &Inputs<D>, h: &mut History<D>, w: &mut Window, st: &mut ForceStats) {
+    lanes::compute::<D, L>(law, w, &inp.image, inp.dt);
+    for k in 0..w.len.min(CAP) {
+        let p = w.pair[k] as usize;
+        let q = p - h.base;
+        let was = h.overlap[q];
+        if w.contact[k] {
+            h.spring[q] = lanes::get(&w.new_spring, k);
+            h.overlap[q] = w.overlap[k];
+            h.sliding[q] = w.sliding[k];
+            st.changes += (was <= 0.0) as u64;
+            st.contacts += 1;
+            st.sliding += w.sliding[k] as u64;
+            let r_min = w.rad_i[k].min(w.rad_j[k]);
+            if w.overlap[k] > st.deepest.0 * r_min {
+                let ratio = w.overlap[k] / r_min;
+                if ratio > st.deepest.0 {
+                    st.deepest = (ratio, 0, p);
+                }
+            }
+        } else if was > 0.0 {
+            h.spring[q] = D::Vector::ZERO;
+            h.overlap[q] = 0.0;
+            h.sliding[q] = false;
+            h.rolling[q] = D::AngVector::ZERO;
+            h.twist[q] = 0.0;
+            st.changes += 1;
+        }
+    }
+}
+
+/// Phase A with a window kernel.
+#[allow(clippy::too_many_arguments)]
+fn cross_pairs_windowed<D: Dim, L: WindowLaw>(
+    law: &L,
+    inp: &Inputs<D>,
+    vel: &[D::Vector],
+    omega: &[D::AngVector],
+    cross: &CrossIndex<D>,
+    blocks: std::ops::Range<usize>,
+    mut h: History<D>,
+    out: &mut [CrossForce<D>],
+    slot_base: usize,
+) -> ForceStats {
+    if blocks.len() > 1 {
+        let mid = (blocks.start + blocks.end) / 2;
+        let (h0, h1) = h.split(inp.owner_start[(mid * cross.block_len).min(cross.n)] as usize);
+        let s = cross.block_slot_start[mid] as usize;
+        let (o0, o1) = out.split_at_mut(s - slot_base);
+        let (a, b) = rayon::join(
+            || cross_pairs_windowed(law, inp, vel, omega, cross, blocks.start..mid, h0, o0, slot_base),
+            || cross_pairs_windowed(law, inp, vel, omega, cross, mid..blocks.end, h1, o1, s),
+        );
+        return ForceStats::merge(a, b);
+    }
+    let mut st = ForceStats::new();
+    let b = blocks.start;
+    let v = Velocities { base: 0, vel, omega };
+    let mut w = Window::new();
+    let mut slot = 0;
+    let mut flush = |w: &mut Window, h: &mut History<D>, st: &mut ForceStats, slot: &mut usize| {
+        eval_window(law, inp, h, w, st);
+        for k in 0..w.len.min(CAP) {
+            out[*slot] = if w.contact[k] {
+                CrossForce { force: lanes::get(&w.force, k), torque_i: lanes::get(&w.torque_i, k), torque_j: lanes::get(&w.torque_j, k) }
+            } else {
+                CrossForce::default()
+            };
+            *slot += 1;
+        }
+        w.len = 0;
+    };
+    for i in b * cross.block_len..((b + 1) * cross.block_len).min(cross.n) {
+        for p in cross.cross_begin[i] as usize..inp.owner_start[i + 1] as usize {
+            push_pair(&mut w, inp, &h, v, p, i, inp.partner[p] as usize);
+            if w.len == CAP {
+                flush(&mut w, &mut h, &mut st, &mut slot);
+            }
+        }
+    }
+    if w.len > 0 {
+        flush(&mut w, &mut h, &mut st, &mut slot);
+    }
+    st
+}
+
+/// Phase B with a window kernel: intra-block pairs are evaluated a window at a time, then added
+/// in list order; a grain is completed once all its pairs have been added.
+#[allow(clippy::too_many_arguments)]
+fn blocks_pass_windowed<D: Dim, L: WindowLaw>(
+    law: &L,
+    inp: &Inputs<D>,
+    cross: &CrossIndex<D>,
+    fin: &Finish<D>,
+    blocks: std::ops::Range<usize>,
+    h: History<D>,
+    g: Grain<D>,
+) -> ForceStats {
+    if blocks.len() > 1 {
+        let mid = (blocks.start + blocks.end) / 2;
+        let at = (mid * cross.block_len).min(cross.n);
+        let (h0, h1) = h.split(inp.owner_start[at] as usize);
+        let (g0, g1) = g.split(at);
+        let (a, b) = rayon::join(
+            || blocks_pass_windowed(law, inp, cross, fin, blocks.start..mid, h0, g0),
+            || blocks_pass_windowed(law, inp, cross, fin, mid..blocks.end, h1, g1),
+        );
+        return ForceStats::merge(a, b);
+    }
+    block_windowed(law, inp, cross, fin, blocks.start, h, g)
+}
+
+fn block_windowed<D: Dim, L: WindowLaw>(law: &L, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, mut h: History<D>, g: Grain<D>) -> ForceStats {
+    let mut st = ForceStats::new();
+    let (g0, g1) = (b * cross.block_len, ((b + 1) * cross.block_len).min(cross.n));
+    let Grain { force, torque, vel, omega, .. } = g;
+    for j in g0..g1 {
+        let mut f = D::Vector::ZERO;
+        let mut t = D::AngVector::ZERO;
+        for &s in &cross.in_slot[cross.in_start[j] as usize..cross.in_start[j + 1] as usize] {
+            let c = &cross.forces[s as usize];
+            f -= c.force;
+            t += c.torque_j;
+        }
+        force[j - g0] = f;
+        torque[j - g0] = t;
+    }
+    let mut load = fin.loads.partition_point(|l| l.0 < g0);
+    let mut w = Window::new();
+    // grains < `pushed` have all their intra-block pairs in the window or added; grains < `done`
+    // are complete
+    let (mut pushed, mut done) = (g0, g0);
+    let flush = |w: &mut Window, h: &mut History<D>, force: &mut [D::Vector], torque: &mut [D::AngVector], st: &mut ForceStats| {
+        eval_window(law, inp, h, w, st);
+        // In list order; consecutive pairs of one grain are summed in registers (same order).
+        let len = w.len.min(CAP);
+        let mut k = 0;
+        while k < len {
+            let li = w.i[k] as usize - g0;
+            let (mut fi, mut ti) = (force[li], torque[li]);
+            while k < len && w.i[k] as usize - g0 == li {
+                if w.contact[k] {
+                    let lj = w.j[k] as usize - g0;
+                    debug_assert!(lj < force.len() && lj != li);
+                    let f: D::Vector = lanes::get(&w.force, k);
+                    fi += f;
+                    ti += lanes::get::<D::AngVector>(&w.torque_i, k);
+                    // SAFETY: intra-block partners lie in the block (cross index).
+                    unsafe {
+                        *force.get_unchecked_mut(lj) -= f;
+                        *torque.get_unchecked_mut(lj) += lanes::get::<D::AngVector>(&w.torque_j, k);
+                    }
+                }
+                k += 1;
+            }
+            force[li] = fi;
+            torque[li] = ti;
+        }
+        w.len = 0;
+    };
+    for i in g0..g1 {
+        for p in inp.owner_start[i] as usize..cross.cross_begin[i] as usize {
+            push_pair(&mut w, inp, &h, Velocities { base: g0, vel, omega }, p, i, inp.partner[p] as usize);
+            if w.len == CAP {
+                flush(&mut w, &mut h, force, torque, &mut st);
+                while done < pushed {
+                    finish_grain(inp, cross, fin, done, g0, force, torque, vel, omega, &mut load, &mut st);
+                    done += 1;
+                }
+            }
+        }
+        pushed = i + 1;
+        if w.len == 0 {
+            while done < pushed {
+                finish_grain(inp, cross, fin, done, g0, force, torque, vel, omega, &mut load, &mut st);
+                done += 1;
+            }
+        }
+    }
+    if w.len > 0 {
+        flush(&mut w, &mut h, force, torque, &mut st);
+    }
+    while done < g1 {
+        finish_grain(inp, cross, fin, done, g0, force, torque, vel, omega, &mut load, &mut st);
+        done += 1;
     }
     st
 }
@@ -397,7 +653,7 @@ impl<D: Dim> Simulation<D> {
     /// the pass that completes each grain's force also advances its velocity by h·F/m and its
     /// angular velocity by h·τ/I (velocity Verlet's second half kick).
     pub(crate) fn compute_forces(&mut self, dt_hist: f64, use_eval: bool, kick: Option<f64>) -> Result<()> {
-        let specialized = self.law.specialize();
+        let specialized = if self.work.general_kernel { Specialized::General(self.law) } else { self.law.specialize() };
         let time = self.time;
         let Simulation { grains, domain, nlist, work, loads, gravity, .. } = self;
         let n = grains.len();
@@ -464,8 +720,8 @@ impl<D: Dim> Simulation<D> {
         } else {
             let h = History::of_parts(&mut list.spring, &mut list.overlap, &mut list.sliding, &mut list.rolling, &mut list.twist);
             match specialized {
-                Specialized::HertzMindlin(law) => cross_pairs(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0),
-                Specialized::HookeCundallStrack(law) => cross_pairs(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0),
+                Specialized::HertzMindlin(law) => cross_pairs_windowed(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0),
+                Specialized::HookeCundallStrack(law) => cross_pairs_windowed(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0),
                 Specialized::General(law) => cross_pairs::<D, ContactLaw>(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0),
             }
         };
@@ -488,8 +744,8 @@ impl<D: Dim> Simulation<D> {
             ForceStats::new()
         } else {
             match specialized {
-                Specialized::HertzMindlin(law) => blocks_pass(&law, &inp, cross, &fin, 0..blocks, h, g),
-                Specialized::HookeCundallStrack(law) => blocks_pass(&law, &inp, cross, &fin, 0..blocks, h, g),
+                Specialized::HertzMindlin(law) => blocks_pass_windowed(&law, &inp, cross, &fin, 0..blocks, h, g),
+                Specialized::HookeCundallStrack(law) => blocks_pass_windowed(&law, &inp, cross, &fin, 0..blocks, h, g),
                 Specialized::General(law) => blocks_pass::<D, ContactLaw>(&law, &inp, cross, &fin, 0..blocks, h, g),
             }
         };

@@ -3,6 +3,7 @@
 mod builder;
 mod forces;
 mod integrate;
+mod lanes;
 mod run;
 
 pub use builder::{ExternalLoad, SimulationBuilder};
@@ -129,6 +130,8 @@ struct Workspace<D: Dim> {
     cross: CrossIndex<D>,
     /// Grains per block of the force pass, when fixed by hand (tests).
     block_len: Option<usize>,
+    /// Evaluate every law with the general kernel (tests).
+    general_kernel: bool,
     /// External loads of the current evaluation: (grain index, force, torque).
     loads: Vec<(usize, D::Vector, D::AngVector)>,
     wall_force: Vec<WallForce<D>>,
@@ -149,6 +152,7 @@ impl<D: Dim> Default for Workspace<D> {
         Workspace {
             cross: CrossIndex::default(),
             block_len: None,
+            general_kernel: false,
             loads: Vec::new(),
             wall_force: Vec::new(),
             wall_index: WallIndex::default(),
@@ -308,6 +312,13 @@ impl<D: Dim> Simulation<D> {
     #[doc(hidden)]
     pub fn set_force_block_len(&mut self, len: Option<usize>) {
         self.work.block_len = len.map(|l| l.max(1));
+    }
+
+    /// Evaluates every contact with the general kernel instead of a specialised one. Results do
+    /// not depend on it — this exists to test exactly that.
+    #[doc(hidden)]
+    pub fn set_general_kernel(&mut self, on: bool) {
+        self.work.general_kernel = on;
     }
 
     /// Adds a warning once. A warning starting like an earlier one (same first four words, e.g.
