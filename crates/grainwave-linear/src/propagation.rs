@@ -6,8 +6,8 @@
 //! ([`crate::linalg::lanczos`]). Each requested output time t_k is reached exactly with
 //! ⌈(t_k − t)/dt_max⌉ equal steps, so outputs need not be multiples of a fixed step. The schemes
 //! ([`Scheme`]) are symplectic: the discrete energy is conserved and the only error is a phase error
-//! (the default 4th-order scheme at 20 steps per shortest period: ~1e-5 relative at ω_max, ~1e-8 at
-//! ω_max/4).
+//! (the default 4th-order scheme at 20 steps per shortest period: 1.5e-7 relative at ω_max,
+//! ~6e-10 at ω_max/4; velocity Verlet at 60 steps per period: 4.6e-4 at ω_max).
 //!
 //! f_c = −D_fc u_c is the constant load of non-zero imposed displacements (zero in pulse problems:
 //! walls fixed, no other constraint).

@@ -12,8 +12,10 @@
 //! * [`Scheme::VelocityVerlet`]: b = (½, ½), a = (1); 2nd order, 1 product per step, stable for
 //!   ω h < 2.
 //! * [`Scheme::BlanesMoan4`]: the 6-stage 4th-order Runge–Kutta–Nyström method SRKN₆ᵇ of
-//!   S. Blanes and P. C. Moan, J. Comput. Appl. Math. 142, 313 (2002), Table 3 — chosen for its
-//!   very small error constant; 6 products per step.
+//!   S. Blanes and P. C. Moan, J. Comput. Appl. Math. 142, 313 (2002) — chosen for its very small
+//!   error constant; 6 products per step, stable for ω h < 3.16 (0.53 per product, against 2 for
+//!   Verlet, but at equal cost its phase error is ~1000 × smaller at 20 steps per period:
+//!   1.5e-7 relative vs Verlet's 1.1e-4 at 120 steps per period).
 //!
 //! Both are symplectic and time-reversible: for a linear system they conserve a modified energy
 //! exactly and their only error is a small frequency (phase) error, ~(ωh)²/24 relative for Verlet
@@ -138,5 +140,6 @@ mod tests {
             assert!((det - 1.0).abs() < 1e-14, "{scheme:?}: det {det}");
         }
         assert!((Scheme::VelocityVerlet.stability_limit() - 2.0).abs() < 2e-4);
+        assert!((Scheme::BlanesMoan4.stability_limit() - 3.163).abs() < 2e-3);
     }
 }
