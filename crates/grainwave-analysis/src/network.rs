@@ -1,0 +1,217 @@
+//! Changes of the contact network between two snapshots of the same grains (SPEC §7.2.5): which
+//! contacts opened, which were created, which slide, and the contact-force difference field.
+//!
+//! Contacts are matched by their grains' stable ids: a grain pair is keyed (smaller id, larger id),
+//! a wall contact (grain id, wall index). For every contact present in either snapshot,
+//! [`ContactChange`] holds its state before and after; forces are expressed as the force on the
+//! key's first grain (the smaller id, or the grain of a wall contact), so that the vector difference
+//! after − before is meaningful whichever grain the engine listed first.
+//!
+//! The region of opened contacts is measured from a reference point r₀ (e.g. the loaded grain in
+//! the reference state) with `up` the unit vertical: its **depth** is the largest (r₀ − r_c)·up over
+//! opened contacts and its **width** the extent max − min of the horizontal coordinate of their
+//! contact points, r_c the contact point in the reference state.
+//!
+//! ```
+//! use grainwave_analysis::network::ContactKey;
+//! use grainwave_core::snapshot::Counterpart;
+//! assert_eq!(ContactKey::new(7, Counterpart::Grain(3)), ContactKey::Pair(3, 7));
+//! assert_eq!(ContactKey::new(7, Counterpart::Wall(1)), ContactKey::Wall(7, 1));
+//! ```
+
+use grainwave_core::dim::{Dim, VectorOps};
+use grainwave_core::snapshot::{ContactRecord, Counterpart, Snapshot};
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+
+/// Identity of a contact across snapshots.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum ContactKey {
+    /// Two grains (smaller id first).
+    Pair(u32, u32),
+    /// A grain and a wall (grain id, wall index).
+    Wall(u32, u32),
+}
+
+impl ContactKey {
+    /// The key of a contact between grain `i` and `j`.
+    pub fn new(i: u32, j: Counterpart) -> Self {
+        match j {
+            Counterpart::Grain(j) => ContactKey::Pair(i.min(j), i.max(j)),
+            Counterpart::Wall(w) => ContactKey::Wall(i, w),
+        }
+    }
+
+    /// The grain whose force is reported.
+    pub fn first(&self) -> u32 {
+        match *self {
+            ContactKey::Pair(i, _) | ContactKey::Wall(i, _) => i,
+        }
+    }
+}
+
+/// One side (before or after) of a contact.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(bound = "")]
+pub struct ContactSide<D: Dim> {
+    /// Force on the key's first grain.
+    pub force: D::Vector,
+    /// Normal force F_n ≥ 0.
+    pub normal_force: f64,
+    /// Overlap ξ.
+    pub overlap: f64,
+    /// Contact point.
+    pub point: D::Vector,
+    /// Branch vector from the key's first grain (towards the other grain or the wall contact point).
+    pub branch: D::Vector,
+    /// Sliding flag.
+    pub sliding: bool,
+}
+
+/// A contact present in at least one of two snapshots.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(bound = "")]
+pub struct ContactChange<D: Dim> {
+    /// Which contact.
+    pub key: ContactKey,
+    /// State in the first snapshot, if in contact there.
+    pub before: Option<ContactSide<D>>,
+    /// State in the second snapshot, if in contact there.
+    pub after: Option<ContactSide<D>>,
+}
+
+impl<D: Dim> ContactChange<D> {
+    /// In contact before, not after.
+    pub fn opened(&self) -> bool {
+        self.before.is_some() && self.after.is_none()
+    }
+
+    /// In contact after, not before.
+    pub fn created(&self) -> bool {
+        self.before.is_none() && self.after.is_some()
+    }
+
+    /// Sliding after.
+    pub fn sliding_after(&self) -> bool {
+        self.after.is_some_and(|a| a.sliding)
+    }
+
+    /// Force after minus force before (a missing side counts as zero force).
+    pub fn force_difference(&self) -> D::Vector {
+        let f = |s: &Option<ContactSide<D>>| s.map_or(D::Vector::ZERO, |s| s.force);
+        f(&self.after) - f(&self.before)
+    }
+
+    /// The contact point before, or after for a created contact.
+    pub fn point(&self) -> D::Vector {
+        self.before.or(self.after).map(|s| s.point).unwrap_or(D::Vector::ZERO)
+    }
+
+    /// The branch vector before, or after for a created contact.
+    pub fn branch(&self) -> D::Vector {
+        self.before.or(self.after).map(|s| s.branch).unwrap_or(D::Vector::ZERO)
+    }
+}
+
+/// Counts of a network comparison.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct NetworkCounts {
+    /// Contacts before.
+    pub before: usize,
+    /// Contacts after.
+    pub after: usize,
+    /// Opened (before, not after).
+    pub opened: usize,
+    /// Created (after, not before).
+    pub created: usize,
+    /// Sliding after.
+    pub sliding: usize,
+    /// Sliding before.
+    pub sliding_before: usize,
+}
+
+/// Size of the region of opened contacts.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct RegionSize {
+    /// Number of opened contacts.
+    pub count: usize,
+    /// Largest depth below the reference point (0 when none opened).
+    pub depth: f64,
+    /// Horizontal extent of the opened contact points (0 when fewer than two).
+    pub width: f64,
+}
+
+/// All contacts of two snapshots, matched.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(bound = "")]
+pub struct NetworkChanges<D: Dim> {
+    /// Every contact present in either snapshot, ordered by key.
+    pub contacts: Vec<ContactChange<D>>,
+}
+
+fn sides<D: Dim>(snapshot: &Snapshot<D>) -> BTreeMap<ContactKey, ContactSide<D>> {
+    let max_id = snapshot.id.iter().copied().max().map_or(0, |m| m as usize + 1);
+    let mut index = vec![usize::MAX; max_id];
+    for (k, &id) in snapshot.id.iter().enumerate() {
+        index[id as usize] = k;
+    }
+    let side = |c: &ContactRecord<D>| {
+        let key = ContactKey::new(c.i, c.j);
+        let pos = snapshot.pos[index[c.i as usize]];
+        let point = pos + c.normal * c.lever_i;
+        let flip = key.first() != c.i;
+        let (force, branch) = if flip { (-c.force_on_i(), -c.branch) } else { (c.force_on_i(), c.branch) };
+        (key, ContactSide { force, normal_force: c.normal_force, overlap: c.overlap, point, branch, sliding: c.sliding })
+    };
+    snapshot.contacts.iter().map(side).collect()
+}
+
+/// Matches the contacts of `before` and `after` (snapshots of the same grains).
+pub fn compare_networks<D: Dim>(before: &Snapshot<D>, after: &Snapshot<D>) -> NetworkChanges<D> {
+    let a = sides(before);
+    let mut b = sides(after);
+    let mut contacts = Vec::with_capacity(a.len().max(b.len()));
+    for (key, s) in a {
+        contacts.push(ContactChange { key, before: Some(s), after: b.remove(&key) });
+    }
+    for (key, s) in b {
+        contacts.push(ContactChange { key, before: None, after: Some(s) });
+    }
+    contacts.sort_by_key(|c| c.key);
+    NetworkChanges { contacts }
+}
+
+impl<D: Dim> NetworkChanges<D> {
+    /// Counts of contacts, opened, created and sliding.
+    pub fn counts(&self) -> NetworkCounts {
+        let mut n = NetworkCounts::default();
+        for c in &self.contacts {
+            n.before += c.before.is_some() as usize;
+            n.after += c.after.is_some() as usize;
+            n.opened += c.opened() as usize;
+            n.created += c.created() as usize;
+            n.sliding += c.sliding_after() as usize;
+            n.sliding_before += c.before.is_some_and(|s| s.sliding) as usize;
+        }
+        n
+    }
+
+    /// Depth and width of the region of opened contacts seen from `origin`, `vertical` the index
+    /// of the vertical axis (pointing up), `horizontal` the index of the horizontal axis.
+    pub fn opened_region(&self, origin: D::Vector, vertical: usize, horizontal: usize) -> RegionSize {
+        let mut r = RegionSize::default();
+        let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
+        for c in self.contacts.iter().filter(|c| c.opened()) {
+            let p = c.point();
+            r.count += 1;
+            r.depth = r.depth.max(origin.get(vertical) - p.get(vertical));
+            lo = lo.min(p.get(horizontal));
+            hi = hi.max(p.get(horizontal));
+        }
+        if r.count >= 2 {
+            r.width = hi - lo;
+        }
+        r
+    }
+}
