@@ -26,8 +26,11 @@
 //! | pulse: source/detector walls, initial conditions A and B, modal sum Σ a_n b_n sin/cos ω_n t; one-call [`pulse::modal_pulse`] and [`pulse::direct_pulse`] | [`pulse`] |
 //! | direct propagation with a symplectic scheme, dt from ω_max | [`propagation`] |
 //! | static response D u = f with zero modes handled | [`solve_static`] |
+//! | static response by sparse Cholesky (D positive definite) | [`statics_direct`] |
+//! | static equilibrium of a frictionless Hooke packing (active-set Newton) | [`frictionless_equilibrium`] |
 //! | moduli C₁₁, C₁₂, C₂₂, C₃₃ / 6 × 6 Voigt, local moduli, continuum speeds | [`moduli`] |
 //! | affine moduli of spring networks, half-plane criterion r | [`lattice`] |
+//! | the spring network of a measured 2D packing in a window | [`measured_network`] |
 //! | reference systems: 1D chain, triangular lattice | [`reference`](mod@reference) |
 //!
 //! Signal metrics of the pulses (leading edge, peak, widths, c_tof, exponents) live in the
@@ -68,14 +71,17 @@ pub mod contact;
 pub mod dofs;
 pub mod dynamical;
 pub mod error;
+pub mod frictionless_equilibrium;
 pub mod lattice;
 pub mod linalg;
+pub mod measured_network;
 pub mod moduli;
 pub mod propagation;
 pub mod pulse;
 pub mod rattlers;
 pub mod reference;
 pub mod statics;
+pub mod statics_direct;
 
 pub use dofs::{Constraints, DofLayout};
 pub use dynamical::{AssemblyOptions, DynamicalMatrix, LinearSystem, PreStress, Rattlers, SlidingContacts, ZeroRows};
