@@ -15,7 +15,7 @@ use std::path::Path;
 /// Magic bytes at the start of every checkpoint.
 pub const MAGIC: &[u8; 8] = b"GRNWCKPT";
 /// Version of the file layout and of the serialized state.
-pub const FORMAT_VERSION: u32 = 1;
+pub const FORMAT_VERSION: u32 = 2;
 
 /// Writes `bytes` to `path` atomically: a temporary file in the same directory, flushed and
 /// synced, then renamed over `path`. Readers see either the old file or the complete new one.

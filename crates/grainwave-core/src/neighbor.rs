@@ -111,6 +111,8 @@ pub struct NeighborList<D: Dim> {
     pub ref_pos: Vec<D::Vector>,
     /// Wall positions at the last build.
     pub ref_wall_pos: Vec<D::Vector>,
+    /// Tilt factors of the periodic cell at the last build.
+    pub ref_tilt: [f64; 3],
     /// Number of builds so far.
     pub builds: u64,
     /// Force a rebuild at the next check (radii or domain changed).
@@ -133,6 +135,7 @@ impl<D: Dim> NeighborList<D> {
             wall_pairs: Vec::new(),
             ref_pos: Vec::new(),
             ref_wall_pos: Vec::new(),
+            ref_tilt: [0.0; 3],
             builds: 0,
             stale: true,
         }
@@ -157,7 +160,9 @@ impl<D: Dim> NeighborList<D> {
         }
         let max_d2 = max_displacement2.unwrap_or_else(|| max_displacement2_since(&self.ref_pos, pos, domain));
         let max_d = max_d2.sqrt();
-        if !(2.0 * max_d <= self.skin) {
+        // In a shearing cell the images across a tilted boundary move with the tilt.
+        let tilt_change: f64 = domain.tilt.iter().zip(&self.ref_tilt).map(|(t, r)| (t - r).abs()).sum();
+        if !(2.0 * max_d + tilt_change <= self.skin) {
             return true;
         }
         let max_wall = domain
@@ -233,6 +238,7 @@ impl<D: Dim> NeighborList<D> {
         self.wall_pairs = wall_pairs;
         self.ref_pos = pos.to_vec();
         self.ref_wall_pos = domain.walls.iter().map(|w| w.position).collect();
+        self.ref_tilt = domain.tilt;
         self.builds += 1;
         self.stale = false;
     }
@@ -351,13 +357,18 @@ fn build_list<D: Dim>(pos: &[D::Vector], radius: &[f64], domain: &Domain<D>, ski
     }
     let r_max = radius.iter().cloned().fold(0.0, f64::max);
     let cutoff = 2.0 * r_max + skin;
+    let image = domain.image();
+    let sheared = domain.is_sheared();
+    // Along periodic axes of a sheared cell, cells are laid out in fractional coordinates; their
+    // count follows from the widths of the cell across its faces.
+    let widths = if sheared { image.face_widths() } else { [0.0; 3] };
     let mut lo = [0.0; 3];
     let mut extent = [cutoff; 3];
     let mut periodic = [false; 3];
     for k in 0..D::D {
         if domain.is_periodic(k) {
             lo[k] = domain.lo.get(k);
-            extent[k] = domain.length(k);
+            extent[k] = if sheared { widths[k] } else { domain.length(k) };
             periodic[k] = true;
         } else {
             let (mn, mx) = pos.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), x| (a.min(x.get(k)), b.max(x.get(k))));
@@ -388,7 +399,24 @@ fn build_list<D: Dim>(pos: &[D::Vector], radius: &[f64], domain: &Domain<D>, ski
     let n_cells = counts[0] * counts[1] * counts[2];
 
     // Counting sort of grains into cells (grain order kept within a cell).
-    let cell: Vec<[usize; 3]> = pos.iter().map(|&x| grid.cell_of(x, D::D)).collect();
+    let cell: Vec<[usize; 3]> = if sheared {
+        pos.iter()
+            .map(|&x| {
+                let s = image.fractional(x, domain.lo);
+                let mut c = grid.cell_of(x, D::D);
+                for k in 0..D::D {
+                    if periodic[k] {
+                        // a grain wrapped in the cell of an earlier tilt may lie just outside
+                        let f = ((s[k] - s[k].floor()) * counts[k] as f64).floor();
+                        c[k] = if f.is_nan() || f < 0.0 { 0 } else { (f as usize).min(counts[k] - 1) };
+                    }
+                }
+                c
+            })
+            .collect()
+    } else {
+        pos.iter().map(|&x| grid.cell_of(x, D::D)).collect()
+    };
     let mut start = vec![0usize; n_cells + 1];
     for c in &cell {
         start[grid.flat(*c) + 1] += 1;
@@ -405,7 +433,6 @@ fn build_list<D: Dim>(pos: &[D::Vector], radius: &[f64], domain: &Domain<D>, ski
     }
 
     const CHUNK: usize = 1024;
-    let image = domain.image();
     let chunks: Vec<Vec<u32>> = (0..n.div_ceil(CHUNK))
         .into_par_iter()
         .map(|chunk| {
@@ -500,6 +527,29 @@ mod tests {
                 .map(|_| DVec3::new(rng.random::<f64>() * 1.3, rng.random::<f64>() * 4.0, rng.random::<f64>() * 2.0))
                 .collect();
             let rad: Vec<f64> = (0..200).map(|_| 0.1 + 0.1 * rng.random::<f64>()).collect();
+            check(&pos, &rad, &d3, 0.1);
+        }
+        // sheared cells: x–y tilt (2D and 3D), and all three tilts in 3D, beyond half a cell
+        for tilt in [[1.7, 0.0, 0.0], [-3.2, 0.0, 0.0], [2.9, -1.3, 0.8]] {
+            let mut d2: Domain<D2> = Domain::new(DVec2::ZERO, DVec2::new(7.0, 5.0), [true, true, false]);
+            d2.tilt = [tilt[0], 0.0, 0.0];
+            let pos: Vec<DVec2> = (0..300).map(|_| DVec2::new(rng.random::<f64>() * 7.0, rng.random::<f64>() * 5.0)).collect();
+            let pos: Vec<DVec2> = pos.into_iter().map(|mut x| {
+                d2.wrap(&mut x, &mut [0; 3]);
+                x
+            }).collect();
+            let rad: Vec<f64> = (0..300).map(|_| 0.1 + 0.2 * rng.random::<f64>()).collect();
+            check(&pos, &rad, &d2, 0.05);
+            let mut d3: Domain<D3> = Domain::new(DVec3::ZERO, DVec3::new(4.0, 3.5, 4.5), [true; 3]);
+            d3.tilt = tilt;
+            let pos: Vec<DVec3> = (0..400)
+                .map(|_| {
+                    let mut x = DVec3::new(rng.random::<f64>() * 4.0, rng.random::<f64>() * 3.5, rng.random::<f64>() * 4.5);
+                    d3.wrap(&mut x, &mut [0; 3]);
+                    x
+                })
+                .collect();
+            let rad: Vec<f64> = (0..400).map(|_| 0.1 + 0.1 * rng.random::<f64>()).collect();
             check(&pos, &rad, &d3, 0.1);
         }
     }

@@ -228,12 +228,12 @@ fn walled(grains: Grains<grainwave_core::dim::D2>, domain: Domain<grainwave_core
     Ok((grains, d))
 }
 
-fn time_run<D: Dim>(cfg: &BenchConfig, mut grains: Grains<D>, domain: Domain<D>, steps: u64) -> Result<BenchResult> {
+fn time_run<D: Dim>(cfg: &BenchConfig, mut grains: Grains<D>, mut domain: Domain<D>, steps: u64) -> Result<BenchResult> {
     for v in grains.vel.iter_mut() {
         *v = D::Vector::ZERO; // `velocity all set 0 0 0`
     }
     if cfg.shear != 0.0 {
-        return Err(CoreError::Inconsistent("sheared cells are not supported yet".into()).into());
+        domain.set_shear_rate(cfg.shear)?;
     }
     let law = cfg.case.contact().build(Partner::Grain, "contact")?;
     let mut sim = SimulationBuilder::new(grains, domain, law).dt(cfg.case.dt()).skin(0.1).max_initial_overlap(0.3).build()?;

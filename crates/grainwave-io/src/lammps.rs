@@ -18,7 +18,9 @@
 //! way the moment of inertia of a disk is ½ m r², as LAMMPS's `fix nve/sphere disc` uses.
 //!
 //! The file does not say which axes are periodic (that is the input script's `boundary`
-//! command): [`ImportOptions::periodic`] does, all periodic by default.
+//! command): [`ImportOptions::periodic`] does, all periodic by default. A triclinic box (header
+//! line `xy xz yz`) becomes a sheared periodic cell with the same tilt factors
+//! ([`Domain::tilt`](grainwave_core::domain::Domain::tilt)).
 //!
 //! ```
 //! use grainwave_io::lammps::{parse_data, ImportOptions};
@@ -375,19 +377,24 @@ impl LammpsData {
         LammpsDataError::Import { path: self.source.clone(), message }
     }
 
-    fn domain_bounds(&self) -> Result<()> {
-        if self.triclinic && self.tilt != [0.0; 3] {
-            return Err(self.import_error(format!(
-                "the box is triclinic (tilt xy xz yz = {:?}); only orthogonal boxes can be imported",
-                self.tilt
-            )));
+    fn domain_bounds(&self, opts: &ImportOptions, dim: usize) -> Result<()> {
+        for (t, (edge, along)) in [(1, 0), (2, 0), (2, 1)].into_iter().enumerate() {
+            if self.tilt[t] != 0.0 && !(edge < dim && opts.periodic[edge] && opts.periodic[along]) {
+                return Err(self.import_error(format!(
+                    "the box is triclinic (tilt xy xz yz = {:?}) but tilt {} needs periodic axes {} and {} in {dim}D",
+                    self.tilt,
+                    ["xy", "xz", "yz"][t],
+                    ["x", "y", "z"][along],
+                    ["x", "y", "z"][edge]
+                )));
+            }
         }
         Ok(())
     }
 
     /// Spheres in a 3D domain: m = ρ (4/3) π r³, I = (2/5) m r².
     pub fn to_packing_3d(&self, opts: &ImportOptions) -> Result<(Grains<D3>, Domain<D3>)> {
-        self.domain_bounds()?;
+        self.domain_bounds(opts, 3)?;
         let mut grains = Grains::<D3>::new(GrainKind::Sphere);
         for k in 0..self.len() {
             let r = 0.5 * self.diameter[k];
@@ -397,14 +404,15 @@ impl LammpsData {
         }
         self.finish(&mut grains.id, &mut grains.image);
         let b = &self.bounds;
-        let domain = Domain::new(DVec3::new(b[0][0], b[1][0], b[2][0]), DVec3::new(b[0][1], b[1][1], b[2][1]), opts.periodic);
+        let mut domain = Domain::new(DVec3::new(b[0][0], b[1][0], b[2][0]), DVec3::new(b[0][1], b[1][1], b[2][1]), opts.periodic);
+        domain.tilt = self.tilt;
         Ok((grains, domain))
     }
 
     /// Disks in a 2D domain (the x–y plane): mass from [`ImportOptions::density_2d`],
     /// I = ½ m r². Refused unless [`LammpsData::is_planar`].
     pub fn to_packing_2d(&self, opts: &ImportOptions) -> Result<(Grains<D2>, Domain<D2>)> {
-        self.domain_bounds()?;
+        self.domain_bounds(opts, 2)?;
         if !self.is_planar() {
             return Err(self.import_error("not a 2D packing: some atoms have z ≠ 0, v_z ≠ 0 or spin about x or y".into()));
         }
@@ -422,7 +430,8 @@ impl LammpsData {
         }
         self.finish(&mut grains.id, &mut grains.image);
         let b = &self.bounds;
-        let domain = Domain::new(DVec2::new(b[0][0], b[1][0]), DVec2::new(b[0][1], b[1][1]), [opts.periodic[0], opts.periodic[1], false]);
+        let mut domain = Domain::new(DVec2::new(b[0][0], b[1][0]), DVec2::new(b[0][1], b[1][1]), [opts.periodic[0], opts.periodic[1], false]);
+        domain.tilt = [self.tilt[0], 0.0, 0.0];
         Ok((grains, domain))
     }
 
@@ -561,10 +570,14 @@ Velocities
     }
 
     #[test]
-    fn triclinic_header_is_read() {
-        let tri = SMALL_3D.replace("0 12 zlo zhi\n", "0 12 zlo zhi\n1.5 0 0 xy xz yz\n");
+    fn triclinic_boxes_become_sheared_cells() {
+        let tri = SMALL_3D.replace("0 12 zlo zhi\n", "0 12 zlo zhi\n1.5 0 -0.5 xy xz yz\n");
         let d = parse_data(&tri, "f").unwrap();
         assert!(d.triclinic);
-        assert_eq!(d.tilt, [1.5, 0.0, 0.0]);
+        assert_eq!(d.tilt, [1.5, 0.0, -0.5]);
+        let (_, dom) = d.to_packing_3d(&ImportOptions::default()).unwrap();
+        assert_eq!(dom.tilt, [1.5, 0.0, -0.5]);
+        let walls_in_z = ImportOptions { periodic: [true, true, false], ..Default::default() };
+        assert!(d.to_packing_3d(&walls_in_z).unwrap_err().to_string().contains("tilt yz needs periodic axes y and z"));
     }
 }

@@ -131,9 +131,11 @@ struct PairOut<D: Dim> {
 #[inline(always)]
 fn eval_pair<D: Dim, P: LawParts>(law: &P, inp: &Inputs<D>, h: &mut History<D>, p: usize, a: &Body<D>, b: &Body<D>, st: &mut ForceStats) -> Option<PairOut<D>> {
     let q = p - h.base;
-    let r = inp.image.displacement(a.x, b.x);
+    let (r, dv) = inp.image.displacement_velocity(a.x, b.x);
+    // the image of j moves with the cell in a shearing cell
+    let vj = if inp.image.sheared { b.v + dv } else { b.v };
     let was = h.overlap[q];
-    match pair_kinematics::<D>(r, a.r, b.r, a.m, b.m, a.v, b.v, a.w, b.w) {
+    match pair_kinematics::<D>(r, a.r, b.r, a.m, b.m, a.v, vj, a.w, b.w) {
         None => {
             if was > 0.0 {
                 // the contact opened: forget its history
@@ -393,8 +395,8 @@ fn push_pair<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &History<D>, v: Velocit
     unsafe {
         let (xi, xj) = (*inp.pos.get_unchecked(i), *inp.pos.get_unchecked(j));
         lanes::put(&mut w.r, k, xj - xi);
-        let (vi, vj) = (*v.vel.get_unchecked(i - v.base), *v.vel.get_unchecked(j - v.base));
-        lanes::put(&mut w.v_rel, k, vj - vi);
+        lanes::put(&mut w.v_rel, k, *v.vel.get_unchecked(j - v.base));
+        lanes::put(&mut w.v_i, k, *v.vel.get_unchecked(i - v.base));
         lanes::put(&mut w.w_i, k, *v.omega.get_unchecked(i - v.base));
         lanes::put(&mut w.w_j, k, *v.omega.get_unchecked(j - v.base));
         w.rad_i[k] = *inp.radius.get_unchecked(i);

@@ -62,7 +62,7 @@ impl<D: Dim> Simulation<D> {
                         let (m, inertia) = (g.mass[base + k], g.inertia[base + k]);
                         v[k] += f[k] * (h / m);
                         x[k] += v[k] * dt;
-                        dom.wrap(&mut x[k], &mut im[k]);
+                        dom.wrap_in(&image, &mut x[k], &mut v[k], &mut im[k]);
                         w[k] += t[k] * (h / inertia);
                         o[k] = D::rotate_orientation(o[k], w[k], dt);
                         if track {
@@ -88,6 +88,7 @@ impl<D: Dim> Simulation<D> {
             }
         }
         self.time = t0 + dt;
+        self.domain.advance_tilt(dt);
         self.prepare_neighbors(Some(max_displacement2))?;
         // forces, then the second half kick in the same per-grain pass
         self.compute_forces(dt, false, Some(h))?;
@@ -130,12 +131,12 @@ impl<D: Dim> Simulation<D> {
                 .par_iter_mut()
                 .zip(g.image.par_iter_mut())
                 .zip(work.vel_eval.par_iter_mut())
-                .zip(g.vel.par_iter())
+                .zip(g.vel.par_iter_mut())
                 .zip(acc.par_iter().zip(prev_acc.par_iter()))
                 .with_min_len(MIN_LEN)
                 .for_each(|((((x, im), ve), v), (a, ap))| {
                     *x += *v * dt + (*a * 4.0 - *ap) * c2;
-                    dom.wrap(x, im);
+                    dom.wrap_moving(x, v, im);
                     *ve = *v + (*a * 3.0 - *ap) * (0.5 * dt);
                 });
             g.orientation
@@ -170,6 +171,7 @@ impl<D: Dim> Simulation<D> {
             }
         }
         self.time = t0 + dt;
+        self.domain.advance_tilt(dt);
         self.prepare_neighbors(None)?;
         self.compute_forces(dt, true, None)?;
         {

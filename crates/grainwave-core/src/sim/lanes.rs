@@ -10,7 +10,7 @@
 
 use crate::contact::{HertzMindlin, HookeCundallStrack, NormalDamping, TangentialDamping};
 use crate::dim::{Dim, VectorOps};
-use crate::domain::{nearest_integer, PeriodicImage};
+use crate::domain::{nearest_integer, PeriodicImage, TILT_AXES};
 
 /// Pairs per window.
 pub(super) const CAP: usize = 32;
@@ -30,8 +30,10 @@ pub(super) struct Window {
     // inputs (filled by the caller)
     /// Centre-to-centre vector x_j − x_i before the nearest image is taken, per component.
     pub r: [Lane; 3],
-    /// v_j − v_i.
+    /// v_j when filled, v_j − v_i once the nearest image is known.
     pub v_rel: [Lane; 3],
+    /// v_i.
+    pub v_i: [Lane; 3],
     /// ω_i, ω_j (one component in 2D).
     pub w_i: [Lane; 3],
     pub w_j: [Lane; 3],
@@ -78,6 +80,7 @@ impl Window {
             j: [0; CAP],
             r: [ZERO; 3],
             v_rel: [ZERO; 3],
+            v_i: [ZERO; 3],
             w_i: [ZERO; 3],
             w_j: [ZERO; 3],
             rad_i: ZERO,
@@ -276,12 +279,37 @@ unsafe fn compute_avx2<D: Dim, L: WindowLaw>(law: &L, w: &mut Window, image: &Pe
 fn compute_impl<D: Dim, L: WindowLaw>(law: &L, w: &mut Window, image: &PeriodicImage<D>, dt: f64) {
     let dim = D::D;
     let rot = D::ROT;
-    // nearest image (as `PeriodicImage::displacement`)
-    for c in 0..dim {
+    // nearest image (as `PeriodicImage::displacement_velocity`), from the last axis down; in a
+    // shearing cell the image of j moves with the cell: v_j + dv
+    let mut dv = [ZERO; 3];
+    for c in (0..dim).rev() {
         let (l, inv) = (image.length.get(c), image.inverse.get(c));
+        let mut n = ZERO;
         for k in 0..CAP {
             let d = w.r[c][k];
-            w.r[c][k] = d - l * nearest_integer(d * inv);
+            n[k] = nearest_integer(d * inv);
+            w.r[c][k] = d - l * n[k];
+        }
+        if image.sheared {
+            for (t, &(edge, along)) in TILT_AXES.iter().enumerate() {
+                if edge == c && image.tilt[t] != 0.0 {
+                    for k in 0..CAP {
+                        w.r[along][k] -= n[k] * image.tilt[t];
+                    }
+                }
+                if edge == c && image.rate[t] != 0.0 {
+                    for k in 0..CAP {
+                        dv[along][k] -= n[k] * image.rate[t];
+                    }
+                }
+            }
+        }
+    }
+    // w.v_rel holds v_j until here
+    for c in 0..dim {
+        for k in 0..CAP {
+            let vj = if image.sheared { w.v_rel[c][k] + dv[c][k] } else { w.v_rel[c][k] };
+            w.v_rel[c][k] = vj - w.v_i[c][k];
         }
     }
     // kinematics (as `pair_kinematics`)
