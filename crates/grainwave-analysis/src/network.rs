@@ -7,10 +7,14 @@
 //! key's first grain (the smaller id, or the grain of a wall contact), so that the vector difference
 //! after − before is meaningful whichever grain the engine listed first.
 //!
-//! The region of opened contacts is measured from a reference point r₀ (e.g. the loaded grain in
-//! the reference state) with `up` the unit vertical: its **depth** is the largest (r₀ − r_c)·up over
-//! opened contacts and its **width** the extent max − min of the horizontal coordinate of their
-//! contact points, r_c the contact point in the reference state.
+//! The **region of opened contacts** around a reference point r₀ (e.g. the loaded grain in the
+//! reference state) is the set of opened contacts connected to r₀: the opened contacts whose
+//! contact point (in the reference state) lies within `seed` of r₀, and every opened contact whose
+//! point lies within `link` of one already in the region (a cluster grown by distance; with `link`
+//! a little more than a grain radius, contacts sharing a grain are linked). Contacts that open far
+//! away — a weak contact near a wall relieved by the load — are counted but not part of the region.
+//! Its **depth** is the largest (r₀ − r_c)·up over its contacts and its **width** the extent
+//! max − min of their horizontal coordinate.
 //!
 //! ```
 //! use grainwave_analysis::network::ContactKey;
@@ -134,7 +138,7 @@ pub struct NetworkCounts {
 /// Size of the region of opened contacts.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct RegionSize {
-    /// Number of opened contacts.
+    /// Number of opened contacts in the region (connected to the reference point).
     pub count: usize,
     /// Largest depth below the reference point (0 when none opened).
     pub depth: f64,
@@ -197,13 +201,25 @@ impl<D: Dim> NetworkChanges<D> {
         n
     }
 
-    /// Depth and width of the region of opened contacts seen from `origin`, `vertical` the index
-    /// of the vertical axis (pointing up), `horizontal` the index of the horizontal axis.
-    pub fn opened_region(&self, origin: D::Vector, vertical: usize, horizontal: usize) -> RegionSize {
+    /// Depth and width of the region of opened contacts connected to `origin` (see the module
+    /// docs): opened contacts within `seed` of `origin` start it, contacts within `link` of a member
+    /// join it; `vertical` is the index of the vertical axis (pointing up), `horizontal` that of the
+    /// horizontal axis.
+    pub fn opened_region(&self, origin: D::Vector, vertical: usize, horizontal: usize, seed: f64, link: f64) -> RegionSize {
+        let points: Vec<D::Vector> = self.contacts.iter().filter(|c| c.opened()).map(|c| c.point()).collect();
+        let mut member: Vec<bool> = points.iter().map(|p| (*p - origin).norm() <= seed).collect();
+        let mut frontier: Vec<usize> = (0..points.len()).filter(|&k| member[k]).collect();
+        while let Some(k) = frontier.pop() {
+            for j in 0..points.len() {
+                if !member[j] && (points[j] - points[k]).norm() <= link {
+                    member[j] = true;
+                    frontier.push(j);
+                }
+            }
+        }
         let mut r = RegionSize::default();
         let (mut lo, mut hi) = (f64::INFINITY, f64::NEG_INFINITY);
-        for c in self.contacts.iter().filter(|c| c.opened()) {
-            let p = c.point();
+        for (p, _) in points.iter().zip(&member).filter(|(_, &m)| m) {
             r.count += 1;
             r.depth = r.depth.max(origin.get(vertical) - p.get(vertical));
             lo = lo.min(p.get(horizontal));
@@ -213,5 +229,32 @@ impl<D: Dim> NetworkChanges<D> {
             r.width = hi - lo;
         }
         r
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::DVec2;
+    use grainwave_core::dim::D2;
+
+    fn opened_at(x: f64, y: f64, i: u32) -> ContactChange<D2> {
+        let side = ContactSide { force: DVec2::ZERO, normal_force: 1.0, overlap: 0.01, point: DVec2::new(x, y), branch: DVec2::new(2.0, 0.0), sliding: false };
+        ContactChange { key: ContactKey::Pair(i, i + 1), before: Some(side), after: None }
+    }
+
+    #[test]
+    fn the_region_is_the_cluster_connected_to_the_load() {
+        // a V below the load at (0, 10), one contact opening far away near a wall
+        let mut contacts = vec![opened_at(-1.0, 10.0, 0), opened_at(1.0, 10.0, 2), opened_at(-1.5, 8.3, 4), opened_at(1.5, 8.3, 6), opened_at(-2.5, 6.6, 8)];
+        contacts.push(opened_at(40.0, 1.0, 10));
+        let changes = NetworkChanges { contacts };
+        let r = changes.opened_region(DVec2::new(0.0, 10.0), 1, 0, 3.0, 2.5);
+        assert_eq!(r.count, 5);
+        assert!((r.depth - 3.4).abs() < 1e-12 && (r.width - 4.0).abs() < 1e-12, "{r:?}");
+        assert_eq!(changes.counts().opened, 6);
+        // nothing near the load: no region
+        let r = changes.opened_region(DVec2::new(20.0, 10.0), 1, 0, 3.0, 2.5);
+        assert_eq!(r, RegionSize::default());
     }
 }

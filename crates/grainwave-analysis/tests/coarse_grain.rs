@@ -79,10 +79,11 @@ fn the_field_integrates_to_the_virial_sum_and_the_mass() {
     free.domain.periodic = [false; 3];
     free.contacts.retain(|c| {
         let pi = free.pos[c.i as usize];
-        (pi + c.branch - free.pos[match c.j {
-            Counterpart::Grain(j) => j as usize,
-            Counterpart::Wall(_) => unreachable!(),
-        }])
+        (pi + c.branch
+            - free.pos[match c.j {
+                Counterpart::Grain(j) => j as usize,
+                Counterpart::Wall(_) => unreachable!(),
+            }])
         .length()
             < 1e-9
     });

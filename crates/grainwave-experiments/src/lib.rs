@@ -12,6 +12,7 @@
 pub mod bench;
 pub mod config;
 pub mod demo;
+pub mod e3;
 mod error;
 pub mod protocol;
 pub mod registry;

@@ -106,6 +106,12 @@ impl<'a> RunContext<'a> {
         self.started.elapsed().as_secs_f64()
     }
 
+    /// The interrupt flag, for protocols that run several simulations at once and poll it from
+    /// each of them.
+    pub fn interrupt_flag(&self) -> Arc<AtomicBool> {
+        self.interrupt.clone()
+    }
+
     /// Runs `f` with engine hooks that forward progress to the reporter and poll the interrupt
     /// flag.
     pub fn with_hooks<R>(&mut self, f: impl FnOnce(&mut RunHooks<'_>) -> R) -> R {

@@ -3,12 +3,12 @@
 use crate::config::{did_you_mean, reference, ConfigError, ConfigSource};
 use crate::error::{ExperimentError, Result};
 use crate::protocol::{checkpoint_tag, load_state, RunContext};
-use crate::simulation;
+use crate::{e3, simulation};
 use schemars::schema_for;
 use std::path::Path;
 
 /// Names of the protocols a config can select with `experiment = "…"`.
-pub const EXPERIMENTS: &[&str] = &["simulation"];
+pub const EXPERIMENTS: &[&str] = &["simulation", "e3"];
 
 /// The protocol a config selects, from its top-level `experiment` key.
 pub fn experiment_name(src: &ConfigSource) -> Result<String, ConfigError> {
@@ -35,6 +35,7 @@ pub fn check(src: &ConfigSource) -> Result<Vec<String>, ConfigError> {
             let p = simulation::prepare(src)?;
             Ok(describe(&p))
         }
+        "e3" => Ok(e3::describe(&e3::prepare(src)?)),
         other => unreachable!("experiment `{other}` is listed but not dispatched"),
     }
 }
@@ -91,12 +92,58 @@ fn summarize(r: &simulation::SimulationReport, out: &Path) -> RunSummary {
     RunSummary { lines, report: serde_json::to_value(r).unwrap_or_default() }
 }
 
+fn summarize_e3(r: &e3::E3Summary, out: &Path) -> RunSummary {
+    let mut lines = vec![format!("e3 {}: {} parameter set(s)", r.mode, r.groups.len())];
+    for g in &r.groups {
+        for c in g.cases.iter().take(3) {
+            lines.push(format!(
+                "reference    {} seed {}: floor carries {:.9} × the weight, max acceleration {:.2e}",
+                g.label, c.seed, c.floor_over_weight, c.max_acceleration
+            ));
+        }
+        for a in &g.responses {
+            lines.push(format!(
+                "response     F = {} ({}): p(0)/F = {:.4e}, {} opened, {} sliding, {} peak",
+                a.force,
+                a.variant.name(),
+                a.response_at_zero.first().copied().unwrap_or(f64::NAN),
+                a.opened,
+                a.sliding,
+                a.classification.shape.name()
+            ));
+        }
+        if let Some(f) = &g.first_opening {
+            if let Some(e) = f.linear_estimate {
+                lines.push(format!("first opening  ≈ {e:.4} m̄g (linear estimate from F = {})", f.estimated_from.unwrap_or(f64::NAN)));
+            }
+        }
+    }
+    for s in &r.superposition {
+        lines.push(format!("superposition F = {}: per-contact deviation {:.2e}, profile {:.2e}", s.force, s.contact_max_deviation, s.profile_max_deviation.first().copied().unwrap_or(f64::NAN)));
+    }
+    for p in &r.piles {
+        lines.push(format!("pile         {}: floor/weight {:.9}, {} floor profile", p.group, p.floor_over_weight, p.shape.name()));
+    }
+    if let Some(l) = &r.lattice {
+        lines.push(format!("lattice      a = {:.4}, b = {:.4}, c = {:.4}, d = {:.4}, r = {:.4} ({})", l.moduli.a, l.moduli.b, l.moduli.c, l.moduli.d, l.moduli.r, l.verdict));
+    }
+    if !r.not_converged.is_empty() {
+        lines.push(format!("warning      {} relaxation(s) did not converge: {}", r.not_converged.len(), r.not_converged.join(", ")));
+    }
+    lines.push(format!("outputs      {}/", out.display()));
+    RunSummary { lines, report: serde_json::to_value(r).unwrap_or_default() }
+}
+
 /// Parses, validates and runs a config.
 pub fn run(src: &ConfigSource, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
     match experiment_name(src)?.as_str() {
         "simulation" => {
             let out = ctx.out_dir().to_path_buf();
             Ok(summarize(&simulation::run_config(src, ctx)?, &out))
+        }
+        "e3" => {
+            let out = ctx.out_dir().to_path_buf();
+            Ok(summarize_e3(&e3::run_config(src, ctx)?, &out))
         }
         other => unreachable!("experiment `{other}` is listed but not dispatched"),
     }
@@ -112,6 +159,12 @@ pub fn resume(dir: &Path, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
             let out = ctx.out_dir().to_path_buf();
             Ok(summarize(&state.run(ctx)?, &out))
         }
+        e3::TAG => {
+            let mut state: e3::E3State = load_state(&file, &tag)?;
+            ctx.log(&format!("resuming from {}", file.display()));
+            let out = ctx.out_dir().to_path_buf();
+            Ok(summarize_e3(&state.run(ctx)?, &out))
+        }
         other => Err(ExperimentError::Resume { path: dir.to_path_buf(), reason: format!("its checkpoint holds `{other}`, which is not a protocol state") }),
     }
 }
@@ -125,6 +178,10 @@ pub fn plot(dir: &Path) -> Result<Vec<String>> {
             let state: simulation::SimulationState = load_state(&file, &tag)?;
             let series = grainwave_io::Series::read_npz(&dir.join("series.npz"))?;
             Ok(simulation::make_plots(dir, &series, state.picture().as_ref())?)
+        }
+        e3::TAG => {
+            let state: e3::E3State = load_state(&file, &tag)?;
+            e3::replot(dir, &state)
         }
         other => Err(ExperimentError::Resume { path: dir.to_path_buf(), reason: format!("its checkpoint holds `{other}`, which has no plots") }),
     }
@@ -145,6 +202,14 @@ pub fn reference_markdown() -> String {
         "`experiment = \"simulation\"`",
         "A general discrete-element run (see docs/simulation.md). The `[contact]` keys are those of the presets\n\
          (docs/engine.md); `[wall_contact]` and `walls[].contact` take the same keys and replace the grain–grain values.",
+        &reference::sections(&value),
+    ));
+    let schema = schema_for!(e3::E3Config);
+    let value = serde_json::to_value(&schema).expect("schema serializes");
+    s.push_str(&reference::markdown(
+        "`experiment = \"e3\"`",
+        "The response of a gravity-loaded granular slab to a localized force (SPEC §7; see docs/e3.md). Units: length R̄\n\
+         (the largest radius), mass m̄ (a disk of radius R̄), time τ = √(R̄/g), force m̄g.",
         &reference::sections(&value),
     ));
     s

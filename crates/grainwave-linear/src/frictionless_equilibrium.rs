@@ -218,10 +218,10 @@ fn solve_active(cands: &[Candidate], active: &[bool], f: &[DVec2]) -> Result<Vec
     for r in 0..2 * n {
         trip.push(Triplet::new(r, r, 1e-12 * k_max));
     }
-    let k = SparseColMat::<usize, f64>::try_new_from_triplets(2 * n, 2 * n, &trip).map_err(|e| LinearError::Inconsistent(format!("cannot build the stiffness matrix: {e:?}")))?;
-    let llt = k
-        .sp_cholesky(Side::Lower)
-        .map_err(|e| LinearError::Inconsistent(format!("the stiffness of the active contacts is not positive definite ({e:?})")))?;
+    let k = SparseColMat::<usize, f64>::try_new_from_triplets(2 * n, 2 * n, &trip)
+        .map_err(|e| LinearError::Inconsistent(format!("cannot build the stiffness matrix: {e:?}")))?;
+    let llt =
+        k.sp_cholesky(Side::Lower).map_err(|e| LinearError::Inconsistent(format!("the stiffness of the active contacts is not positive definite ({e:?})")))?;
     llt.solve_in_place(rhs.as_mut());
     Ok((0..n).map(|g| DVec2::new(rhs[(2 * g, 0)], rhs[(2 * g + 1, 0)])).collect())
 }

@@ -90,7 +90,15 @@ const TOP: u32 = 82;
 impl<'a> ContactChangePicture<'a> {
     /// A picture of the grains of `snapshot` with this title.
     pub fn new(snapshot: &'a Snapshot<D2>, title: &str) -> Self {
-        ContactChangePicture { snapshot, title: title.to_string(), x_label: "x".into(), y_label: "y".into(), changes: Vec::new(), forces: Vec::new(), width: None }
+        ContactChangePicture {
+            snapshot,
+            title: title.to_string(),
+            x_label: "x".into(),
+            y_label: "y".into(),
+            changes: Vec::new(),
+            forces: Vec::new(),
+            width: None,
+        }
     }
 
     /// Label of the x axis, with units.

@@ -49,7 +49,9 @@ pub fn prepare_packing(spec: &PackingSpec) -> Simulation<D2> {
 /// [`prepare_packing`] with a progress callback (see [`relax`]).
 pub fn prepare_packing_with(spec: &PackingSpec, report: &mut dyn FnMut(&Simulation<D2>, f64)) -> Simulation<D2> {
     let mut sim = gas(spec);
-    relax(&mut sim, spec.max_acceleration, 20_000_000, report);
+    if let Err(e) = relax(&mut sim, spec.max_acceleration, 20_000_000, report) {
+        panic!("{e}");
+    }
     sim
 }
 
@@ -81,8 +83,8 @@ pub fn gas(spec: &PackingSpec) -> Simulation<D2> {
 }
 
 /// Relaxes with quenching until max acceleration < `tol` (grains and pistons); `report` sees the
-/// simulation and its largest acceleration every 10 steps.
-pub fn relax(sim: &mut Simulation<D2>, tol: f64, max_steps: u64, report: &mut dyn FnMut(&Simulation<D2>, f64)) {
+/// simulation and its largest acceleration every 10 steps. Err after `max_steps` steps.
+pub fn relax(sim: &mut Simulation<D2>, tol: f64, max_steps: u64, report: &mut dyn FnMut(&Simulation<D2>, f64)) -> Result<(), String> {
     let stop = StopCriteria { step_limit: Some(u64::MAX), ..Default::default() };
     let start = sim.step;
     loop {
@@ -112,9 +114,11 @@ pub fn relax(sim: &mut Simulation<D2>, tol: f64, max_steps: u64, report: &mut dy
         let p = sim.progress(&stop);
         report(sim, p.max_acceleration.max(piston_acc));
         if p.max_acceleration < tol && piston_acc < tol {
-            return;
+            return Ok(());
         }
-        assert!(sim.step - start < max_steps, "packing did not relax: {p:?}, piston acceleration {piston_acc:e}");
+        if sim.step - start >= max_steps {
+            return Err(format!("packing did not relax in {max_steps} steps: {p:?}, piston acceleration {piston_acc:e}"));
+        }
     }
 }
 

@@ -1,0 +1,366 @@
+//! What is measured on a reference state and on a response (SPEC §7.2.4, §7.2.5, §7.3).
+//!
+//! * **Floor forces**: for every floor contact, the force the grain exerts on the floor, vertical
+//!   (F_z, positive pushing down) and horizontal (F_x); contacts are matched by grain id, a contact
+//!   missing on one side counts as zero there. The response of a contact is ΔF_z = F_z − F_z^ref.
+//! * **Smoothed floor profile**: p_w(x) = Σ_c ΔF_z,c (1/(w√π)) e^{−((x − x_c)/w)²}, x measured from
+//!   the loaded grain (the midpoint of the two in a superposition), on a grid of `profile_step`
+//!   containing x = 0; ∫ p_w dx = Σ_c ΔF_z,c, which equals the vertical component of F_ext when
+//!   the side walls carry nothing of it. The **response at x = 0** is p_w(0)/F_ext.
+//! * **Coarse-grained stress** σ_αβ(x, z) (Goldhirsch, w = `stress_width`) of the final state minus
+//!   that of the reference, on a grid of `stress_step` over the box (compression positive).
+//! * **Contact network**: contacts opened, created, sliding; depth and width of the region of
+//!   opened contacts connected to the load (grainwave-analysis `network`: seeded within
+//!   [`REGION_SEED`] of the loaded grain, linked within [`REGION_LINK`]).
+//! * **First opening, linear estimate**: in a run where no contact opened or started sliding the
+//!   response is linear in F_ext, so a contact whose normal force drops by ΔF_n < 0 would open at
+//!   F_ext F_n^ref/(−ΔF_n); the smallest such value over all contacts.
+//! * **Affine moduli** (a, b, c, d) and r of the measured contact network (grainwave-linear
+//!   `measured_network`) in the bulk window (the box minus `boundary_layer` along the walls, the
+//!   floor and the free surface) and in the load window (the bulk window within half the slab's
+//!   height of the load).
+
+use super::config::E3Config;
+use super::slab::{FLOOR, LEFT, RIGHT};
+use grainwave_analysis::coarse_grain::{coarse_grain, smooth_1d, CoarseGrainOptions, Grid};
+use grainwave_analysis::network::{compare_networks, ContactKey, NetworkChanges, NetworkCounts, RegionSize};
+use grainwave_analysis::peaks::{classify_profile, PeakClassification, PeakOptions};
+use grainwave_core::prelude::*;
+use grainwave_linear::measured_network::{spring_network, NetworkWindow};
+use serde::{Deserialize, Serialize};
+
+/// Opened contacts within this distance of the load start the opened region [R̄].
+pub const REGION_SEED: f64 = 3.0;
+/// Opened contacts within this distance of a member join the opened region [R̄].
+pub const REGION_LINK: f64 = 2.5;
+
+/// Force of one grain on the floor.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FloorContact {
+    /// Grain id.
+    pub grain: u32,
+    /// Contact point x, relative to the profile origin [R̄].
+    pub x: f64,
+    /// Vertical force on the floor in the reference state (0 if not in contact) [m̄g].
+    pub reference: f64,
+    /// Vertical force on the floor after the load [m̄g].
+    pub after: f64,
+    /// Horizontal force on the floor, reference [m̄g].
+    pub horizontal_reference: f64,
+    /// Horizontal force on the floor, after [m̄g].
+    pub horizontal_after: f64,
+}
+
+/// A scalar field on a regular (x, z) grid.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct FieldData {
+    /// x of the first column [R̄].
+    pub x0: f64,
+    /// z of the first row [R̄].
+    pub z0: f64,
+    /// Spacing along x [R̄].
+    pub dx: f64,
+    /// Spacing along z [R̄].
+    pub dz: f64,
+    /// Columns.
+    pub nx: usize,
+    /// Rows.
+    pub nz: usize,
+    /// σ_xx, row by row (x fastest) [m̄g/R̄].
+    pub xx: Vec<f64>,
+    /// σ_zz [m̄g/R̄].
+    pub zz: Vec<f64>,
+    /// σ_xz [m̄g/R̄].
+    pub xz: Vec<f64>,
+}
+
+impl FieldData {
+    /// `self − other`.
+    pub fn minus(&self, other: &FieldData) -> FieldData {
+        let d = |a: &[f64], b: &[f64]| a.iter().zip(b).map(|(x, y)| x - y).collect();
+        FieldData { xx: d(&self.xx, &other.xx), zz: d(&self.zz, &other.zz), xz: d(&self.xz, &other.xz), ..self.clone() }
+    }
+    /// x coordinates of the columns.
+    pub fn xs(&self) -> Vec<f64> {
+        (0..self.nx).map(|i| self.x0 + i as f64 * self.dx).collect()
+    }
+    /// z coordinates of the rows.
+    pub fn zs(&self) -> Vec<f64> {
+        (0..self.nz).map(|k| self.z0 + k as f64 * self.dz).collect()
+    }
+}
+
+/// Affine moduli of a measured network.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ModuliReport {
+    /// a = C_xxxx [m̄g/R̄].
+    pub a: f64,
+    /// b = C_zzzz [m̄g/R̄].
+    pub b: f64,
+    /// c = C_xxzz [m̄g/R̄].
+    pub c: f64,
+    /// d = C_xzxz [m̄g/R̄].
+    pub d: f64,
+    /// r = [ab − c(d + c)]/(bd); < 0: double-peaked half-plane response.
+    pub r: f64,
+    /// Bonds in the window.
+    pub bonds: usize,
+    /// Window [x_min, z_min, x_max, z_max] [R̄].
+    pub window: [f64; 4],
+}
+
+/// The force difference of one contact (superposition comparisons).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ContactDelta {
+    /// The contact.
+    pub key: ContactKey,
+    /// Force difference on the key's first grain [m̄g].
+    pub df: [f64; 2],
+}
+
+/// Everything measured on one response run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RunResult {
+    /// Index of the run in the plan.
+    pub run: usize,
+    /// F_ext [m̄g].
+    pub force: f64,
+    /// Loaded grains (id, reference x, reference z).
+    pub loads: Vec<(u32, f64, f64)>,
+    /// x of the profile origin (the load, or the midpoint of the loads) [R̄].
+    pub origin: f64,
+    /// How the relaxation ended.
+    pub outcome: super::relax::RelaxOutcome,
+    /// Floor contacts.
+    pub floor: Vec<FloorContact>,
+    /// Grid of the smoothed profiles, relative to the origin [R̄].
+    pub grid: Vec<f64>,
+    /// Smoothed profiles of ΔF_z, one per width [m̄g/R̄].
+    pub profiles: Vec<Vec<f64>>,
+    /// p_w(0)/F_ext per width [1/R̄].
+    pub response_at_zero: Vec<f64>,
+    /// Σ ΔF_z over floor contacts [m̄g].
+    pub floor_change: f64,
+    /// Vertical component of the applied force(s) [m̄g].
+    pub vertical_load: f64,
+    /// Change of the normal loads of the left and right walls [m̄g].
+    pub side_wall_change: [f64; 2],
+    /// Contact counts.
+    pub counts: NetworkCounts,
+    /// Region of opened contacts.
+    pub region: RegionSize,
+    /// The run stayed linear: no contact opened, none was created, none started sliding.
+    pub linear: bool,
+    /// Linear estimate of the force at which the first contact opens [m̄g].
+    pub first_opening_estimate: Option<f64>,
+    /// The contact whose opening that is.
+    pub first_opening_contact: Option<ContactKey>,
+    /// Classifier verdict on the profile of the classifier width.
+    pub classification: PeakClassification,
+    /// Moduli of the final network, bulk window.
+    pub moduli_bulk: ModuliReport,
+    /// Moduli of the final network, load window.
+    pub moduli_load: ModuliReport,
+    /// Coarse-grained stress change (when computed).
+    pub field: Option<FieldData>,
+    /// Per-contact force differences (superposition runs).
+    pub contacts: Option<Vec<ContactDelta>>,
+}
+
+/// Floor contacts of two snapshots (reference, after), x relative to `origin`.
+pub fn floor_contacts(changes: &NetworkChanges<D2>, origin: f64) -> Vec<FloorContact> {
+    changes
+        .contacts
+        .iter()
+        .filter_map(|c| match c.key {
+            ContactKey::Wall(grain, w) if w == FLOOR => {
+                // force on the grain from the floor; the grain pushes the floor with the opposite
+                let v = |s: &Option<grainwave_analysis::network::ContactSide<D2>>| s.map_or((0.0, 0.0), |s| (s.force.y, -s.force.x));
+                let (fr, hr) = v(&c.before);
+                let (fa, ha) = v(&c.after);
+                Some(FloorContact { grain, x: c.point().x - origin, reference: fr, after: fa, horizontal_reference: hr, horizontal_after: ha })
+            }
+            _ => None,
+        })
+        .collect()
+}
+
+/// The x grid of the profiles: multiples of `step` between the side walls, relative to `origin`.
+pub fn profile_grid(width: f64, origin: f64, step: f64) -> Vec<f64> {
+    let lo = ((0.0 - origin) / step).ceil() as i64;
+    let hi = ((width - origin) / step).floor() as i64;
+    (lo..=hi).map(|k| k as f64 * step).collect()
+}
+
+/// Index of x = 0 in a grid from [`profile_grid`].
+pub fn zero_index(grid: &[f64]) -> usize {
+    grid.iter().position(|&x| x == 0.0).unwrap_or_else(|| grid.iter().enumerate().min_by(|a, b| a.1.abs().total_cmp(&b.1.abs())).map(|(k, _)| k).unwrap_or(0))
+}
+
+/// Smoothed profiles of `values` at `x` for every width.
+pub fn profiles(x: &[f64], values: &[f64], widths: &[f64], grid: &[f64]) -> Vec<Vec<f64>> {
+    widths.iter().map(|&w| smooth_1d(x, values, w, grid)).collect()
+}
+
+/// The grid of the stress fields: the box [0, width] × [0, top].
+pub fn field_grid(width: f64, top: f64, step: f64) -> Grid<D2> {
+    Grid::<D2>::covering(glam::DVec2::new(0.0, 0.0), glam::DVec2::new(width, top), step)
+}
+
+impl FieldData {
+    /// The grid of this field.
+    pub fn grid(&self) -> Grid<D2> {
+        Grid { origin: glam::DVec2::new(self.x0, self.z0), spacing: glam::DVec2::new(self.dx, self.dz), counts: [self.nx, self.nz, 1] }
+    }
+}
+
+/// The coarse-grained stress of `snapshot` on `grid`.
+pub fn stress_field(snapshot: &Snapshot<D2>, cfg: &E3Config, grid: &Grid<D2>) -> FieldData {
+    let grid = grid.clone();
+    let options = CoarseGrainOptions { width: cfg.response.stress_width, ..Default::default() };
+    let f = coarse_grain(snapshot, &grid, &options);
+    FieldData {
+        x0: grid.origin.x,
+        z0: grid.origin.y,
+        dx: grid.spacing.x,
+        dz: grid.spacing.y,
+        nx: grid.counts[0],
+        nz: grid.counts[1],
+        xx: f.component(0, 0),
+        zz: f.component(1, 1),
+        xz: f.component(0, 1),
+    }
+}
+
+/// Affine moduli of the grain–grain network of `snapshot` in `window`.
+pub fn moduli(snapshot: &Snapshot<D2>, window: [f64; 4]) -> ModuliReport {
+    let w = NetworkWindow { min: [window[0], window[1]], max: [window[2], window[3]] };
+    if w.area() <= 0.0 {
+        return ModuliReport { window, ..Default::default() };
+    }
+    let net = spring_network(snapshot, &w, false);
+    let m = net.moduli();
+    ModuliReport { a: m.a, b: m.b, c: m.c, d: m.d, r: m.r(), bonds: net.bonds.len(), window }
+}
+
+/// The bulk window of a box of `width` whose grains reach height `top`.
+pub fn bulk_window(width: f64, top: f64, layer: f64) -> [f64; 4] {
+    [layer, layer, width - layer, top - layer]
+}
+
+/// The load window: the bulk window within half the height of x = `origin`.
+pub fn load_window(width: f64, top: f64, layer: f64, origin: f64) -> [f64; 4] {
+    let half = 0.5 * top;
+    [(origin - half).max(layer), layer, (origin + half).min(width - layer), top - layer]
+}
+
+/// Height of the highest grain top of a snapshot.
+pub fn top_of(snapshot: &Snapshot<D2>) -> f64 {
+    snapshot.pos.iter().zip(&snapshot.radius).map(|(p, r)| p.y + r).fold(0.0, f64::max)
+}
+
+/// Normal load of wall `w` in a snapshot.
+pub fn wall_load(snapshot: &Snapshot<D2>, w: u32) -> f64 {
+    snapshot.wall_load(w)
+}
+
+/// Inputs of [`measure_run`] besides the snapshots.
+pub struct RunInputs<'a> {
+    /// The config.
+    pub cfg: &'a E3Config,
+    /// Index of the run.
+    pub run: usize,
+    /// F_ext.
+    pub force: f64,
+    /// Loaded grains (id, x, z) in the reference.
+    pub loads: Vec<(u32, f64, f64)>,
+    /// x of the origin of the profiles (the load; for superpositions the midpoint of the two
+    /// loaded grains, for all three runs).
+    pub origin: f64,
+    /// Vertical component of all applied forces.
+    pub vertical_load: f64,
+    /// Box width.
+    pub width: f64,
+    /// Reference field (for the difference), when fields are computed.
+    pub reference_field: Option<&'a FieldData>,
+    /// Keep per-contact differences.
+    pub keep_contacts: bool,
+    /// How the relaxation ended.
+    pub outcome: super::relax::RelaxOutcome,
+}
+
+/// Measures a response: `reference` before, `after` the load.
+pub fn measure_run(input: RunInputs<'_>, reference: &Snapshot<D2>, after: &Snapshot<D2>) -> (RunResult, NetworkChanges<D2>) {
+    let cfg = input.cfg;
+    let rc = &cfg.response;
+    let origin = input.origin;
+    let load_z = input.loads.iter().map(|l| l.2).fold(f64::NEG_INFINITY, f64::max);
+    let changes = compare_networks(reference, after);
+    let floor = floor_contacts(&changes, origin);
+    let grid = profile_grid(input.width, origin, rc.profile_step);
+    let xs: Vec<f64> = floor.iter().map(|c| c.x).collect();
+    let dfz: Vec<f64> = floor.iter().map(|c| c.after - c.reference).collect();
+    let profiles = profiles(&xs, &dfz, &rc.widths, &grid);
+    let z0 = zero_index(&grid);
+    let response_at_zero = profiles.iter().map(|p| p[z0] / input.force).collect();
+    let classifier_width = rc.classifier_width.unwrap_or(rc.widths[0]);
+    let classified = smooth_1d(&xs, &dfz, classifier_width, &grid);
+    let classification = classify_profile(&grid, &classified, &PeakOptions { prominence: rc.prominence, centre: 0.0 });
+    let counts = changes.counts();
+    // the opened contacts connected to the load: seeded within 3 R̄ (the loaded grain's contacts
+    // and its neighbours'), linked within 2.5 R̄ (contacts sharing a grain)
+    let region = changes.opened_region(glam::DVec2::new(origin, load_z), 1, 0, REGION_SEED, REGION_LINK);
+    // linear estimate of the first opening
+    let mut estimate: Option<(f64, ContactKey)> = None;
+    for c in &changes.contacts {
+        if let (Some(b), Some(a)) = (c.before, c.after) {
+            let dn = a.normal_force - b.normal_force;
+            if dn < 0.0 && b.normal_force > 0.0 {
+                let f = input.force * b.normal_force / (-dn);
+                if estimate.is_none_or(|(e, _)| f < e) {
+                    estimate = Some((f, c.key));
+                }
+            }
+        }
+    }
+    let started_sliding = changes.contacts.iter().any(|c| c.sliding_after() && !c.before.is_some_and(|b| b.sliding));
+    let linear = counts.opened == 0 && counts.created == 0 && !started_sliding;
+    let top = top_of(reference);
+    let bulk = bulk_window(input.width, top, rc.boundary_layer);
+    let field = input.reference_field.map(|rf| stress_field(after, cfg, &rf.grid()).minus(rf));
+    let contacts = input.keep_contacts.then(|| {
+        changes
+            .contacts
+            .iter()
+            .map(|c| {
+                let d = c.force_difference();
+                ContactDelta { key: c.key, df: [d.x, d.y] }
+            })
+            .collect()
+    });
+    let result = RunResult {
+        run: input.run,
+        force: input.force,
+        loads: input.loads.clone(),
+        origin,
+        outcome: input.outcome,
+        floor_change: dfz.iter().sum(),
+        floor,
+        grid,
+        profiles,
+        response_at_zero,
+        vertical_load: input.vertical_load,
+        side_wall_change: [wall_load(after, LEFT) - wall_load(reference, LEFT), wall_load(after, RIGHT) - wall_load(reference, RIGHT)],
+        counts,
+        region,
+        linear,
+        first_opening_estimate: estimate.map(|e| e.0),
+        first_opening_contact: estimate.map(|e| e.1),
+        classification,
+        moduli_bulk: moduli(after, bulk),
+        moduli_load: moduli(after, load_window(input.width, top, rc.boundary_layer, origin)),
+        field,
+        contacts,
+    };
+    (result, changes)
+}

@@ -1,0 +1,352 @@
+//! The `e3` protocol (SPEC §7): the response of a gravity-loaded 2D granular slab to a localized
+//! force — floor response with the reference state subtracted, coarse-grained stress, contact
+//! network changes, ensembles and sweeps with a single/double-peak classifier, superposition, a
+//! pile variant and lattice elasticity. See docs/e3.md.
+//!
+//! A run is a [`plan::Plan`] of units: one reference state per case (parameter set × seed) and
+//! one relaxation per response run (a force, or a pair of forces, applied to a reference). Units
+//! run in parallel on the rayon pool and are persisted as they complete ([`units`]); the protocol
+//! state in `checkpoint.gwck` records which are done, so `grainwave resume` redoes nothing that
+//! finished and continues interrupted units from their own checkpoints. Once every unit is done,
+//! the aggregates, tables, plots and the summary are written ([`outputs`]).
+
+pub mod config;
+pub mod measure;
+pub mod outputs;
+pub mod plan;
+pub mod relax;
+pub mod slab;
+pub mod units;
+
+pub use config::E3Config;
+pub use outputs::E3Summary;
+
+use crate::config::{ConfigError, ConfigSource};
+use crate::error::Result;
+use crate::protocol::RunContext;
+use config::Mode;
+use plan::Plan;
+use serde::{Deserialize, Serialize};
+
+/// Content tag of this protocol's checkpoints.
+pub const TAG: &str = "experiment-e3";
+
+/// The state of an `e3` run (what `checkpoint.gwck` holds).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct E3State {
+    /// The config (stored as its TOML text).
+    #[serde(with = "as_toml")]
+    pub config: E3Config,
+    /// Per case: its reference state is done.
+    pub references_done: Vec<bool>,
+    /// Per run: its response is done.
+    pub runs_done: Vec<bool>,
+    /// All outputs are written.
+    pub finished: bool,
+}
+
+/// Stores the config as TOML text inside binary checkpoints.
+mod as_toml {
+    use super::E3Config;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    pub fn serialize<S: Serializer>(c: &E3Config, s: S) -> Result<S::Ok, S::Error> {
+        toml::to_string(c).map_err(serde::ser::Error::custom)?.serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<E3Config, D::Error> {
+        let text = String::deserialize(d)?;
+        toml::from_str(&text).map_err(serde::de::Error::custom)
+    }
+}
+
+fn positive(src: &ConfigSource, key: &str, v: f64) -> Result<(), ConfigError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(src.error_at_key(key, format!("{v} (allowed: a finite number > 0)")))
+    }
+}
+
+fn non_negative(src: &ConfigSource, key: &str, v: f64) -> Result<(), ConfigError> {
+    if v >= 0.0 && !v.is_nan() {
+        Ok(())
+    } else {
+        Err(src.error_at_key(key, format!("{v} (allowed: a number ≥ 0)")))
+    }
+}
+
+/// Parses and validates an `e3` config.
+pub fn prepare(src: &ConfigSource) -> Result<E3Config, ConfigError> {
+    let cfg: E3Config = src.parse()?;
+    if cfg.experiment != "e3" {
+        return Err(src.error_at_key("experiment", format!("this protocol is `e3`, not `{}`", cfg.experiment)));
+    }
+    let table: toml::Table = src.parse()?;
+    for (key, mode) in [("sweep", Mode::Sweep), ("superposition", Mode::Superposition), ("pile", Mode::Pile), ("lattice", Mode::LatticeElasticity)] {
+        if table.contains_key(key) && cfg.mode != mode {
+            return Err(src.error_at_key(key, format!("`[{key}]` applies to mode `{}` only (this file's mode is `{}`)", mode.name(), cfg.mode.name())));
+        }
+    }
+    for (key, modes) in [("slab", &[Mode::Slab, Mode::Sweep, Mode::Superposition][..]), ("load", &[Mode::Slab, Mode::Sweep, Mode::Superposition][..])] {
+        if table.contains_key(key) && !modes.contains(&cfg.mode) {
+            return Err(src.error_at_key(key, format!("`[{key}]` does not apply to mode `{}`", cfg.mode.name())));
+        }
+    }
+    if cfg.samples == 0 {
+        return Err(src.error_at_key("samples", "0 (allowed: at least 1)"));
+    }
+    // slab
+    let s = &cfg.slab;
+    let sizes: Vec<[usize; 2]> =
+        if cfg.mode == Mode::Sweep && !cfg.sweep.sizes.is_empty() { cfg.sweep.sizes.clone() } else { vec![[s.layers, s.grains_per_layer]] };
+    let size_key = if cfg.mode == Mode::Sweep && !cfg.sweep.sizes.is_empty() { "sweep.sizes" } else { "slab.layers" };
+    for [l, m] in &sizes {
+        if *l < 2 || *m < 3 {
+            return Err(src.error_at_key(size_key, format!("{l} layers × {m} grains (allowed: at least 2 layers of at least 3 grains)")));
+        }
+    }
+    let deltas: Vec<f64> = if cfg.mode == Mode::Sweep && !cfg.sweep.deltas.is_empty() { cfg.sweep.deltas.clone() } else { vec![s.delta] };
+    for d in &deltas {
+        if !(0.0..1.0).contains(d) {
+            return Err(src.error_at_key(
+                if cfg.mode == Mode::Sweep && !cfg.sweep.deltas.is_empty() { "sweep.deltas" } else { "slab.delta" },
+                format!("{d} (allowed: δ in [0, 1))"),
+            ));
+        }
+    }
+    // material
+    let m = &cfg.material;
+    positive(src, "material.normal_stiffness", m.normal_stiffness)?;
+    positive(src, "material.tangential_stiffness_ratio", m.tangential_stiffness_ratio)?;
+    positive(src, "material.wall_stiffness_ratio", m.wall_stiffness_ratio)?;
+    non_negative(src, "material.friction", m.friction)?;
+    for (k, v) in [
+        ("material.wall_friction", m.wall_friction),
+        ("material.side_wall_friction", m.side_wall_friction),
+        ("material.normal_damping", m.normal_damping),
+        ("material.tangential_damping", m.tangential_damping),
+        ("material.wall_normal_damping", m.wall_normal_damping),
+        ("material.wall_tangential_damping", m.wall_tangential_damping),
+    ] {
+        if let Some(v) = v {
+            non_negative(src, k, v)?;
+        }
+    }
+    for v in &cfg.sweep.frictions {
+        non_negative(src, "sweep.frictions", *v)?;
+    }
+    for v in &cfg.sweep.stiffness_ratios {
+        positive(src, "sweep.stiffness_ratios", *v)?;
+    }
+    positive(src, "integration.dt", cfg.integration.dt)?;
+    // relaxation
+    let r = &cfg.relaxation;
+    if let Some(v) = r.kinetic_energy_per_grain {
+        positive(src, "relaxation.kinetic_energy_per_grain", v)?;
+    }
+    positive(src, "relaxation.max_acceleration", r.max_acceleration)?;
+    positive(src, "relaxation.response_max_acceleration", r.response_max_acceleration)?;
+    positive(src, "relaxation.max_time", r.max_time)?;
+    positive(src, "relaxation.static_tolerance", r.static_tolerance)?;
+    if r.static_iterations == 0 {
+        return Err(src.error_at_key("relaxation.static_iterations", "0 (allowed: at least 1)"));
+    }
+    // load
+    let l = &cfg.load;
+    if matches!(cfg.mode, Mode::Slab | Mode::Sweep | Mode::Superposition) {
+        if l.forces.is_empty() {
+            return Err(src.error_at_key("load.forces", "empty (allowed: one or more forces > 0)"));
+        }
+        for f in &l.forces {
+            positive(src, "load.forces", *f)?;
+        }
+        let mut sorted = l.forces.clone();
+        sorted.sort_by(f64::total_cmp);
+        if sorted.windows(2).any(|w| w[0] == w[1]) {
+            return Err(src.error_at_key("load.forces", format!("{:?} repeats a force (each force is one run)", l.forces)));
+        }
+    }
+    if !l.angle.is_finite() || l.angle.abs() >= 90.0 {
+        return Err(src.error_at_key("load.angle", format!("{} (allowed: degrees from the downward vertical in (−90, 90))", l.angle)));
+    }
+    if !l.torque.is_finite() {
+        return Err(src.error_at_key("load.torque", format!("{} (allowed: a finite torque)", l.torque)));
+    }
+    positive(src, "load.ramp_time", l.ramp_time)?;
+    if let Some(g) = l.grain {
+        for [layers, m] in &sizes {
+            let n = slab::Sites::of(slab::Shape::Slab { layers: *layers, grains_per_layer: *m, alternate: s.alternate }).positions.len();
+            if g as usize >= n {
+                return Err(src.error_at_key("load.grain", format!("{g} (allowed: a grain id < {n}, the grain count of a {layers} × {m} slab)")));
+            }
+        }
+    }
+    // response
+    let rc = &cfg.response;
+    if rc.widths.is_empty() {
+        return Err(src.error_at_key("response.widths", "empty (allowed: one or more widths > 0)"));
+    }
+    for w in &rc.widths {
+        positive(src, "response.widths", *w)?;
+    }
+    positive(src, "response.profile_step", rc.profile_step)?;
+    positive(src, "response.stress_width", rc.stress_width)?;
+    positive(src, "response.stress_step", rc.stress_step)?;
+    if let Some(w) = rc.classifier_width {
+        positive(src, "response.classifier_width", w)?;
+    }
+    if !(rc.prominence > 0.0 && rc.prominence < 1.0) {
+        return Err(src.error_at_key("response.prominence", format!("{} (allowed: a fraction in (0, 1))", rc.prominence)));
+    }
+    non_negative(src, "response.boundary_layer", rc.boundary_layer)?;
+    // modes
+    if cfg.mode == Mode::Superposition {
+        positive(src, "superposition.separation", cfg.superposition.separation)?;
+        let sites = slab::Sites::of(slab::Shape::Slab { layers: s.layers, grains_per_layer: s.grains_per_layer, alternate: s.alternate });
+        let axis = 0.5 * sites.width;
+        let d = 0.5 * cfg.superposition.separation;
+        if sites.top_grain_near(axis - d) == sites.top_grain_near(axis + d) {
+            return Err(src.error_at_key(
+                "superposition.separation",
+                format!(
+                    "{} puts both forces on the same grain (allowed: at least the top-row spacing, 4 R̄ with alternating rows)",
+                    cfg.superposition.separation
+                ),
+            ));
+        }
+        if axis + d > sites.width {
+            return Err(src.error_at_key("superposition.separation", format!("{} is wider than the slab ({} R̄)", cfg.superposition.separation, sites.width)));
+        }
+    }
+    if cfg.mode == Mode::Pile {
+        if cfg.pile.layers < 2 || cfg.pile.top_grains < 1 {
+            return Err(src.error_at_key(
+                "pile.layers",
+                format!("{} layers, {} top grains (allowed: at least 2 layers and 1 top grain)", cfg.pile.layers, cfg.pile.top_grains),
+            ));
+        }
+        if !(0.0..1.0).contains(&cfg.pile.delta) {
+            return Err(src.error_at_key("pile.delta", format!("{} (allowed: δ in [0, 1))", cfg.pile.delta)));
+        }
+    }
+    if cfg.mode == Mode::LatticeElasticity {
+        let lt = &cfg.lattice;
+        positive(src, "lattice.spacing", lt.spacing)?;
+        for (k, v) in [("lattice.horizontal", lt.horizontal), ("lattice.oblique", lt.oblique)] {
+            if v.iter().any(|x| !(x.is_finite() && *x >= 0.0)) {
+                return Err(src.error_at_key(k, format!("{v:?} (allowed: stiffnesses ≥ 0)")));
+            }
+        }
+        if lt.oblique[0] <= 0.0 {
+            return Err(src.error_at_key("lattice.oblique", "the oblique normal stiffness must be > 0 (the lattice would have no vertical stiffness)"));
+        }
+        for x in &lt.tangential_ratios {
+            non_negative(src, "lattice.tangential_ratios", *x)?;
+        }
+    }
+    // units
+    let u = &cfg.units;
+    for (k, v) in [("units.radius", u.radius), ("units.thickness", u.thickness), ("units.density", u.density), ("units.gravity", u.gravity)] {
+        positive(src, k, v)?;
+    }
+    Ok(cfg)
+}
+
+/// Lines of `grainwave check` for a valid `e3` config.
+pub fn describe(cfg: &E3Config) -> Vec<String> {
+    let plan = Plan::new(cfg);
+    let mut v = vec![format!("experiment   e3, mode {}, seed {}, {} sample(s) per disordered set", cfg.mode.name(), cfg.seed, cfg.samples)];
+    if cfg.mode == Mode::LatticeElasticity {
+        v.push(format!("lattice      spacing {}, horizontal {:?}, oblique {:?}", cfg.lattice.spacing, cfg.lattice.horizontal, cfg.lattice.oblique));
+        return v;
+    }
+    for g in &plan.groups {
+        let n = slab::Sites::of(g.shape).positions.len();
+        let mat = slab::Material::resolve(&cfg.material, g.friction, g.ratio);
+        v.push(format!(
+            "set          {}: {n} grains, δ = {}, μ = {} (floor {}, side walls {}), k_T/k_N = {}, {} case(s)",
+            g.label,
+            g.delta,
+            g.friction,
+            mat.wall_friction,
+            mat.side_wall_friction,
+            g.ratio,
+            g.cases.len()
+        ));
+    }
+    v.push(format!(
+        "work         {} reference state(s), {} response run(s); forces {:?} m̄g, ramp {} τ",
+        plan.cases.len(),
+        plan.runs.len(),
+        if cfg.mode == Mode::Pile { Vec::new() } else { cfg.load.forces.clone() },
+        cfg.load.ramp_time
+    ));
+    v.push(format!("integration  dt = {} τ, {:?}", cfg.integration.dt, cfg.integration.integrator));
+    v
+}
+
+impl E3State {
+    /// A fresh state.
+    pub fn new(config: E3Config) -> Self {
+        let plan = Plan::new(&config);
+        E3State { references_done: vec![false; plan.cases.len()], runs_done: vec![false; plan.runs.len()], finished: false, config }
+    }
+
+    /// Runs (or continues) the protocol, writing every output into the context's directory.
+    pub fn run(&mut self, ctx: &mut RunContext<'_>) -> Result<E3Summary> {
+        let cfg = self.config.clone();
+        let plan = Plan::new(&cfg);
+        if !self.finished {
+            write_resolved_config(ctx, &cfg)?;
+            ctx.log(&format!("e3 {}: {} reference state(s), {} response run(s)", cfg.mode.name(), plan.cases.len(), plan.runs.len()));
+            let save = |ctx: &mut RunContext<'_>, refs: &[bool], runs: &[bool]| -> Result<()> {
+                let state = E3State { config: cfg.clone(), references_done: refs.to_vec(), runs_done: runs.to_vec(), finished: false };
+                ctx.save_checkpoint(TAG, &state)?;
+                Ok(())
+            };
+            let write_run = |out: &std::path::Path,
+                             run: &plan::RunSpec,
+                             result: &measure::RunResult,
+                             reference: &grainwave_core::snapshot::Snapshot<grainwave_core::dim::D2>,
+                             after: &grainwave_core::snapshot::Snapshot<grainwave_core::dim::D2>,
+                             changes: &grainwave_analysis::network::NetworkChanges<grainwave_core::dim::D2>,
+                             reference_field: Option<&measure::FieldData>|
+             -> Result<()> { outputs::write_run_files(out, &cfg, &plan, run, result, reference, after, changes, reference_field) };
+            units::execute(ctx, &cfg, &plan, &mut self.references_done, &mut self.runs_done, &save, &write_run)?;
+        }
+        let summary = outputs::write_final(ctx.out_dir(), &cfg, &plan)?;
+        self.finished = true;
+        ctx.save_checkpoint(TAG, self)?;
+        Ok(summary)
+    }
+}
+
+/// Writes `config.resolved.toml`.
+fn write_resolved_config(ctx: &RunContext<'_>, config: &E3Config) -> Result<()> {
+    let text = toml::to_string_pretty(config).expect("a config serializes to TOML");
+    let header = format!(
+        "# The config of this run with every default filled in (grainwave {}). Keys left out are\n\
+         # computed per parameter set (dashpots from the stiffnesses, wall friction from μ, the\n\
+         # kinetic-energy limit from δ; see docs/e3.md). Running it again gives the same results.\n\n",
+        grainwave_core::VERSION
+    );
+    grainwave_core::checkpoint::atomic_write(&ctx.path("config.resolved.toml"), format!("{header}{text}").as_bytes())?;
+    Ok(())
+}
+
+/// Re-makes the aggregate outputs (tables, plots, summary) of the finished run in `dir` from its
+/// saved units (`grainwave plot DIR`); returns the files written. Per-run pictures are made when a
+/// run completes and are not re-made.
+pub fn replot(dir: &std::path::Path, state: &E3State) -> Result<Vec<String>> {
+    if !state.finished {
+        return Err(crate::error::ExperimentError::Resume { path: dir.to_path_buf(), reason: "the run has not finished: resume it first".into() });
+    }
+    Ok(outputs::write_final(dir, &state.config, &Plan::new(&state.config))?.files)
+}
+
+/// Parses, validates and runs an `e3` config into `ctx`'s directory.
+pub fn run_config(src: &ConfigSource, ctx: &mut RunContext<'_>) -> Result<E3Summary> {
+    let cfg = prepare(src)?;
+    E3State::new(cfg).run(ctx)
+}

@@ -1,0 +1,380 @@
+//! The `e3` protocol end to end (SPEC §7): reference states, vertical balance, linearity,
+//! superposition, lattice elasticity, interrupt + resume, thread-count independence, and config
+//! errors. Slabs are small (tens of grains) so that relaxations to tight tolerances stay fast.
+
+use grainwave_analysis::coarse_grain::smooth_1d;
+use grainwave_experiments::config::ConfigSource;
+use grainwave_experiments::e3::{self, units::StoredRun};
+use grainwave_experiments::protocol::{Reporter, RunContext, SilentReporter};
+use grainwave_experiments::{registry, ExperimentError, Progress};
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+
+fn out_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("grainwave-e3-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+fn run_text(text: &str, out: &Path) -> Value {
+    let src = ConfigSource::from_text("e3-test.toml", text);
+    let mut rep = SilentReporter;
+    let mut ctx = RunContext::new(out, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
+    registry::run(&src, &mut ctx).unwrap_or_else(|e| panic!("{e}")).report
+}
+
+/// The stored result of run `label` of the only case.
+fn stored_run(out: &Path, label: &str) -> StoredRun {
+    let units = out.join("units");
+    let case = std::fs::read_dir(&units).unwrap().next().unwrap().unwrap().path();
+    grainwave_core::checkpoint::load(&case.join(format!("{label}.gwck")), e3::units::RUN_TAG).unwrap()
+}
+
+/// A 5-layer slab of 8 (and 7) grains, frictionless side walls, tight relaxation (`acceleration`
+/// for the reference and per unit force for the responses).
+fn small_slab(friction: f64, forces: &str, acceleration: f64) -> String {
+    format!(
+        r#"
+experiment = "e3"
+mode = "slab"
+
+[slab]
+layers = 5
+grains_per_layer = 8
+
+[material]
+friction = {friction}
+side_wall_friction = 0.0
+
+[relaxation]
+max_acceleration = {acceleration}
+response_max_acceleration = {acceleration}
+
+[load]
+forces = {forces}
+ramp_time = 4.0
+
+[output]
+vtk = false
+plots = false
+"#
+    )
+}
+
+#[test]
+fn reference_floor_carries_the_weight_and_the_response_integrates_to_the_force() {
+    // |floor − weight| ≤ Σ_i m_i |a_i| ≤ M a_max (side walls frictionless: they carry no
+    // vertical force): a_max = 1e-9 g bounds floor/weight − 1 by 1e-9, well inside 1e-6. The
+    // response Σ ΔF_z − F_ext is bounded by the residuals of both states, M (a_ref + a_run)
+    // = 37 × 2e-9 m̄g for F_ext = 1: inside 1e-6.
+    for friction in [0.5, 0.0] {
+        let out = out_dir(&format!("balance-{friction}"));
+        let r = run_text(&small_slab(friction, "[1.0]", 1e-9), &out);
+        let case = &r["groups"][0]["cases"][0];
+        let ratio = case["floor_over_weight"].as_f64().unwrap();
+        assert!((ratio - 1.0).abs() < 1e-6, "μ = {friction}: floor/weight = {ratio}");
+        assert!(case["converged"].as_bool().unwrap());
+        if friction == 0.0 {
+            assert!(case["newton_iterations"].as_u64().unwrap() > 0, "frictionless: Newton iterations finish the relaxation");
+        }
+        let resp = &r["groups"][0]["responses"][0];
+        let balance = resp["floor_balance"].as_f64().unwrap();
+        assert!((balance - 1.0).abs() < 1e-6, "μ = {friction}: Σ ΔF_z / F_ext = {balance}");
+        // the smoothed profile integrates to the same total on a grid extending past the walls
+        let run = stored_run(&out, "F1").result;
+        let xs: Vec<f64> = run.floor.iter().map(|c| c.x).collect();
+        let dz: Vec<f64> = run.floor.iter().map(|c| c.after - c.reference).collect();
+        let grid: Vec<f64> = (-1200..=1200).map(|k| k as f64 * 0.05).collect();
+        for w in [3.0, 6.0] {
+            let integral: f64 = smooth_1d(&xs, &dz, w, &grid).iter().sum::<f64>() * 0.05;
+            // the Riemann sum of a Gaussian of width ≥ 3 at step 0.05 is exact to round-off
+            assert!((integral / run.floor_change - 1.0).abs() < 1e-9, "w = {w}: ∫ p = {integral} vs Σ ΔF = {}", run.floor_change);
+        }
+        assert!(run.side_wall_change.iter().all(|x| x.is_finite()));
+    }
+}
+
+#[test]
+fn tiny_forces_give_a_linear_response() {
+    // Forces 1e-3 … 1e-2 m̄g open no contact and start no sliding in a frictional lattice:
+    // p(0)/F_ext is constant over the decade. Residual accelerations of 1e-10 g in the reference
+    // and 1e-8 g per m̄g of force in the responses make per-contact errors ≤ 1e-10 m̄g against
+    // responses ≥ 1e-4 m̄g at the load: 1e-3 has a wide margin.
+    let out = out_dir("linear");
+    let text = small_slab(1.0, "[0.001, 0.00316, 0.01]", 1e-10).replace("response_max_acceleration = 1e-10", "response_max_acceleration = 1e-8");
+    let r = run_text(&text, &out);
+    let resp = r["groups"][0]["responses"].as_array().unwrap();
+    assert_eq!(resp.len(), 3);
+    for w in 0..2 {
+        let values: Vec<f64> = resp.iter().map(|a| a["response_at_zero"][w].as_f64().unwrap()).collect();
+        let first = values[0];
+        for v in &values {
+            assert!((v / first - 1.0).abs() < 1e-3, "width {w}: p(0)/F = {values:?}");
+        }
+    }
+    for a in resp {
+        assert_eq!(a["opened"].as_f64(), Some(0.0));
+        assert_eq!(a["linear"].as_u64(), Some(1));
+        assert_eq!(a["classification"]["shape"], "single");
+    }
+    // the linear estimate of the first opening is the same from every force
+    let estimates: Vec<f64> = resp.iter().map(|a| a["first_opening_estimate"].as_f64().unwrap()).collect();
+    for e in &estimates {
+        assert!((e / estimates[0] - 1.0).abs() < 1e-3, "{estimates:?}");
+    }
+}
+
+#[test]
+fn superposition_holds_per_contact_in_the_linear_regime() {
+    // Two forces of 1e-2 m̄g 8 R̄ apart on a frictional, slightly polydisperse slab (δ = 0.1: no
+    // contact is at the edge of opening, unlike the ξ ≈ 0 horizontal contacts of an ordered
+    // lattice's top row) open no contact and slide none: the joint response is the sum of the
+    // separate ones. Geometric nonlinearity is of relative order (F/k)/R ~ 3e-6 times the turn
+    // of the normals (~1e-9 overall); the residual accelerations (reference 1e-10 g, responses
+    // 1e-8 g per m̄g, i.e. 1e-10 g) make per-contact errors ~1e-10 m̄g against max |ΔF| ~ 5e-3 m̄g
+    // under the loads: 1e-6 holds with a margin of ~10.
+    let text = r#"
+experiment = "e3"
+mode = "superposition"
+
+[slab]
+layers = 5
+grains_per_layer = 14
+delta = 0.1
+
+[material]
+friction = 1.0
+side_wall_friction = 0.0
+
+[relaxation]
+max_acceleration = 1e-10
+response_max_acceleration = 1e-8
+
+[load]
+forces = [0.01]
+ramp_time = 4.0
+
+[superposition]
+separation = 8.0
+
+[output]
+vtk = false
+plots = false
+"#;
+    let out = out_dir("superposition");
+    let r = run_text(text, &out);
+    let s = &r["superposition"][0];
+    let per_contact = s["contact_max_deviation"].as_f64().unwrap();
+    assert!(per_contact < 1e-6, "per-contact deviation {per_contact}");
+    for w in s["profile_max_deviation"].as_array().unwrap() {
+        assert!(w.as_f64().unwrap() < 1e-6, "profile deviation {w}");
+    }
+    // the loaded grains sit 8 R̄ apart on the lattice; the polydisperse grains settled a little
+    assert!((s["separation"].as_f64().unwrap() - 8.0).abs() < 0.5, "{}", s["separation"]);
+    assert_eq!(s["opened_both"].as_u64(), Some(0));
+}
+
+#[test]
+fn lattice_elasticity_mode_matches_the_closed_form() {
+    // Triangular lattice, spacing ℓ, cell area √3ℓ²/2; with x = kᵗ/kⁿ for every bond and
+    // horizontal bonds present, in units of kⁿℓ²/(8A): a = 9 + 3x, b = 9 + 3x, c = 3(1 − x),
+    // d = 3 + 3x (the horizontal bond adds 8 to a and 2x to d; the oblique ones give
+    // a = 1 + 3x, b = 9 + 3x, c = 3(1 − x), d = 3 + x).
+    let text = r#"
+experiment = "e3"
+mode = "lattice_elasticity"
+
+[lattice]
+spacing = 2.0
+horizontal = [3000.0, 2400.0]
+oblique = [3000.0, 2400.0]
+tangential_ratios = [0.1, 0.8]
+
+[output]
+plots = false
+"#;
+    let out = out_dir("lattice");
+    let r = run_text(text, &out);
+    let m = &r["lattice"]["moduli"];
+    let (k, l, x) = (3000.0, 2.0f64, 0.8);
+    let unit = k * l * l / (8.0 * 3f64.sqrt() / 2.0 * l * l);
+    let (a, b, c, d) = (unit * (9.0 + 3.0 * x), unit * (9.0 + 3.0 * x), unit * 3.0 * (1.0 - x), unit * (3.0 + 3.0 * x));
+    for (key, v) in [("a", a), ("b", b), ("c", c), ("d", d)] {
+        let got = m[key].as_f64().unwrap();
+        assert!((got / v - 1.0).abs() < 1e-12, "{key}: {got} vs {v}");
+    }
+    let rr = (a * b - c * (d + c)) / (b * d);
+    assert!((m["r"].as_f64().unwrap() - rr).abs() < 1e-12);
+    assert_eq!(r["lattice"]["verdict"], "single");
+    // the scan: without horizontal bonds, x = 0.1 is double-peaked (crossover at √84 − 9 = 0.165)
+    let scan = r["lattice"]["scan"].as_array().unwrap();
+    assert!(scan[0][2].as_f64().unwrap() < 0.0 && scan[1][2].as_f64().unwrap() > 0.0);
+}
+
+#[test]
+fn an_ordered_slab_network_has_the_moduli_of_its_lattice() {
+    // The reference network of an ordered frictional slab measured in its bulk window: every bond
+    // has k_N and k_T, so the moduli are those of the triangular lattice up to the contacts cut by
+    // the window's edges (relative error of order spacing/size) — and r > 0.
+    let out = out_dir("network");
+    let r = run_text(
+        &small_slab(0.5, "[0.1]", 1e-7)
+            .replace("layers = 5\ngrains_per_layer = 8", "layers = 12\ngrains_per_layer = 14")
+            .replace("[relaxation]", "[response]\nboundary_layer = 3.0\n\n[relaxation]"),
+        &out,
+    );
+    let m = &r["groups"][0]["cases"][0]["moduli_bulk"];
+    let unit = 3000.0 / (8.0 * 3f64.sqrt() / 2.0);
+    let x = 0.8;
+    let b = unit * (9.0 + 3.0 * x);
+    let got = m["b"].as_f64().unwrap();
+    assert!((got / b - 1.0).abs() < 0.15, "b = {got} vs {b}");
+    assert!(m["r"].as_f64().unwrap() > 0.0);
+}
+
+/// Interrupts after `after` progress reports.
+struct Interrupter {
+    flag: Arc<AtomicBool>,
+    after: usize,
+    seen: usize,
+}
+
+impl Reporter for Interrupter {
+    fn stage(&mut self, _: &str, _: Option<u64>) {}
+    fn progress(&mut self, _: &Progress) {
+        self.seen += 1;
+        if self.seen == self.after {
+            self.flag.store(true, Ordering::SeqCst);
+        }
+    }
+    fn samples(&mut self, _: usize, _: usize) {}
+    fn message(&mut self, _: &str) {}
+}
+
+const RESUMABLE: &str = r#"
+experiment = "e3"
+mode = "slab"
+
+[slab]
+layers = 4
+grains_per_layer = 8
+
+[material]
+friction = 0.3
+
+[load]
+forces = [5.0]
+ramp_time = 2.0
+
+[output]
+vtk = true
+plots = true
+"#;
+
+fn result_files(out: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut files: Vec<String> =
+        ["summary.json", "results.csv", "runs.csv", "profiles.csv", "profiles.npz", "config.resolved.toml"].iter().map(|s| s.to_string()).collect();
+    let runs = out.join("runs");
+    let case = std::fs::read_dir(&runs).unwrap().next().unwrap().unwrap().file_name().to_string_lossy().into_owned();
+    for f in ["floor_contacts.csv", "floor_profile.csv", "contact_changes.csv", "stress_field.npz", "contact_force_difference.vtp", "grains.vtp"] {
+        files.push(format!("runs/{case}/F5/{f}"));
+    }
+    files.into_iter().map(|f| (f.clone(), std::fs::read(out.join(&f)).unwrap_or_else(|e| panic!("{f}: {e}")))).collect()
+}
+
+#[test]
+fn interrupted_runs_resume_to_the_same_bits() {
+    let straight = out_dir("straight");
+    run_text(RESUMABLE, &straight);
+    for after in [3, 40] {
+        // 3: inside the reference relaxation; 40: inside the response run
+        let split = out_dir(&format!("split-{after}"));
+        let src = ConfigSource::from_text("e3-test.toml", RESUMABLE);
+        let flag = Arc::new(AtomicBool::new(false));
+        let mut rep = Interrupter { flag: flag.clone(), after, seen: 0 };
+        {
+            let mut ctx = RunContext::new(&split, &mut rep, flag.clone()).unwrap();
+            ctx.report_every = 37;
+            match registry::run(&src, &mut ctx) {
+                Err(ExperimentError::Interrupted { checkpoint, .. }) => assert!(checkpoint.exists()),
+                other => panic!("expected an interruption, got {other:?}"),
+            }
+        }
+        assert!(!split.join("summary.json").exists());
+        let mut rep = SilentReporter;
+        let mut ctx = RunContext::new(&split, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
+        registry::resume(&split, &mut ctx).unwrap();
+        assert_eq!(result_files(&straight), result_files(&split), "interrupted after {after} reports");
+        // a finished run resumes to the same files, and `grainwave plot` re-makes them identically
+        registry::resume(&split, &mut ctx).unwrap();
+        assert_eq!(result_files(&straight), result_files(&split));
+        let files = registry::plot(&split).unwrap();
+        assert!(files.iter().any(|f| f == "linearity.png"), "{files:?}");
+        assert_eq!(result_files(&straight), result_files(&split));
+    }
+}
+
+#[test]
+fn results_do_not_depend_on_the_thread_count() {
+    // a disordered ensemble of two samples and two forces: four runs in parallel, or one at a time
+    let text = r#"
+experiment = "e3"
+mode = "sweep"
+samples = 2
+
+[slab]
+layers = 4
+grains_per_layer = 7
+
+[sweep]
+deltas = [0.1]
+frictions = [0.2, 0.5]
+
+[load]
+forces = [2.0]
+ramp_time = 2.0
+
+[output]
+plots = false
+vtk = false
+"#;
+    let run_with = |threads: usize, name: &str| {
+        let out = out_dir(name);
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| run_text(text, &out));
+        out
+    };
+    let one = run_with(1, "threads-1");
+    let three = run_with(3, "threads-3");
+    for f in ["summary.json", "results.csv", "runs.csv", "profiles.npz"] {
+        assert_eq!(std::fs::read(one.join(f)).unwrap(), std::fs::read(three.join(f)).unwrap(), "{f} differs between 1 and 3 threads");
+    }
+    let s: Value = serde_json::from_str(&std::fs::read_to_string(one.join("summary.json")).unwrap()).unwrap();
+    assert_eq!(s["groups"].as_array().unwrap().len(), 2);
+    assert_eq!(s["groups"][0]["cases"].as_array().unwrap().len(), 2, "two disorder realizations");
+}
+
+#[test]
+fn config_errors_point_at_the_key() {
+    let check = |text: &str| registry::check(&ConfigSource::from_text("bad.toml", text)).expect_err("must be refused");
+    let base = small_slab(0.5, "[1.0]", 1e-6);
+    let e = check(&base.replace("friction = 0.5", "friction = -0.5"));
+    assert_eq!(e.key.as_deref(), Some("material.friction"));
+    assert!(e.message.contains("-0.5"), "{e}");
+    let e = check(&base.replace("forces = [1.0]", "forces = []"));
+    assert_eq!(e.key.as_deref(), Some("load.forces"));
+    let e = check(&format!("{base}\n[sweep]\nfrictions = [0.1]\n"));
+    assert_eq!(e.key.as_deref(), Some("sweep"));
+    assert!(e.message.contains("mode `sweep` only"), "{e}");
+    let e = check(&base.replace("mode = \"slab\"", "mode = \"slabs\""));
+    assert!(e.message.contains("did you mean `slab`"), "{e}");
+    let e = check(&base.replace("layers = 5", "layers = 1"));
+    assert_eq!(e.key.as_deref(), Some("slab.layers"));
+    let e = check(&base.replace("[load]", "[load]\ngrain = 999"));
+    assert_eq!(e.key.as_deref(), Some("load.grain"));
+    // a valid config is described
+    let lines = registry::check(&ConfigSource::from_text("ok.toml", &base)).unwrap();
+    assert!(lines.iter().any(|l| l.contains("37 grains")), "{lines:?}");
+}
