@@ -113,6 +113,8 @@ pub struct NeighborList<D: Dim> {
     pub ref_wall_pos: Vec<D::Vector>,
     /// Tilt factors of the periodic cell at the last build.
     pub ref_tilt: [f64; 3],
+    /// Stable ids of the grains, in storage order, at the last build.
+    pub ref_ids: Vec<u32>,
     /// Number of builds so far.
     pub builds: u64,
     /// Force a rebuild at the next check (radii or domain changed).
@@ -136,6 +138,7 @@ impl<D: Dim> NeighborList<D> {
             ref_pos: Vec::new(),
             ref_wall_pos: Vec::new(),
             ref_tilt: [0.0; 3],
+            ref_ids: Vec::new(),
             builds: 0,
             stale: true,
         }
@@ -178,48 +181,70 @@ impl<D: Dim> NeighborList<D> {
     /// pair that was in contact (matched by the stable ids `ids`).
     pub fn rebuild(&mut self, pos: &[D::Vector], radius: &[f64], ids: &[u32], domain: &Domain<D>) {
         let n = pos.len();
-        // Old contacts keyed by stable ids (smaller id first), with the orientation they were
-        // stored in (histories act on the grain of smaller storage index).
-        let mut old: Vec<(u64, bool, ContactState<D>)> = self
-            .list
-            .iter()
-            .filter(|p| p.state.in_contact())
-            .map(|p| {
-                let (a, b) = (ids[p.i as usize], ids[p.j as usize]);
-                (id_key(a, b), a < b, p.state)
-            })
-            .collect();
-        old.sort_unstable_by_key(|e| e.0);
-        let mut old_wall: Vec<((u32, u32), ContactState<D>)> = self
-            .wall_pairs
-            .iter()
-            .filter(|p| p.state.in_contact())
-            .map(|p| ((ids[p.grain as usize], p.wall), p.state))
-            .collect();
-        old_wall.sort_unstable_by_key(|e| e.0);
-
         let mut list = build_list::<D>(pos, radius, domain, self.skin);
-        if !old.is_empty() {
-            for i in 0..n {
-                let a = ids[i];
+        let old = &self.list;
+        if self.ref_ids.as_slice() == ids {
+            // Same grains in the same storage order: both lists are sorted by (i, j); merge them.
+            for i in 0..n.min(old.owner_start.len().saturating_sub(1)) {
+                let (mut o, o_end) = (old.owner_start[i] as usize, old.owner_start[i + 1] as usize);
                 for p in list.owner_start[i] as usize..list.owner_start[i + 1] as usize {
-                    let b = ids[list.partner[p] as usize];
-                    if let Ok(e) = old.binary_search_by_key(&id_key(a, b), |e| e.0) {
-                        let (_, stored_ascending, mut s) = old[e];
-                        if stored_ascending != (a < b) {
-                            // the storage order of the two grains changed: histories act on the other one
-                            s.spring = -s.spring;
-                            s.rolling = -s.rolling;
+                    let j = list.partner[p];
+                    while o < o_end && old.partner[o] < j {
+                        o += 1;
+                    }
+                    if o < o_end && old.partner[o] == j {
+                        list.spring[p] = old.spring[o];
+                        list.overlap[p] = old.overlap[o];
+                        list.sliding[p] = old.sliding[o];
+                        list.rolling[p] = old.rolling[o];
+                        list.twist[p] = old.twist[o];
+                    }
+                }
+            }
+        } else {
+            // Grains added, removed or reordered: match contacts by stable id pair (smaller id
+            // first), with the orientation they were stored in (histories act on the grain of
+            // smaller storage index).
+            let ref_ids = &self.ref_ids;
+            let mut carried: Vec<(u64, bool, ContactState<D>)> = old
+                .iter()
+                .filter(|p| p.state.in_contact() && (p.i as usize) < ref_ids.len() && (p.j as usize) < ref_ids.len())
+                .map(|p| {
+                    let (a, b) = (ref_ids[p.i as usize], ref_ids[p.j as usize]);
+                    (id_key(a, b), a < b, p.state)
+                })
+                .collect();
+            carried.sort_unstable_by_key(|e| e.0);
+            if !carried.is_empty() {
+                for i in 0..n {
+                    let a = ids[i];
+                    for p in list.owner_start[i] as usize..list.owner_start[i + 1] as usize {
+                        let b = ids[list.partner[p] as usize];
+                        if let Ok(e) = carried.binary_search_by_key(&id_key(a, b), |e| e.0) {
+                            let (_, stored_ascending, mut s) = carried[e];
+                            if stored_ascending != (a < b) {
+                                // the storage order of the two grains changed: histories act on the other one
+                                s.spring = -s.spring;
+                                s.rolling = -s.rolling;
+                            }
+                            list.spring[p] = s.spring;
+                            list.overlap[p] = s.overlap;
+                            list.sliding[p] = s.sliding;
+                            list.rolling[p] = s.rolling;
+                            list.twist[p] = s.twist;
                         }
-                        list.spring[p] = s.spring;
-                        list.overlap[p] = s.overlap;
-                        list.sliding[p] = s.sliding;
-                        list.rolling[p] = s.rolling;
-                        list.twist[p] = s.twist;
                     }
                 }
             }
         }
+        let ref_ids = if self.ref_ids.is_empty() { ids } else { &self.ref_ids };
+        let mut old_wall: Vec<((u32, u32), ContactState<D>)> = self
+            .wall_pairs
+            .iter()
+            .filter(|p| p.state.in_contact() && (p.grain as usize) < ref_ids.len())
+            .map(|p| ((ref_ids[p.grain as usize], p.wall), p.state))
+            .collect();
+        old_wall.sort_unstable_by_key(|e| e.0);
         self.list = list;
 
         let mut wall_pairs = Vec::new();
@@ -239,6 +264,8 @@ impl<D: Dim> NeighborList<D> {
         self.ref_pos = pos.to_vec();
         self.ref_wall_pos = domain.walls.iter().map(|w| w.position).collect();
         self.ref_tilt = domain.tilt;
+        self.ref_ids.clear();
+        self.ref_ids.extend_from_slice(ids);
         self.builds += 1;
         self.stale = false;
     }
@@ -432,49 +459,110 @@ fn build_list<D: Dim>(pos: &[D::Vector], radius: &[f64], domain: &Domain<D>, ski
         fill[f] += 1;
     }
 
-    const CHUNK: usize = 1024;
-    let chunks: Vec<Vec<u32>> = (0..n.div_ceil(CHUNK))
+    let reach = |i: usize, j: usize| {
+        let d = image.displacement(pos[i], pos[j]);
+        let r = radius[i] + radius[j] + skin;
+        d.norm2() < r * r
+    };
+    // Minimal stencil: every pair of neighbouring cells is visited once, from the cell that comes
+    // first in (z, y, x) order (13 forward neighbours in 3D, 4 in 2D, plus the cell itself). It
+    // needs at least three cells along every periodic axis (fewer and a neighbour would be seen
+    // through both sides); otherwise every grain scans all its neighbouring cells for larger indices.
+    let half = (0..D::D).all(|k| !periodic[k] || counts[k] >= 3);
+    let mut forward: Vec<[i64; 3]> = Vec::new();
+    for dz in -1..=1i64 {
+        for dy in -1..=1i64 {
+            for dx in -1..=1i64 {
+                let o = [dx, dy, dz];
+                if (0..3).all(|k| k < D::D || o[k] == 0) && (dz, dy, dx) > (0, 0, 0) {
+                    forward.push(o);
+                }
+            }
+        }
+    }
+    const CHUNK: usize = 256;
+    let found: Vec<Vec<(u32, u32)>> = (0..n_cells.div_ceil(CHUNK))
         .into_par_iter()
         .map(|chunk| {
-            let mut partners = Vec::new();
+            let mut out = Vec::new();
             let mut cells = Vec::with_capacity(27);
-            let mut js: Vec<u32> = Vec::new();
-            let mut sizes = Vec::with_capacity(CHUNK);
-            for i in chunk * CHUNK..((chunk + 1) * CHUNK).min(n) {
-                grid.neighbors(cell[i], D::D, 3, 0, &mut cells);
-                js.clear();
-                for &c in &cells {
-                    for &j in &items[start[c]..start[c + 1]] {
-                        if (j as usize) <= i {
+            for c in chunk * CHUNK..((chunk + 1) * CHUNK).min(n_cells) {
+                let here = &items[start[c]..start[c + 1]];
+                if here.is_empty() {
+                    continue;
+                }
+                let cc = [c % counts[0], (c / counts[0]) % counts[1], c / (counts[0] * counts[1])];
+                if half {
+                    for (a, &i) in here.iter().enumerate() {
+                        for &j in &here[a + 1..] {
+                            if reach(i as usize, j as usize) {
+                                out.push((i.min(j), i.max(j)));
+                            }
+                        }
+                    }
+                    for o in &forward {
+                        let mut nc = [0usize; 3];
+                        let mut inside = true;
+                        for k in 0..3 {
+                            let v = cc[k] as i64 + o[k];
+                            let m = counts[k] as i64;
+                            nc[k] = if periodic[k] {
+                                v.rem_euclid(m) as usize
+                            } else if (0..m).contains(&v) {
+                                v as usize
+                            } else {
+                                inside = false;
+                                0
+                            };
+                        }
+                        if !inside {
                             continue;
                         }
-                        let d = image.displacement(pos[i], pos[j as usize]);
-                        let reach = radius[i] + radius[j as usize] + skin;
-                        if d.norm2() < reach * reach {
-                            js.push(j);
+                        let f = grid.flat(nc);
+                        for &i in here {
+                            for &j in &items[start[f]..start[f + 1]] {
+                                if reach(i as usize, j as usize) {
+                                    out.push((i.min(j), i.max(j)));
+                                }
+                            }
+                        }
+                    }
+                } else {
+                    grid.neighbors(cc, D::D, 3, 0, &mut cells);
+                    for &i in here {
+                        for &nc in &cells {
+                            for &j in &items[start[nc]..start[nc + 1]] {
+                                if j > i && reach(i as usize, j as usize) {
+                                    out.push((i, j));
+                                }
+                            }
                         }
                     }
                 }
-                js.sort_unstable();
-                sizes.push(js.len() as u32);
-                partners.extend_from_slice(&js);
             }
-            // sizes first, then partners, in one vector
-            let mut out = sizes;
-            out.extend_from_slice(&partners);
             out
         })
         .collect();
-    let total: usize = chunks.iter().enumerate().map(|(c, v)| v.len() - (((c + 1) * CHUNK).min(n) - c * CHUNK)).sum();
-    list.partner = Vec::with_capacity(total);
-    for (c, v) in chunks.iter().enumerate() {
-        let len = ((c + 1) * CHUNK).min(n) - c * CHUNK;
-        let (sizes, partners) = v.split_at(len);
-        list.partner.extend_from_slice(partners);
-        for (k, &sz) in sizes.iter().enumerate() {
-            let i = c * CHUNK + k;
-            list.owner_start[i + 1] = list.owner_start[i] + sz;
+    // Group by owner (the smaller index), partners sorted: a counting sort, then small sorts.
+    let total: usize = found.iter().map(Vec::len).sum();
+    for v in &found {
+        for &(i, _) in v {
+            list.owner_start[i as usize + 1] += 1;
         }
+    }
+    for i in 0..n {
+        list.owner_start[i + 1] += list.owner_start[i];
+    }
+    let mut fill: Vec<u32> = list.owner_start[..n].to_vec();
+    list.partner = vec![0; total];
+    for v in &found {
+        for &(i, j) in v {
+            list.partner[fill[i as usize] as usize] = j;
+            fill[i as usize] += 1;
+        }
+    }
+    for i in 0..n {
+        list.partner[list.owner_start[i] as usize..list.owner_start[i + 1] as usize].sort_unstable();
     }
     let m = list.len();
     list.spring = vec![D::Vector::ZERO; m];

@@ -380,63 +380,80 @@ struct Velocities<'a, D: Dim> {
     omega: &'a [D::AngVector],
 }
 
-/// Adds pair `p` = (i, j) to window `w` (inputs copied in).
+/// Looks at pair `p` = (i, j): when the grains overlap, adds the pair to window `w` (inputs
+/// copied in); otherwise forgets a history the pair may still hold (the contact opened) — as
+/// `eval_pair`.
 ///
 /// Indices come from the neighbor list and the cross index, which only hold valid grains and
 /// pairs of the block being processed; they are checked in debug builds.
 #[inline(always)]
-fn push_pair<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &History<D>, v: Velocities<D>, p: usize, i: usize, j: usize) {
+#[allow(clippy::too_many_arguments)]
+fn push_pair<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &mut History<D>, v: Velocities<D>, a: &Body<D>, p: usize, i: usize, j: usize, st: &mut ForceStats) {
     let k = w.len & (CAP - 1);
-    debug_assert!(w.len < CAP && j < inp.pos.len() && i >= v.base && j - v.base < v.vel.len() && p - h.base < h.spring.len());
-    w.pair[k] = p as u32;
-    w.i[k] = i as u32;
-    w.j[k] = j as u32;
+    let q = p - h.base;
+    debug_assert!(w.len < CAP && j < inp.pos.len() && i >= v.base && j - v.base < v.vel.len() && q < h.spring.len());
     // SAFETY: see above.
     unsafe {
-        let (xi, xj) = (*inp.pos.get_unchecked(i), *inp.pos.get_unchecked(j));
-        lanes::put(&mut w.r, k, xj - xi);
-        lanes::put(&mut w.v_rel, k, *v.vel.get_unchecked(j - v.base));
-        lanes::put(&mut w.v_i, k, *v.vel.get_unchecked(i - v.base));
-        lanes::put(&mut w.w_i, k, *v.omega.get_unchecked(i - v.base));
+        let xj = *inp.pos.get_unchecked(j);
+        let (r, dv) = inp.image.displacement_velocity(a.x, xj);
+        let dist2 = r.norm2();
+        let (ri, rj) = (a.r, *inp.radius.get_unchecked(j));
+        let sum = ri + rj;
+        if dist2 >= sum * sum {
+            if *h.overlap.get_unchecked(q) > 0.0 {
+                h.spring[q] = D::Vector::ZERO;
+                h.overlap[q] = 0.0;
+                h.sliding[q] = false;
+                h.rolling[q] = D::AngVector::ZERO;
+                h.twist[q] = 0.0;
+                st.changes += 1;
+            }
+            return;
+        }
+        w.pair[k] = p as u32;
+        w.i[k] = i as u32;
+        w.j[k] = j as u32;
+        lanes::put(&mut w.r, k, r);
+        w.dist2[k] = dist2;
+        let vj = *v.vel.get_unchecked(j - v.base);
+        let vj = if inp.image.sheared { vj + dv } else { vj };
+        lanes::put(&mut w.v_rel, k, vj - a.v);
+        lanes::put(&mut w.w_i, k, a.w);
         lanes::put(&mut w.w_j, k, *v.omega.get_unchecked(j - v.base));
-        w.rad_i[k] = *inp.radius.get_unchecked(i);
-        w.rad_j[k] = *inp.radius.get_unchecked(j);
-        w.mass_i[k] = *inp.mass.get_unchecked(i);
+        w.rad_i[k] = ri;
+        w.rad_j[k] = rj;
+        w.mass_i[k] = a.m;
         w.mass_j[k] = *inp.mass.get_unchecked(j);
-        lanes::put(&mut w.spring, k, *h.spring.get_unchecked(p - h.base));
+        lanes::put(&mut w.spring, k, *h.spring.get_unchecked(q));
     }
     w.len += 1;
 }
 
-/// Evaluates window `w` and stores the new histories and the statistics (as `eval_pair`).
+/// Evaluates window `w` (contacts only) and stores the new histories and the statistics (as
+/// `eval_pair`).
 #[inline(always)]
 fn eval_window<D: Dim, L: WindowLaw>(law: &L, inp: &Inputs<D>, h: &mut History<D>, w: &mut Window, st: &mut ForceStats) {
-    lanes::compute::<D, L>(law, w, &inp.image, inp.dt);
+    lanes::compute::<D, L>(law, w, inp.dt);
     for k in 0..w.len.min(CAP) {
         let p = w.pair[k] as usize;
         let q = p - h.base;
-        let was = h.overlap[q];
-        if w.contact[k] {
-            h.spring[q] = lanes::get(&w.new_spring, k);
-            h.overlap[q] = w.overlap[k];
-            h.sliding[q] = w.sliding[k];
-            st.changes += (was <= 0.0) as u64;
-            st.contacts += 1;
-            st.sliding += w.sliding[k] as u64;
-            let r_min = w.rad_i[k].min(w.rad_j[k]);
-            if w.overlap[k] > st.deepest.0 * r_min {
-                let ratio = w.overlap[k] / r_min;
-                if ratio > st.deepest.0 {
-                    st.deepest = (ratio, 0, p);
-                }
+        debug_assert!(q < h.spring.len());
+        // SAFETY: the window only holds pairs of this history range (`push_pair`).
+        let was = unsafe { *h.overlap.get_unchecked(q) };
+        unsafe {
+            *h.spring.get_unchecked_mut(q) = lanes::get(&w.new_spring, k);
+            *h.overlap.get_unchecked_mut(q) = w.overlap[k];
+            *h.sliding.get_unchecked_mut(q) = w.sliding[k];
+        }
+        st.changes += (was <= 0.0) as u64;
+        st.contacts += 1;
+        st.sliding += w.sliding[k] as u64;
+        let r_min = w.rad_i[k].min(w.rad_j[k]);
+        if w.overlap[k] > st.deepest.0 * r_min {
+            let ratio = w.overlap[k] / r_min;
+            if ratio > st.deepest.0 {
+                st.deepest = (ratio, 0, p);
             }
-        } else if was > 0.0 {
-            h.spring[q] = D::Vector::ZERO;
-            h.overlap[q] = 0.0;
-            h.sliding[q] = false;
-            h.rolling[q] = D::AngVector::ZERO;
-            h.twist[q] = 0.0;
-            st.changes += 1;
         }
     }
 }
@@ -468,31 +485,32 @@ fn cross_pairs_windowed<D: Dim, L: WindowLaw>(
     let mut st = ForceStats::new();
     let b = blocks.start;
     let v = Velocities { base: 0, vel, omega };
-    let mut w = Window::new();
-    let mut slot = 0;
-    let mut flush = |w: &mut Window, h: &mut History<D>, st: &mut ForceStats, slot: &mut usize| {
+    // buffer slot of pair p (owner i): its cross pairs use consecutive slots
+    let slot_of = |i: usize, p: usize| cross.cross_slot[i] as usize + (p - cross.cross_begin[i] as usize) - slot_base;
+    let flush = |w: &mut Window, h: &mut History<D>, st: &mut ForceStats, out: &mut [CrossForce<D>]| {
         eval_window(law, inp, h, w, st);
         for k in 0..w.len.min(CAP) {
-            out[*slot] = if w.contact[k] {
-                CrossForce { force: lanes::get(&w.force, k), torque_i: lanes::get(&w.torque_i, k), torque_j: lanes::get(&w.torque_j, k) }
-            } else {
-                CrossForce::default()
-            };
-            *slot += 1;
+            out[slot_of(w.i[k] as usize, w.pair[k] as usize)] =
+                CrossForce { force: lanes::get(&w.force, k), torque_i: lanes::get(&w.torque_i, k), torque_j: lanes::get(&w.torque_j, k) };
         }
         w.len = 0;
     };
-    for i in b * cross.block_len..((b + 1) * cross.block_len).min(cross.n) {
-        for p in cross.cross_begin[i] as usize..inp.owner_start[i + 1] as usize {
-            push_pair(&mut w, inp, &h, v, p, i, inp.partner[p] as usize);
-            if w.len == CAP {
-                flush(&mut w, &mut h, &mut st, &mut slot);
+    lanes::with_window(|w| {
+        for i in b * cross.block_len..((b + 1) * cross.block_len).min(cross.n) {
+            let a = Body { x: inp.pos[i], v: vel[i], w: omega[i], r: inp.radius[i], m: inp.mass[i] };
+            for p in cross.cross_begin[i] as usize..inp.owner_start[i + 1] as usize {
+                // pairs apart contribute zero
+                out[slot_of(i, p)] = CrossForce::default();
+                push_pair(w, inp, &mut h, v, &a, p, i, inp.partner[p] as usize, &mut st);
+                if w.len == CAP {
+                    flush(w, &mut h, &mut st, out);
+                }
             }
         }
-    }
-    if w.len > 0 {
-        flush(&mut w, &mut h, &mut st, &mut slot);
-    }
+        if w.len > 0 {
+            flush(w, &mut h, &mut st, out);
+        }
+    });
     st
 }
 
@@ -538,7 +556,6 @@ fn block_windowed<D: Dim, L: WindowLaw>(law: &L, inp: &Inputs<D>, cross: &CrossI
         torque[j - g0] = t;
     }
     let mut load = fin.loads.partition_point(|l| l.0 < g0);
-    let mut w = Window::new();
     // grains < `pushed` have all their intra-block pairs in the window or added; grains < `done`
     // are complete
     let (mut pushed, mut done) = (g0, g0);
@@ -551,17 +568,15 @@ fn block_windowed<D: Dim, L: WindowLaw>(law: &L, inp: &Inputs<D>, cross: &CrossI
             let li = w.i[k] as usize - g0;
             let (mut fi, mut ti) = (force[li], torque[li]);
             while k < len && w.i[k] as usize - g0 == li {
-                if w.contact[k] {
-                    let lj = w.j[k] as usize - g0;
-                    debug_assert!(lj < force.len() && lj != li);
-                    let f: D::Vector = lanes::get(&w.force, k);
-                    fi += f;
-                    ti += lanes::get::<D::AngVector>(&w.torque_i, k);
-                    // SAFETY: intra-block partners lie in the block (cross index).
-                    unsafe {
-                        *force.get_unchecked_mut(lj) -= f;
-                        *torque.get_unchecked_mut(lj) += lanes::get::<D::AngVector>(&w.torque_j, k);
-                    }
+                let lj = w.j[k] as usize - g0;
+                debug_assert!(lj < force.len() && lj != li);
+                let f: D::Vector = lanes::get(&w.force, k);
+                fi += f;
+                ti += lanes::get::<D::AngVector>(&w.torque_i, k);
+                // SAFETY: intra-block partners lie in the block (cross index).
+                unsafe {
+                    *force.get_unchecked_mut(lj) -= f;
+                    *torque.get_unchecked_mut(lj) += lanes::get::<D::AngVector>(&w.torque_j, k);
                 }
                 k += 1;
             }
@@ -570,28 +585,31 @@ fn block_windowed<D: Dim, L: WindowLaw>(law: &L, inp: &Inputs<D>, cross: &CrossI
         }
         w.len = 0;
     };
-    for i in g0..g1 {
-        for p in inp.owner_start[i] as usize..cross.cross_begin[i] as usize {
-            push_pair(&mut w, inp, &h, Velocities { base: g0, vel, omega }, p, i, inp.partner[p] as usize);
-            if w.len == CAP {
-                flush(&mut w, &mut h, force, torque, &mut st);
+    lanes::with_window(|w| {
+        for i in g0..g1 {
+            let a = Body { x: inp.pos[i], v: vel[i - g0], w: omega[i - g0], r: inp.radius[i], m: inp.mass[i] };
+            for p in inp.owner_start[i] as usize..cross.cross_begin[i] as usize {
+                push_pair(w, inp, &mut h, Velocities { base: g0, vel, omega }, &a, p, i, inp.partner[p] as usize, &mut st);
+                if w.len == CAP {
+                    flush(w, &mut h, force, torque, &mut st);
+                    while done < pushed {
+                        finish_grain(inp, cross, fin, done, g0, force, torque, vel, omega, &mut load, &mut st);
+                        done += 1;
+                    }
+                }
+            }
+            pushed = i + 1;
+            if w.len == 0 {
                 while done < pushed {
                     finish_grain(inp, cross, fin, done, g0, force, torque, vel, omega, &mut load, &mut st);
                     done += 1;
                 }
             }
         }
-        pushed = i + 1;
-        if w.len == 0 {
-            while done < pushed {
-                finish_grain(inp, cross, fin, done, g0, force, torque, vel, omega, &mut load, &mut st);
-                done += 1;
-            }
+        if w.len > 0 {
+            flush(w, &mut h, force, torque, &mut st);
         }
-    }
-    if w.len > 0 {
-        flush(&mut w, &mut h, force, torque, &mut st);
-    }
+    });
     while done < g1 {
         finish_grain(inp, cross, fin, done, g0, force, torque, vel, omega, &mut load, &mut st);
         done += 1;
