@@ -3,7 +3,7 @@
 
 use anyhow::{bail, Result};
 use clap::Args;
-use grainwave_experiments::bench::{median, run_grainwave, run_lammps, write_results, BenchCase, BenchConfig, BenchResult, LammpsCommand};
+use grainwave_experiments::bench::{median, run_grainwave, run_lammps, write_results, BenchCase, BenchConfig, BenchResult, GrainOrder, LammpsCommand};
 use std::path::PathBuf;
 
 /// Arguments of `grainwave bench`.
@@ -26,6 +26,11 @@ pub struct BenchArgs {
     #[arg(long, value_name = "RATE", default_value_t = 0.0)]
     pub shear: f64,
 
+    /// Storage order of grainwave's grains: `file` (as LAMMPS wrote them, binned in space),
+    /// `sorted` (re-binned by grainwave) or `shuffled` (random, no locality).
+    #[arg(long, value_name = "ORDER", default_value = "file", value_parser = parse_order)]
+    pub order: GrainOrder,
+
     /// Runs per case (each from the file); medians are printed when more than one.
     #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
     pub repeat: u32,
@@ -41,6 +46,10 @@ pub struct BenchArgs {
     /// Write every measurement to this JSON file.
     #[arg(long, value_name = "FILE")]
     pub json: Option<PathBuf>,
+}
+
+fn parse_order(s: &str) -> std::result::Result<GrainOrder, String> {
+    GrainOrder::from_name(s).ok_or_else(|| format!("unknown order `{s}` (available: file, sorted, shuffled)"))
 }
 
 fn parse_case(s: &str) -> std::result::Result<BenchCase, String> {
@@ -79,7 +88,7 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
         }
     };
     for &case in &cases {
-        let cfg = BenchConfig { case, dir: args.dir.clone(), steps: args.steps, shear: args.shear };
+        let cfg = BenchConfig { case, dir: args.dir.clone(), steps: args.steps, shear: args.shear, order: args.order };
         for _ in 0..args.repeat {
             let r = rayon::scope(|_| run_grainwave(&cfg))?;
             say(&r);

@@ -149,6 +149,55 @@ pub struct BenchConfig {
     pub steps: Option<u64>,
     /// Engineering shear rate of the periodic cell (0: static box).
     pub shear: f64,
+    /// Storage order of the grains.
+    pub order: GrainOrder,
+}
+
+/// Storage order of the grains in a benchmark run.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GrainOrder {
+    /// As in the packing file (LAMMPS writes atoms binned in space).
+    #[default]
+    File,
+    /// Bin order ([`grainwave_core::sim::Simulation::sort_spatially`]).
+    Sorted,
+    /// A seeded random permutation: no locality at all.
+    Shuffled,
+}
+
+impl GrainOrder {
+    /// Parses `file`, `sorted` or `shuffled`.
+    pub fn from_name(name: &str) -> Option<Self> {
+        match name {
+            "file" => Some(GrainOrder::File),
+            "sorted" => Some(GrainOrder::Sorted),
+            "shuffled" => Some(GrainOrder::Shuffled),
+            _ => None,
+        }
+    }
+}
+
+/// Applies the seeded random permutation of [`GrainOrder::Shuffled`].
+fn shuffle<D: Dim>(g: &mut Grains<D>) {
+    use rand::seq::SliceRandom;
+    use rand::SeedableRng;
+    let mut perm: Vec<usize> = (0..g.len()).collect();
+    perm.shuffle(&mut rand_chacha::ChaCha8Rng::seed_from_u64(1));
+    fn apply<T: Copy>(v: &mut Vec<T>, perm: &[usize]) {
+        *v = perm.iter().map(|&k| v[k]).collect();
+    }
+    apply(&mut g.id, &perm);
+    apply(&mut g.radius, &perm);
+    apply(&mut g.mass, &perm);
+    apply(&mut g.inertia, &perm);
+    apply(&mut g.pos, &perm);
+    apply(&mut g.vel, &perm);
+    apply(&mut g.omega, &perm);
+    apply(&mut g.orientation, &perm);
+    apply(&mut g.image, &perm);
+    apply(&mut g.force, &perm);
+    apply(&mut g.torque, &perm);
 }
 
 /// What one run measured.
@@ -160,6 +209,8 @@ pub struct BenchResult {
     pub case: String,
     /// Engineering shear rate.
     pub shear: f64,
+    /// Storage order of the grains (grainwave).
+    pub order: GrainOrder,
     /// Number of grains.
     pub grains: usize,
     /// Steps timed.
@@ -235,8 +286,15 @@ fn time_run<D: Dim>(cfg: &BenchConfig, mut grains: Grains<D>, mut domain: Domain
     if cfg.shear != 0.0 {
         domain.set_shear_rate(cfg.shear)?;
     }
+    if cfg.order == GrainOrder::Shuffled {
+        shuffle(&mut grains);
+    }
     let law = cfg.case.contact().build(Partner::Grain, "contact")?;
     let mut sim = SimulationBuilder::new(grains, domain, law).dt(cfg.case.dt()).skin(0.1).max_initial_overlap(0.3).build()?;
+    if cfg.order == GrainOrder::Sorted {
+        sim.sort_spatially();
+        sim.refresh_forces()?;
+    }
     let builds0 = sim.nlist.builds;
     let start = Instant::now();
     sim.steps(steps)?;
@@ -250,6 +308,7 @@ fn time_run<D: Dim>(cfg: &BenchConfig, mut grains: Grains<D>, mut domain: Domain
         code: "grainwave".into(),
         case: cfg.case.name().into(),
         shear: cfg.shear,
+        order: cfg.order,
         grains: n,
         steps,
         workers: rayon::current_num_threads(),
@@ -354,6 +413,7 @@ fn parse_lammps_output(text: &str, cfg: &BenchConfig, procs: usize) -> Result<Be
         code: "lammps".into(),
         case: cfg.case.name().into(),
         shear: cfg.shear,
+        order: GrainOrder::File,
         grains: atoms,
         steps,
         workers: procs,
@@ -399,7 +459,7 @@ Loop time of 15.2738 on 1 procs for 2000 steps with 32000 atoms
 
 Neighbor list builds = 10
 ";
-        let cfg = BenchConfig { case: BenchCase::Hertz3d, dir: PathBuf::new(), steps: None, shear: 0.0 };
+        let cfg = BenchConfig { case: BenchCase::Hertz3d, dir: PathBuf::new(), steps: None, shear: 0.0, order: GrainOrder::File };
         let r = parse_lammps_output(log, &cfg, 1).unwrap();
         assert_eq!((r.grains, r.steps, r.neighbor_rebuilds), (32000, 2000, 10));
         assert_eq!(r.loop_seconds, 15.2738);

@@ -5,6 +5,7 @@ mod forces;
 mod integrate;
 mod lanes;
 mod run;
+mod sort;
 
 pub use builder::{ExternalLoad, SimulationBuilder};
 pub use run::{Control, Progress, RunHooks, RunOutcome, StopCriteria, StopReason};
