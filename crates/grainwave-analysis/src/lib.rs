@@ -12,15 +12,23 @@
 //! * [`network`]: contacts opened, created and sliding between two snapshots, the contact-force
 //!   difference field and the size of the region of opened contacts (SPEC §7.2.5);
 //! * [`peaks`]: peaks with prominences and the single/double-peak classifier (SPEC §7.2.8);
-//! * [`special`]: the error function.
+//! * [`special`]: the error function;
+//! * [`packing`]: static characterization of a packing (SPEC §4, §5.2) — solid fractions, rattlers,
+//!   coordination, force moments, fabric, stress, bulk values away from the walls;
+//! * [`ensemble`]: means and standard deviations over samples, ensemble average and r.m.s. of
+//!   signals;
+//! * [`pulse_series`]: arrival-time fits, c_tof and amplitude/width exponents over heights (SPEC §5.5).
 //!
 //! Analysis reads snapshots and contact records of `grainwave-core`; it never reaches into the
 //! engine's internals.
 #![warn(missing_docs)]
 
 pub mod coarse_grain;
+pub mod ensemble;
 pub mod network;
+pub mod packing;
 pub mod peaks;
+pub mod pulse_series;
 pub mod signal;
 pub mod special;
 pub mod stress;

@@ -88,6 +88,89 @@ fn describe_checkpoint(path: &Path, bytes: &[u8]) -> Result<Vec<String>> {
                 AnySim::D3(s) => describe_sim(s, &mut v),
             }
         }
+        grainwave_experiments::e3::TAG => {
+            let state: grainwave_experiments::e3::E3State = decode(bytes, &tag, &p)?;
+            let count = |f: &[bool]| f.iter().filter(|&&d| d).count();
+            v.push(format!(
+                "  protocol      e3, mode {}, {}",
+                state.config.mode.name(),
+                if state.finished { "finished".to_string() } else { "in progress — continue with `grainwave resume DIR`".to_string() }
+            ));
+            v.push(format!(
+                "  units         {}/{} reference states, {}/{} response runs done",
+                count(&state.references_done),
+                state.references_done.len(),
+                count(&state.runs_done),
+                state.runs_done.len()
+            ));
+        }
+        grainwave_experiments::e3::units::REFERENCE_TAG => {
+            let r: grainwave_experiments::e3::units::ReferenceResult = decode(bytes, &tag, &p)?;
+            v.push(format!(
+                "  e3 reference  {}converged after {} steps; floor load/weight {:.9}; bulk r = {:.4}",
+                if r.outcome.converged { "" } else { "NOT " },
+                r.outcome.steps,
+                r.wall_loads[0] / r.weight,
+                r.moduli_bulk.r
+            ));
+            describe_sim(&r.sim, &mut v);
+        }
+        grainwave_experiments::e3::units::RUN_TAG => {
+            let r: grainwave_experiments::e3::units::StoredRun = decode(bytes, &tag, &p)?;
+            let x = &r.result;
+            v.push(format!(
+                "  e3 response   F = {} m̄g: p(0)/F = {:?}, {} opened, {} created, {} sliding, {} profile",
+                x.force,
+                x.response_at_zero,
+                x.counts.opened,
+                x.counts.created,
+                x.counts.sliding,
+                x.classification.shape.name()
+            ));
+        }
+        grainwave_experiments::e1::TAG => {
+            let state: grainwave_experiments::e1::E1State = decode(bytes, &tag, &p)?;
+            let plan = state.plan()?;
+            let dir = path.parent().unwrap_or(Path::new("."));
+            let done = plan.tasks.iter().filter(|t| grainwave_experiments::e1::ensemble::load_result(dir, &plan, t).is_some()).count();
+            v.push(format!(
+                "  protocol      e1 ({}), {}",
+                plan.kind.name(),
+                if state.finished { "finished".to_string() } else { "in progress — continue with `grainwave resume DIR`".to_string() }
+            ));
+            v.push(format!("  samples       {done} of {} done ({} groups × {} samples)", plan.tasks.len(), plan.groups.len(), state.config.samples));
+        }
+        grainwave_experiments::e1::ensemble::PACKING_TAG | grainwave_experiments::e1::ensemble::PREPARING_TAG => {
+            let f: grainwave_experiments::e1::prepare::PackingFile = decode(bytes, &tag, &p)?;
+            v.push(format!(
+                "  e1 packing    {}, {} steps, {} quenches, max acceleration {:.3e}, piston {:.3e}",
+                if f.info.converged { "prepared (static equilibrium)" } else { "preparation in progress" },
+                f.info.steps,
+                f.info.quenches,
+                f.info.max_acceleration,
+                f.info.piston_acceleration
+            ));
+            match &f.sim {
+                AnySim::D2(s) => describe_sim(s, &mut v),
+                AnySim::D3(s) => describe_sim(s, &mut v),
+            }
+        }
+        grainwave_experiments::e1::ensemble::RESULT_TAG => {
+            let r: grainwave_experiments::e1::sample::SampleResult = decode(bytes, &tag, &p)?;
+            v.push(format!("  e1 sample     seed {}, {} grains, L = {:.4}, {:.1} s", r.seed, r.grains, r.height, r.seconds));
+            if let Some(f) = &r.failure {
+                v.push(format!("  failed        {f}"));
+            }
+            if let Some(s) = &r.statistics {
+                v.push(format!("  packing       Φ₂ = {:?}, z* = {:.4}, f₀ = {:.4}, σ₁/σ₂ = {:.4}", s.phi2, s.coordination_star, s.rattler_fraction, s.stress.ratio));
+            }
+            if let Some(m) = &r.moduli {
+                v.push(format!("  moduli        C₁₁ = {:.4e}, C₂₂ = {:.4e}, C₃₃ = {:.4e}, c_ℓ = {:.4}, c_t = {:.4}", m.c11, m.c22, m.c33, m.longitudinal_speed, m.transverse_speed));
+            }
+            if let Some(m) = r.pulse.as_ref().and_then(|p| p.metrics.as_ref()) {
+                v.push(format!("  pulse         leading edge {:.4}, peak {:.4} (A = {:.4e})", m.leading_edge_time, m.peak_time, m.peak_amplitude));
+            }
+        }
         "simulation-2d" => describe_sim::<grainwave_core::dim::D2>(&decode(bytes, &tag, &p)?, &mut v),
         "simulation-3d" => describe_sim::<grainwave_core::dim::D3>(&decode(bytes, &tag, &p)?, &mut v),
         _ => {}
@@ -119,14 +202,25 @@ fn describe_dir(dir: &Path) -> Result<Vec<String>> {
     if let Ok(bytes) = std::fs::read(&summary) {
         if let Ok(s) = serde_json::from_slice::<serde_json::Value>(&bytes) {
             let get = |k: &str| s.get(k).map(|x| x.to_string()).unwrap_or_else(|| "?".into());
-            v.push(format!(
-                "  {} run, stopped: {}, {} steps, t = {}, {} grains",
-                get("experiment").trim_matches('"'),
-                get("stop_reason").trim_matches('"'),
-                get("steps"),
-                get("time"),
-                get("grains")
-            ));
+            if s.get("experiment").and_then(|e| e.as_str()) == Some("e3") {
+                v.push(format!(
+                    "  e3 run, mode {}, {} parameter set(s), {} relaxation(s) not converged",
+                    get("mode").trim_matches('"'),
+                    s.get("groups").and_then(|g| g.as_array()).map_or(0, |g| g.len()),
+                    s.get("not_converged").and_then(|g| g.as_array()).map_or(0, |g| g.len())
+                ));
+            } else if s.get("experiment").and_then(|e| e.as_str()) == Some("e1") {
+                v.push(format!("  e1 run ({}), {} of {} samples done, complete: {}", get("study").trim_matches('"'), get("done"), get("tasks"), get("complete")));
+            } else {
+                v.push(format!(
+                    "  {} run, stopped: {}, {} steps, t = {}, {} grains",
+                    get("experiment").trim_matches('"'),
+                    get("stop_reason").trim_matches('"'),
+                    get("steps"),
+                    get("time"),
+                    get("grains")
+                ));
+            }
         }
     } else if dir.join("checkpoint.gwck").exists() {
         v.push("  no summary.json yet: the run is in progress or was interrupted (`grainwave resume` continues it)".into());

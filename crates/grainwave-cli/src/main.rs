@@ -42,7 +42,7 @@ struct Cli {
 enum Command {
     /// Run the experiment described by a config file
     Run(RunArgs),
-    /// Run the embedded demo: 300 disks settle under gravity; the walls then carry the weight
+    /// Run the embedded demo: a 200-grain E1 packing at p = 1e-4, its characterization, moduli and pulse
     Demo(OutArgs),
     /// Validate a config file without running it
     Check {

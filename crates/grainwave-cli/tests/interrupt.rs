@@ -133,7 +133,8 @@ fn bad_config_exits_with_2_and_points_at_the_line() {
 #[test]
 fn inspect_describes_checkpoints_and_directories() {
     let dir = out("inspect");
-    let st = Command::new(BIN).args(["--quiet", "demo", "--out"]).arg(&dir).status().unwrap();
+    let pile = concat!(env!("CARGO_MANIFEST_DIR"), "/../../examples/settle-pile.toml");
+    let st = Command::new(BIN).args(["--quiet", "run", pile, "--out"]).arg(&dir).status().unwrap();
     assert!(st.success());
     let o = Command::new(BIN).args(["inspect"]).arg(dir.join("checkpoint.gwck")).output().unwrap();
     let text = String::from_utf8_lossy(&o.stdout);

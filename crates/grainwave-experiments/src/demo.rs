@@ -1,6 +1,6 @@
-//! The demo: an embedded `simulation` config (`examples/demo.toml`) — a gas of 300 polydisperse
-//! disks settles under gravity in a box until static equilibrium, and the walls then carry the
-//! whole weight.
+//! The demo: an embedded `e1` config (`examples/demo.toml`) — about 200 `sphere2d` grains are
+//! compressed by a piston at p = 1e-4 until static equilibrium, characterized, their elastic moduli
+//! computed, and the pulse emitted by the bottom wall is followed to the top wall (docs/demo.md).
 
 use crate::config::ConfigSource;
 use crate::error::Result;

@@ -3,12 +3,12 @@
 use crate::config::{did_you_mean, reference, ConfigError, ConfigSource};
 use crate::error::{ExperimentError, Result};
 use crate::protocol::{checkpoint_tag, load_state, RunContext};
-use crate::{e3, simulation};
+use crate::{e1, e3, simulation};
 use schemars::schema_for;
 use std::path::Path;
 
 /// Names of the protocols a config can select with `experiment = "…"`.
-pub const EXPERIMENTS: &[&str] = &["simulation", "e3"];
+pub const EXPERIMENTS: &[&str] = &["simulation", "e1", "e3"];
 
 /// The protocol a config selects, from its top-level `experiment` key.
 pub fn experiment_name(src: &ConfigSource) -> Result<String, ConfigError> {
@@ -35,6 +35,7 @@ pub fn check(src: &ConfigSource) -> Result<Vec<String>, ConfigError> {
             let p = simulation::prepare(src)?;
             Ok(describe(&p))
         }
+        "e1" => Ok(e1::describe(&e1::prepare(src)?)),
         "e3" => Ok(e3::describe(&e3::prepare(src)?)),
         other => unreachable!("experiment `{other}` is listed but not dispatched"),
     }
@@ -92,6 +93,10 @@ fn summarize(r: &simulation::SimulationReport, out: &Path) -> RunSummary {
     RunSummary { lines, report: serde_json::to_value(r).unwrap_or_default() }
 }
 
+fn summarize_e1(r: &e1::E1Report, out: &Path) -> RunSummary {
+    RunSummary { lines: e1::summary_lines(r, out), report: serde_json::to_value(r).unwrap_or_default() }
+}
+
 fn summarize_e3(r: &e3::E3Summary, out: &Path) -> RunSummary {
     let mut lines = vec![format!("e3 {}: {} parameter set(s)", r.mode, r.groups.len())];
     for g in &r.groups {
@@ -141,6 +146,10 @@ pub fn run(src: &ConfigSource, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
             let out = ctx.out_dir().to_path_buf();
             Ok(summarize(&simulation::run_config(src, ctx)?, &out))
         }
+        "e1" => {
+            let out = ctx.out_dir().to_path_buf();
+            Ok(summarize_e1(&e1::run_config(src, ctx)?, &out))
+        }
         "e3" => {
             let out = ctx.out_dir().to_path_buf();
             Ok(summarize_e3(&e3::run_config(src, ctx)?, &out))
@@ -158,6 +167,12 @@ pub fn resume(dir: &Path, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
             ctx.log(&format!("resuming from {}", file.display()));
             let out = ctx.out_dir().to_path_buf();
             Ok(summarize(&state.run(ctx)?, &out))
+        }
+        e1::TAG => {
+            let mut state: e1::E1State = load_state(&file, &tag)?;
+            ctx.log(&format!("resuming from {}", file.display()));
+            let out = ctx.out_dir().to_path_buf();
+            Ok(summarize_e1(&state.run(ctx)?, &out))
         }
         e3::TAG => {
             let mut state: e3::E3State = load_state(&file, &tag)?;
@@ -178,6 +193,10 @@ pub fn plot(dir: &Path) -> Result<Vec<String>> {
             let state: simulation::SimulationState = load_state(&file, &tag)?;
             let series = grainwave_io::Series::read_npz(&dir.join("series.npz"))?;
             Ok(simulation::make_plots(dir, &series, state.picture().as_ref())?)
+        }
+        e1::TAG => {
+            let state: e1::E1State = load_state(&file, &tag)?;
+            e1::replot(dir, &state)
         }
         e3::TAG => {
             let state: e3::E3State = load_state(&file, &tag)?;
@@ -202,6 +221,14 @@ pub fn reference_markdown() -> String {
         "`experiment = \"simulation\"`",
         "A general discrete-element run (see docs/simulation.md). The `[contact]` keys are those of the presets\n\
          (docs/engine.md); `[wall_contact]` and `walls[].contact` take the same keys and replace the grain–grain values.",
+        &reference::sections(&value),
+    ));
+    let schema = schema_for!(e1::E1Config);
+    let value = serde_json::to_value(&schema).expect("schema serializes");
+    s.push_str(&reference::markdown(
+        "`experiment = \"e1\"`",
+        "Pulse transmission through confined, pressurized Hertz–Mindlin packings (SPEC §5; see docs/e1.md). Units:\n\
+         length d̄ (the mean diameter), grain density ρ = 1, pressure E* = E/(1 − ν²) = 1, time d̄ √(ρ/E*).",
         &reference::sections(&value),
     ));
     let schema = schema_for!(e3::E3Config);

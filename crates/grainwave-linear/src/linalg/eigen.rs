@@ -21,7 +21,10 @@
 
 use crate::dynamical::LinearSystem;
 use crate::error::{LinearError, Result};
-use faer::{Mat, MatRef, Side};
+use faer::dyn_stack::{MemBuffer, MemStack};
+use faer::linalg::evd;
+use faer::diag::Diag;
+use faer::{Mat, MatRef, Par};
 use serde::{Deserialize, Serialize};
 
 /// Options of [`Modes::compute`].
@@ -30,11 +33,17 @@ use serde::{Deserialize, Serialize};
 pub struct EigenOptions {
     /// Refuse dense decompositions of more free dofs than this (default 20 000 ≈ 10 GiB).
     pub max_dense_dofs: usize,
+    /// Threads of the dense eigensolver: `None` (default) follows faer's global setting (all
+    /// threads of the current rayon pool), `Some(1)` runs on one thread, `Some(n)` on n. faer's
+    /// blocked algorithms split the work by thread count, so the modes are reproducible bit for bit
+    /// only at a fixed count: `Some(1)` makes them independent of the pool (E1 ensembles, which
+    /// run samples in parallel anyway).
+    pub threads: Option<usize>,
 }
 
 impl Default for EigenOptions {
     fn default() -> Self {
-        EigenOptions { max_dense_dofs: 20_000 }
+        EigenOptions { max_dense_dofs: 20_000, threads: None }
     }
 }
 
@@ -68,17 +77,25 @@ impl Modes {
                 a[(r, c)] = v[e] * inv_sqrt[r] * inv_sqrt[c];
             }
         }
-        let evd = a.self_adjoint_eigen(Side::Lower).map_err(|e| LinearError::Eigen { dofs: n, reason: format!("{e:?}") })?;
+        let par = match options.threads {
+            None => faer::get_global_parallelism(),
+            Some(0 | 1) => Par::Seq,
+            Some(t) => Par::rayon(t),
+        };
+        let mut u = Mat::<f64>::zeros(n, n);
+        let mut s = Diag::<f64>::zeros(n);
+        let scratch = evd::self_adjoint_evd_scratch::<f64>(n, evd::ComputeEigenvectors::Yes, par, Default::default());
+        evd::self_adjoint_evd(a.as_ref(), s.as_mut(), Some(u.as_mut()), par, MemStack::new(&mut MemBuffer::new(scratch)), Default::default())
+            .map_err(|e| LinearError::Eigen { dofs: n, reason: format!("{e:?}") })?;
         drop(a);
-        let omega_squared: Vec<f64> = (0..n).map(|k| evd.S()[k]).collect();
-        let u = evd.U();
+        let omega_squared: Vec<f64> = (0..n).map(|k| s[k]).collect();
         let mut vectors = Mat::<f64>::zeros(n, n);
         for c in 0..n {
             for r in 0..n {
                 vectors[(r, c)] = u[(r, c)] * inv_sqrt[r];
             }
         }
-        drop(evd);
+        drop(u);
         let free = system.free_dofs().to_vec();
         let per_grain = system.layout().per_grain();
         let participation = participation_ratios(vectors.as_ref(), &mass, &free, per_grain);

@@ -1,0 +1,198 @@
+//! The `e1` protocol (SPEC §5): pulse transmission through confined, pressurized Hertz–Mindlin
+//! packings, from one config file.
+//!
+//! A run is a set of **groups** — one per size (target height, grain count, lattice rows or chain
+//! length) and pressure — each with N **samples** (seeds s₀ … s₀ + N − 1). Every sample is
+//!
+//! 1. prepared ([`prepare`]): a granular gas compressed by a piston under constant force until the
+//!    largest acceleration is below the tolerance (packings), built in exact equilibrium
+//!    (monodisperse lattices), or built as a chain; prepared packings are kept as
+//!    `samples/<group>/s<seed>/packing.gwck` and reused by later runs whose preparation keys match;
+//! 2. analysed ([`sample`]): static characterization, elastic moduli, the pulse signal F_sig(t) by
+//!    modal sum or direct propagation with its metrics, spectrum and mode contributions,
+//!    displacement fields (first sample), damped MD runs; the result is kept as `result.gwck`.
+//!
+//! Samples run several at a time ([`ensemble`]); a sample with a result is never redone, an
+//! interrupted preparation continues where it stopped, and results do not depend on the number of
+//! threads. Once all samples are done, [`aggregate`] makes the ensemble tables and series over
+//! heights and pressures and [`outputs`] writes `summary.json`, tables, signals and plots
+//! (docs/e1.md explains each).
+
+pub mod aggregate;
+pub mod config;
+pub mod ensemble;
+pub mod outputs;
+pub mod plan;
+pub mod prepare;
+pub mod sample;
+
+pub use config::E1Config;
+pub use outputs::E1Report;
+pub use plan::Plan;
+
+use crate::config::{ConfigError, ConfigSource};
+use crate::error::Result;
+use crate::protocol::RunContext;
+use ensemble::EnsembleStatus;
+use serde::{Deserialize, Serialize};
+
+/// Content tag of this protocol's checkpoints.
+pub const TAG: &str = "experiment-e1";
+
+/// The state of an `e1` run (what `checkpoint.gwck` holds): the config; the samples' progress is
+/// in their own files.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct E1State {
+    /// The config with computed defaults filled in (stored as its TOML text).
+    #[serde(with = "as_toml")]
+    pub config: E1Config,
+    /// All samples are done and the outputs written.
+    pub finished: bool,
+}
+
+/// Stores a config as TOML text inside binary checkpoints.
+mod as_toml {
+    use super::E1Config;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    pub fn serialize<S: Serializer>(c: &E1Config, s: S) -> Result<S::Ok, S::Error> {
+        toml::to_string(c).map_err(serde::ser::Error::custom)?.serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<E1Config, D::Error> {
+        let text = String::deserialize(d)?;
+        toml::from_str(&text).map_err(serde::de::Error::custom)
+    }
+}
+
+/// Parses and validates an `e1` config.
+pub fn prepare(src: &ConfigSource) -> Result<Plan, ConfigError> {
+    let config: E1Config = src.parse()?;
+    plan::plan(src, &config)
+}
+
+/// What `grainwave check` says about a valid plan.
+pub fn describe(p: &Plan) -> Vec<String> {
+    let c = &p.config;
+    let mut v = vec![format!("experiment   e1 ({}), seeds {} … {}", p.kind.name(), c.seed, c.seed + c.samples as u64 - 1)];
+    match p.kind {
+        plan::StudyKind::Chain => v.push(format!("chains       N = {:?}", p.groups.iter().map(|g| g.grains).collect::<Vec<_>>())),
+        _ => {
+            v.push(format!("pressures    {:?}", p.pressures()));
+            let mut sizes: Vec<String> = Vec::new();
+            for g in &p.groups {
+                let s = format!("{} ({} grains)", g.size_label, g.grains);
+                if !sizes.contains(&s) {
+                    sizes.push(s);
+                }
+            }
+            v.push(format!("sizes        {}", sizes.join(", ")));
+            if p.kind == plan::StudyKind::Packing {
+                v.push(format!("packing      {}D, width {}, diameter spread {}, μ = {}, ν = {}", p.dimension, p.width, p.spread, p.friction, p.poisson));
+            }
+        }
+    }
+    v.push(format!("samples      {} groups × {} samples = {} tasks", p.groups.len(), c.samples, p.tasks.len()));
+    if c.pulse.enabled {
+        v.push(format!(
+            "pulse        {:?}, {:?}, {} times up to {:.4} … {:.4}",
+            c.pulse.initial_condition,
+            c.pulse.method,
+            c.pulse.time_samples,
+            p.groups.iter().map(|g| *g.times.last().unwrap_or(&0.0)).fold(f64::INFINITY, f64::min),
+            p.groups.iter().map(|g| *g.times.last().unwrap_or(&0.0)).fold(0.0, f64::max)
+        ));
+    }
+    if let Some(d) = &c.damped {
+        v.push(format!("damped MD    ζ = {:?} on the first {} sample(s)", d.damping_fractions, d.samples));
+    }
+    v
+}
+
+impl E1State {
+    /// A fresh state from a validated plan.
+    pub fn new(plan: &Plan) -> Self {
+        E1State { config: plan.config.clone(), finished: false }
+    }
+
+    /// The plan of this state's config.
+    pub fn plan(&self) -> Result<Plan> {
+        let text = toml::to_string(&self.config).expect("a config serializes to TOML");
+        let src = ConfigSource::from_text("config stored in the checkpoint", text);
+        Ok(plan::plan(&src, &self.config)?)
+    }
+
+    /// Runs (or continues) every sample, then writes the outputs.
+    pub fn run(&mut self, ctx: &mut RunContext<'_>) -> Result<E1Report> {
+        let plan = self.plan()?;
+        outputs::write_resolved_config(ctx.out_dir(), &self.config)?;
+        ctx.save_checkpoint(TAG, self)?;
+        let started = std::time::Instant::now();
+        match ensemble::run_ensemble(&plan, ctx)? {
+            EnsembleStatus::Interrupted => return Err(ctx.interrupted_error(TAG, self)),
+            EnsembleStatus::Complete => {}
+        }
+        ctx.log("writing the outputs");
+        let report = outputs::write_outputs(ctx.out_dir(), &plan, started.elapsed().as_secs_f64())?;
+        self.finished = true;
+        ctx.save_checkpoint(TAG, self)?;
+        ctx.log(&format!("done: {} samples, {} failed", report.done, report.failures.len()));
+        Ok(report)
+    }
+}
+
+/// Parses, validates and runs an `e1` config into `ctx`'s directory.
+pub fn run_config(src: &ConfigSource, ctx: &mut RunContext<'_>) -> Result<E1Report> {
+    let plan = prepare(src)?;
+    E1State::new(&plan).run(ctx)
+}
+
+/// Re-writes the outputs (tables, plots) of the run in `dir` from its saved samples; also works on
+/// an unfinished run (the tables then hold the samples done so far). Returns the files written.
+pub fn replot(dir: &std::path::Path, state: &E1State) -> Result<Vec<String>> {
+    let plan = state.plan()?;
+    Ok(outputs::write_outputs(dir, &plan, 0.0)?.files)
+}
+
+/// The lines `grainwave run` prints at the end.
+pub fn summary_lines(r: &E1Report, out: &std::path::Path) -> Vec<String> {
+    let mut lines = vec![format!("e1 ({}): {} of {} samples done, {} failed, {:.1} s of sample work", r.study, r.done, r.tasks, r.failures.len(), r.sample_seconds)];
+    for g in &r.aggregate.groups {
+        let mut l = format!("{:16} {:3} samples", g.name, g.samples);
+        if g.height.count > 0 && r.study != "chain" {
+            l.push_str(&format!("  L = {:.2}", g.height.mean));
+        }
+        if let Some(z) = g.characterization.get("z_star") {
+            l.push_str(&format!("  z* = {:.3}", z.mean));
+        }
+        if let Some(c) = g.moduli.get("c_l") {
+            l.push_str(&format!("  c_l = {:.4}", c.mean));
+        }
+        if let Some(m) = &g.mean_signal {
+            l.push_str(&format!("  edge {:.3}, A = {:.4e}", m.leading_edge_time, m.peak_amplitude));
+        }
+        lines.push(l);
+    }
+    for h in &r.aggregate.heights {
+        if let Some(s) = &h.series {
+            let mut l = format!("{}:", h.pressure.map_or("chain".to_string(), |p| format!("p = {p:e}")));
+            if let Some(t) = &s.time_of_flight {
+                l.push_str(&format!(" c_tof = {:.4} (L {:.1} → {:.1})", t.velocity, t.height_1, t.height_2));
+            }
+            if let Some(e) = &s.amplitude_exponent {
+                l.push_str(&format!(", γ = {:.3}", e.gamma));
+            }
+            if let Some(e) = &s.width_exponent {
+                l.push_str(&format!(", α = {:.3}", e.exponent));
+            }
+            if s.heights.len() >= 2 {
+                lines.push(l);
+            }
+        }
+    }
+    for (dir, why) in &r.failures {
+        lines.push(format!("failed       {dir}: {why}"));
+    }
+    lines.push(format!("outputs      {}/", out.display()));
+    lines
+}
