@@ -186,6 +186,27 @@ pub fn compare_networks<D: Dim>(before: &Snapshot<D>, after: &Snapshot<D>) -> Ne
     NetworkChanges { contacts }
 }
 
+/// Default relative tolerance of [`mark_mobilized`]: a contact at rest counts as sliding when
+/// |F_t| ≥ (1 − 1e-6) μ F_n.
+pub const MOBILIZED_TOLERANCE: f64 = 1e-6;
+
+/// Marks the contacts (of a snapshot) of a state **at rest** whose friction is fully mobilized as sliding:
+/// |F_t| ≥ (1 − `tolerance`) μ F_n with μ > 0 and F_n > 0, where μ = `friction(counterpart)`.
+///
+/// The engine's sliding flag says that the Coulomb cap acted at the last force evaluation (the
+/// trial force exceeded μ F_n). At rest a contact that slid into place holds |F_t| = μ F_n up to
+/// rounding, and whether the trial force lands just above or just below the cap is a matter of
+/// the last bit, so the flag alone undercounts sliding contacts of a static state; this marks them
+/// (SPEC §7.2.5). Flags already set are kept.
+pub fn mark_mobilized<D: Dim>(contacts: &mut [ContactRecord<D>], friction: impl Fn(Counterpart) -> f64, tolerance: f64) {
+    for c in contacts {
+        let mu = friction(c.j);
+        if mu > 0.0 && c.normal_force > 0.0 && c.tangential_force.norm() >= (1.0 - tolerance) * mu * c.normal_force {
+            c.sliding = true;
+        }
+    }
+}
+
 impl<D: Dim> NetworkChanges<D> {
     /// Counts of contacts, opened, created and sliding.
     pub fn counts(&self) -> NetworkCounts {
@@ -237,6 +258,37 @@ mod tests {
     use super::*;
     use glam::DVec2;
     use grainwave_core::dim::D2;
+
+    #[test]
+    fn mobilized_contacts_at_rest_count_as_sliding() {
+        use grainwave_core::snapshot::ContactRecord;
+        let record = |j: Counterpart, ft: f64, fnormal: f64| ContactRecord::<D2> {
+            i: 0,
+            j,
+            normal: DVec2::X,
+            branch: DVec2::X,
+            overlap: 0.01,
+            lever_i: 1.0,
+            lever_j: 1.0,
+            normal_force: fnormal,
+            tangential_force: DVec2::new(0.0, ft),
+            rolling_torque: 0.0,
+            normal_stiffness: 1.0,
+            tangential_stiffness: 1.0,
+            sliding: false,
+        };
+        // μ = 0.2 between grains, 0.5 on wall 0, 0 on wall 1
+        let mut contacts = vec![
+            record(Counterpart::Grain(1), 0.2 * 3.0 * (1.0 - 1e-12), 3.0), // at the cone to rounding
+            record(Counterpart::Grain(2), 0.2 * 3.0 * 0.99, 3.0),          // 1 % inside the cone
+            record(Counterpart::Wall(0), 0.5 * 2.0, 2.0),                  // at the wall's cone
+            record(Counterpart::Wall(1), 1.0, 2.0),                        // frictionless wall: never
+            record(Counterpart::Grain(3), 0.0, 0.0),                       // no load: never
+        ];
+        mark_mobilized(&mut contacts, |j| match j { Counterpart::Grain(_) => 0.2, Counterpart::Wall(0) => 0.5, Counterpart::Wall(_) => 0.0 }, MOBILIZED_TOLERANCE);
+        let flags: Vec<bool> = contacts.iter().map(|c| c.sliding).collect();
+        assert_eq!(flags, [true, false, true, false, false]);
+    }
 
     fn opened_at(x: f64, y: f64, i: u32) -> ContactChange<D2> {
         let side = ContactSide { force: DVec2::ZERO, normal_force: 1.0, overlap: 0.01, point: DVec2::new(x, y), branch: DVec2::new(2.0, 0.0), sliding: false };

@@ -9,7 +9,8 @@
 //!   the side walls carry nothing of it. The **response at x = 0** is p_w(0)/F_ext.
 //! * **Coarse-grained stress** σ_αβ(x, z) (Goldhirsch, w = `stress_width`) of the final state minus
 //!   that of the reference, on a grid of `stress_step` over the box (compression positive).
-//! * **Contact network**: contacts opened, created, sliding; depth and width of the region of
+//! * **Contact network**: contacts opened, created, sliding (friction fully mobilized at rest:
+//!   |F_t| ≥ (1 − 10⁻⁶) μ F_n, `grainwave_analysis::network::mark_mobilized`); depth and width of the region of
 //!   opened contacts connected to the load (grainwave-analysis `network`: seeded within
 //!   [`REGION_SEED`] of the loaded grain, linked within [`REGION_LINK`]).
 //! * **First opening, linear estimate**: in a run where no contact opened or started sliding the
@@ -23,7 +24,7 @@
 use super::config::E3Config;
 use super::slab::{FLOOR, LEFT, RIGHT};
 use grainwave_analysis::coarse_grain::{coarse_grain, smooth_1d, CoarseGrainOptions, Grid};
-use grainwave_analysis::network::{compare_networks, ContactKey, NetworkChanges, NetworkCounts, RegionSize};
+use grainwave_analysis::network::{compare_networks, mark_mobilized, ContactKey, NetworkChanges, NetworkCounts, RegionSize, MOBILIZED_TOLERANCE};
 use grainwave_analysis::peaks::{classify_profile, PeakClassification, PeakOptions};
 use grainwave_core::prelude::*;
 use grainwave_linear::measured_network::{spring_network, NetworkWindow};
@@ -287,6 +288,8 @@ pub struct RunInputs<'a> {
     pub keep_contacts: bool,
     /// How the relaxation ended.
     pub outcome: super::relax::RelaxOutcome,
+    /// Friction coefficients: grain–grain, floor, side walls.
+    pub friction: [f64; 3],
 }
 
 /// Measures a response: `reference` before, `after` the load.
@@ -295,6 +298,18 @@ pub fn measure_run(input: RunInputs<'_>, reference: &Snapshot<D2>, after: &Snaps
     let rc = &cfg.response;
     let origin = input.origin;
     let load_z = input.loads.iter().map(|l| l.2).fold(f64::NEG_INFINITY, f64::max);
+    // both states are at rest: a contact counts as sliding when its friction is fully mobilized
+    // (|F_t| ≥ (1 − 1e-6) μ F_n), not only when the cap acted at the last step
+    let [mu, mu_floor, mu_side] = input.friction;
+    let friction = |j: Counterpart| match j {
+        Counterpart::Grain(_) => mu,
+        Counterpart::Wall(w) if w == FLOOR => mu_floor,
+        Counterpart::Wall(_) => mu_side,
+    };
+    let (mut reference, mut after) = (reference.clone(), after.clone());
+    mark_mobilized(&mut reference.contacts, friction, MOBILIZED_TOLERANCE);
+    mark_mobilized(&mut after.contacts, friction, MOBILIZED_TOLERANCE);
+    let (reference, after) = (&reference, &after);
     let changes = compare_networks(reference, after);
     let floor = floor_contacts(&changes, origin);
     let grid = profile_grid(input.width, origin, rc.profile_step);

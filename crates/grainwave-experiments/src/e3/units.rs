@@ -362,6 +362,7 @@ fn run_unit(
         reference_field: reference.field.as_ref(),
         keep_contacts: cfg.mode == Mode::Superposition,
         outcome,
+        friction: [material.friction, material.wall_friction, material.side_wall_friction],
     };
     let (result, changes) = measure::measure_run(inputs, &ref_snapshot, &snapshot);
     let _ = started;
