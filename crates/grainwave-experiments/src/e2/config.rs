@@ -89,6 +89,14 @@ pub struct MaterialConfig {
     pub rolling_stiffness: f64,
     /// Rolling friction μ_r: the rolling torque is capped at μ_r R* F_n.
     pub rolling_friction: f64,
+    /// Absorbing walls (SPEC §6.7): the bottom, left and top walls get soft, damped contacts
+    /// (stiffness K_n/√N, dashpot `absorbing_damping` √(m̄ K_n)); the pulse-emitting right wall stays
+    /// stiff. For the whole run.
+    pub absorbing_walls: bool,
+    /// Dashpot of an absorbing-wall contact [√(m̄ K_n)]. The default 0.85 makes the dashpots per unit
+    /// wall length equal to the packing's acoustic impedance ρ* c ≈ (4Φ/π)(c/v_a)√(m̄K_n)/d̄ for
+    /// Φ ≈ 0.83, c ≈ 0.8 v_a and one contact per diameter, which absorbs plane waves.
+    pub absorbing_damping: f64,
 }
 
 impl Default for MaterialConfig {
@@ -101,6 +109,8 @@ impl Default for MaterialConfig {
             friction: 0.2,
             rolling_stiffness: 1e-4,
             rolling_friction: 0.01,
+            absorbing_walls: false,
+            absorbing_damping: 0.85,
         }
     }
 }

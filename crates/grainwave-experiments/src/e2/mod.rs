@@ -120,6 +120,7 @@ pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
     non_negative(src, "material.friction", m.friction)?;
     non_negative(src, "material.rolling_stiffness", m.rolling_stiffness)?;
     non_negative(src, "material.rolling_friction", m.rolling_friction)?;
+    positive(src, "material.absorbing_damping", m.absorbing_damping)?;
     let pc = &cfg.preparation;
     positive(src, "preparation.wall_mass", pc.wall_mass)?;
     non_negative(src, "preparation.gravity", pc.gravity)?;
@@ -203,10 +204,18 @@ pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
         }
     }
     let sl = &cfg.static_limit;
-    let roles = [("static_limit.undeformed", &sl.undeformed), ("static_limit.non_sliding", &sl.non_sliding), ("static_limit.static_state", &sl.static_state), ("static_limit.deforming", &sl.deforming)];
+    let roles = [
+        ("static_limit.undeformed", &sl.undeformed),
+        ("static_limit.non_sliding", &sl.non_sliding),
+        ("static_limit.static_state", &sl.static_state),
+        ("static_limit.deforming", &sl.deforming),
+    ];
     let given = roles.iter().filter(|(_, v)| v.is_some()).count();
     if given != 0 && given != 4 {
-        return Err(src.error_at_key("static_limit", format!("{given} of the 4 replays named (allowed: all of undeformed, non_sliding, static_state, deforming, or none)")));
+        return Err(src.error_at_key(
+            "static_limit",
+            format!("{given} of the 4 replays named (allowed: all of undeformed, non_sliding, static_state, deforming, or none)"),
+        ));
     }
     let mut amplitudes: Option<&Vec<f64>> = None;
     for (key, name) in roles {
@@ -218,7 +227,10 @@ pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
                 return Err(src.error_at_key(key, format!("`{name}` is a `{}` replay (allowed: a wall_pulse replay)", q.modification.name())));
             }
             if amplitudes.is_some_and(|a| *a != q.amplitudes) {
-                return Err(src.error_at_key(key, format!("`{name}` has amplitudes {:?}, the others {:?} (allowed: the same amplitudes in all four)", q.amplitudes, amplitudes.unwrap())));
+                return Err(src.error_at_key(
+                    key,
+                    format!("`{name}` has amplitudes {:?}, the others {:?} (allowed: the same amplitudes in all four)", q.amplitudes, amplitudes.unwrap()),
+                ));
             }
             amplitudes = Some(&q.amplitudes);
         }

@@ -114,10 +114,26 @@ pub fn wall_law(m: &MaterialConfig) -> ContactLaw {
     law
 }
 
+/// The law of an absorbing wall (SPEC §6.7) for `grains` grains of mean mass `mean_mass`: Hooke
+/// stiffness K_n/√N, constant dashpot γ_w = `absorbing_damping` √(m̄ K_n), frictionless. The soft
+/// spring leaves the dashpot in charge at all but the lowest frequencies, and the dashpot per unit
+/// length matches the acoustic impedance of the packing, so incoming waves are mostly absorbed.
+pub fn absorbing_wall_law(m: &MaterialConfig, grains: usize, mean_mass: f64) -> ContactLaw {
+    ContactLaw {
+        normal: NormalElastic::Hooke { stiffness: m.normal_stiffness / (grains as f64).sqrt() },
+        damping: NormalDamping::Dashpot { coefficient: m.absorbing_damping * (mean_mass * m.normal_stiffness).sqrt() },
+        tangential: Tangential::None,
+        tangential_damping: TangentialDamping::None,
+        friction: 0.0,
+        rolling: Rolling::None,
+        twisting: Twisting::None,
+    }
+}
+
 /// The granular gas in its box (SPEC §6.2): N = columns × rows disks with diameters uniform in
 /// [1 − a, 1 + a], at random non-overlapping positions in a square of area Σπ R²/gas_fraction, at
 /// rest; walls bottom (fixed), left (fixed), right and top (pistons of mass `wall_mass` M* under
-/// p* × their length), gravity g (−1, −1)/√2 with M* g = `gravity` p* L*.
+/// p* × their length; all but the right one absorbing with `absorbing_walls`), gravity g (−1, −1)/√2 with M* g = `gravity` p* L*.
 pub fn build_gas(pk: &PackingConfig, m: &MaterialConfig, pc: &PreparationConfig, seed: u64) -> Result<Simulation<D2>> {
     let n = pk.columns * pk.rows;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -135,12 +151,13 @@ pub fn build_gas(pk: &PackingConfig, m: &MaterialConfig, pc: &PreparationConfig,
     }
     let total_mass = grains.total_mass();
     let wl = wall_law(m);
+    let soft = if m.absorbing_walls { absorbing_wall_law(m, n, total_mass / n as f64) } else { wl };
     let piston = |f: f64| WallMotion::Piston { mass: pc.wall_mass * total_mass, force: TimeFunction::constant(f) };
     let domain = Domain::new(glam::DVec2::new(0.0, 0.0), glam::DVec2::new(w, h), [false; 3])
-        .with_wall(Wall::axis_aligned("bottom", 1, 0.0, true, wl))
-        .with_wall(Wall::axis_aligned("left", 0, 0.0, true, wl))
+        .with_wall(Wall::axis_aligned("bottom", 1, 0.0, true, soft))
+        .with_wall(Wall::axis_aligned("left", 0, 0.0, true, soft))
         .with_wall(Wall::axis_aligned("right", 0, w, false, wl).with_motion(piston(h)))
-        .with_wall(Wall::axis_aligned("top", 1, h, false, wl).with_motion(piston(w)));
+        .with_wall(Wall::axis_aligned("top", 1, h, false, soft).with_motion(piston(w)));
     // L* at the gas stage is only an estimate; the gravity is fixed here, from the solid area
     // at a packing fraction ≈ 0.84 (the scale of the prepared packing).
     let l_star = (solid / 0.84).sqrt();
