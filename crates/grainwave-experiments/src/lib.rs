@@ -5,8 +5,10 @@
 //! through a [`protocol::Reporter`], can be interrupted and resumed bit for bit, and writes its
 //! outputs into one directory, and a typed report (also written there as `summary.json`).
 //!
-//! Protocols: [`simulation`] (a general run: place grains, load, relax or drive, record) and
-//! [`e1`] (pulse transmission through pressurized Hertz–Mindlin packings, SPEC §5). The [`demo`]
+//! Protocols: [`simulation`] (a general run: place grains, load, relax or drive, record),
+//! [`e1`] (pulse transmission through pressurized Hertz–Mindlin packings, SPEC §5), [`e2`]
+//! (acoustics of a packing under biaxial loading, SPEC §6) and [`e3`] (response of a slab to a
+//! localized force, SPEC §7). The [`demo`]
 //! is an embedded `e1` config: a 200-grain packing, its characterization, moduli and pulse.
 #![warn(missing_docs)]
 
@@ -14,6 +16,7 @@ pub mod bench;
 pub mod config;
 pub mod demo;
 pub mod e1;
+pub mod e2;
 pub mod e3;
 mod error;
 pub mod protocol;

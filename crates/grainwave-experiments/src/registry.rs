@@ -3,12 +3,12 @@
 use crate::config::{did_you_mean, reference, ConfigError, ConfigSource};
 use crate::error::{ExperimentError, Result};
 use crate::protocol::{checkpoint_tag, load_state, RunContext};
-use crate::{e1, e3, simulation};
+use crate::{e1, e2, e3, simulation};
 use schemars::schema_for;
 use std::path::Path;
 
 /// Names of the protocols a config can select with `experiment = "…"`.
-pub const EXPERIMENTS: &[&str] = &["simulation", "e1", "e3"];
+pub const EXPERIMENTS: &[&str] = &["simulation", "e1", "e2", "e3"];
 
 /// The protocol a config selects, from its top-level `experiment` key.
 pub fn experiment_name(src: &ConfigSource) -> Result<String, ConfigError> {
@@ -36,6 +36,7 @@ pub fn check(src: &ConfigSource) -> Result<Vec<String>, ConfigError> {
             Ok(describe(&p))
         }
         "e1" => Ok(e1::describe(&e1::prepare(src)?)),
+        "e2" => Ok(e2::describe(&e2::prepare(src)?)),
         "e3" => Ok(e3::describe(&e3::prepare(src)?)),
         other => unreachable!("experiment `{other}` is listed but not dispatched"),
     }
@@ -97,6 +98,10 @@ fn summarize_e1(r: &e1::E1Report, out: &Path) -> RunSummary {
     RunSummary { lines: e1::summary_lines(r, out), report: serde_json::to_value(r).unwrap_or_default() }
 }
 
+fn summarize_e2(r: &e2::E2Summary, out: &Path) -> RunSummary {
+    RunSummary { lines: e2::summary_lines(r, out), report: serde_json::to_value(r).unwrap_or_default() }
+}
+
 fn summarize_e3(r: &e3::E3Summary, out: &Path) -> RunSummary {
     let mut lines = vec![format!("e3 {}: {} parameter set(s)", r.mode, r.groups.len())];
     for g in &r.groups {
@@ -150,6 +155,10 @@ pub fn run(src: &ConfigSource, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
             let out = ctx.out_dir().to_path_buf();
             Ok(summarize_e1(&e1::run_config(src, ctx)?, &out))
         }
+        "e2" => {
+            let out = ctx.out_dir().to_path_buf();
+            Ok(summarize_e2(&e2::run_config(src, ctx)?, &out))
+        }
         "e3" => {
             let out = ctx.out_dir().to_path_buf();
             Ok(summarize_e3(&e3::run_config(src, ctx)?, &out))
@@ -174,6 +183,12 @@ pub fn resume(dir: &Path, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
             let out = ctx.out_dir().to_path_buf();
             Ok(summarize_e1(&state.run(ctx)?, &out))
         }
+        e2::TAG => {
+            let mut state: e2::E2State = load_state(&file, &tag)?;
+            ctx.log(&format!("resuming from {}", file.display()));
+            let out = ctx.out_dir().to_path_buf();
+            Ok(summarize_e2(&state.run(ctx)?, &out))
+        }
         e3::TAG => {
             let mut state: e3::E3State = load_state(&file, &tag)?;
             ctx.log(&format!("resuming from {}", file.display()));
@@ -197,6 +212,10 @@ pub fn plot(dir: &Path) -> Result<Vec<String>> {
         e1::TAG => {
             let state: e1::E1State = load_state(&file, &tag)?;
             e1::replot(dir, &state)
+        }
+        e2::TAG => {
+            let state: e2::E2State = load_state(&file, &tag)?;
+            e2::replot(dir, &state)
         }
         e3::TAG => {
             let state: e3::E3State = load_state(&file, &tag)?;
@@ -229,6 +248,15 @@ pub fn reference_markdown() -> String {
         "`experiment = \"e1\"`",
         "Pulse transmission through confined, pressurized Hertz–Mindlin packings (SPEC §5; see docs/e1.md). Units:\n\
          length d̄ (the mean diameter), grain density ρ = 1, pressure E* = E/(1 − ν²) = 1, time d̄ √(ρ/E*).",
+        &reference::sections(&value),
+    ));
+    let schema = schema_for!(e2::E2Config);
+    let value = serde_json::to_value(&schema).expect("schema serializes");
+    s.push_str(&reference::markdown(
+        "`experiment = \"e2\"`",
+        "Acoustics of a 2D packing under biaxial loading, with frictional sliding (SPEC §6; see docs/e2.md). Units:\n\
+         pressure p* (force/length), total grain mass M*, L* = √(M*/ρ*), t* = √(M*/p*), v_a = d̄√(K_n/m̄), t_a = L*/v_a;\n\
+         grain sizes in mean diameters d̄.",
         &reference::sections(&value),
     ));
     let schema = schema_for!(e3::E3Config);

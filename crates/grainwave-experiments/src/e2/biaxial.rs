@@ -1,0 +1,317 @@
+//! Preparation and biaxial test (SPEC §6.2), with checkpoints every Δε of strain.
+//!
+//! **Preparation.** The gas of [`super::model::build_gas`] is run in chunks of `check_every` steps
+//! (at absolute step numbers, so that an interrupted and resumed preparation is bit-identical).
+//! At each chunk boundary the piston forces are set to p* × the current wall lengths, and when the
+//! power Σ F_i·v_i + Σ M a_w v_w of the forces is negative every velocity (pistons included) is set
+//! to zero (quench). Equilibrium: every |F_i| and every piston's |M a_w| below `max_force` p* d̄.
+//! Then friction is switched on (the tangential springs start at zero).
+//!
+//! **Loading.** The top wall moves at the constant speed ε̇ H₀ (down in compression, up in
+//! extension), the right wall is a piston whose force p* × height is set before every step. Every
+//! `sample_every` steps the strain is measured by regression on the grain displacements
+//! ([`super::strain`]) and a row of the series is recorded; each time |ε_yy| passes a multiple of
+//! `checkpoint_strain` a checkpoint is written to `checkpoints/ck-KKKKKK.gwck` and listed in
+//! `checkpoints/index.csv`.
+
+use super::config::{Direction, E2Config};
+use super::model::{self, Drive, PistonLoad, Units, RIGHT, TOP};
+use super::strain::{positions_by_id, StrainTracker};
+use crate::error::Result;
+use crate::protocol::RunContext;
+use grainwave_core::prelude::*;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Content tag of the strain checkpoints.
+pub const CHECKPOINT_TAG: &str = "e2-strain-checkpoint";
+
+/// A checkpoint of the biaxial test: everything a replay needs.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct StrainCheckpoint {
+    /// Index k (0: the state at the start of the loading).
+    pub index: u64,
+    /// The engine state.
+    pub sim: Simulation<D2>,
+    /// How the walls are driven.
+    pub drive: Drive,
+    /// Strain (ε_xx, ε_yy) at this checkpoint.
+    pub strain: (f64, f64),
+    /// Units of the run.
+    pub units: Units,
+}
+
+/// Path of checkpoint `k` in output directory `dir`.
+pub fn checkpoint_path(dir: &Path, k: u64) -> std::path::PathBuf {
+    dir.join("checkpoints").join(format!("ck-{k:06}.gwck"))
+}
+
+/// One line of `checkpoints/index.csv`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CheckpointEntry {
+    /// Index k.
+    pub index: u64,
+    /// Engine step.
+    pub step: u64,
+    /// Time since the start of the loading [t*].
+    pub time: f64,
+    /// ε_yy (compression positive).
+    pub strain_yy: f64,
+    /// ε_xx (compression positive).
+    pub strain_xx: f64,
+    /// σ_yy [p*].
+    pub stress_yy: f64,
+    /// σ_xx [p*].
+    pub stress_xx: f64,
+    /// Sliding contacts M_s.
+    pub sliding: u64,
+}
+
+/// Columns of the loading series.
+pub const SERIES_COLUMNS: [&str; 9] = ["time", "strain_yy", "strain_xx", "stress_yy", "stress_xx", "sliding", "contacts", "kinetic_energy", "step"];
+
+/// The state of the loading.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Loading {
+    /// Strain measurement.
+    pub tracker: StrainTracker,
+    /// Wall drive.
+    pub drive: Drive,
+    /// Simulated time at the start of the loading.
+    pub start_time: f64,
+    /// Next checkpoint index.
+    pub next_checkpoint: u64,
+    /// Rows of the series (see [`SERIES_COLUMNS`]).
+    pub series: Vec<[f64; 9]>,
+    /// Checkpoints written.
+    pub checkpoints: Vec<CheckpointEntry>,
+    /// Finished.
+    pub done: bool,
+    /// Wall-clock seconds spent, summed over resumes [s].
+    pub seconds: f64,
+}
+
+/// How the preparation went.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct PreparationInfo {
+    /// Reached equilibrium.
+    pub converged: bool,
+    /// Steps.
+    pub steps: u64,
+    /// Simulated time [t*].
+    pub time: f64,
+    /// Quenches.
+    pub quenches: u64,
+    /// Largest |F_i| at the end [p* d̄].
+    pub max_force: f64,
+    /// Largest piston |M a_w| at the end [p* d̄].
+    pub max_piston_force: f64,
+    /// Packing fraction at the end.
+    pub packing_fraction: f64,
+    /// Wall-clock seconds, summed over resumes [s].
+    pub seconds: f64,
+}
+
+fn max_grain_force(sim: &Simulation<D2>) -> f64 {
+    sim.grains.force.iter().map(|f| f.length()).fold(0.0, f64::max)
+}
+
+fn max_piston_force(sim: &Simulation<D2>) -> f64 {
+    sim.domain.walls.iter().filter_map(|w| if let WallMotion::Piston { mass, .. } = w.motion { Some((mass * w.accel).abs()) } else { None }).fold(0.0, f64::max)
+}
+
+/// Packing fraction Σπ R²/(W H).
+pub fn packing_fraction(sim: &Simulation<D2>) -> f64 {
+    let (w, h) = model::box_size(sim);
+    sim.grains.radius.iter().map(|r| std::f64::consts::PI * r * r).sum::<f64>() / (w * h)
+}
+
+/// Relaxes the gas under the pistons (see the module docs). Returns false when interrupted.
+pub fn prepare(
+    sim: &mut Simulation<D2>,
+    info: &mut PreparationInfo,
+    cfg: &E2Config,
+    ctx: &mut RunContext<'_>,
+    save: &mut dyn FnMut(&mut RunContext<'_>, &Simulation<D2>, &PreparationInfo) -> Result<()>,
+) -> Result<bool> {
+    let pc = &cfg.preparation;
+    let drive = Drive { pressure: 1.0, pistons: vec![(RIGHT, PistonLoad::Height), (TOP, PistonLoad::Width)], pulse_wall: RIGHT, pulse: None };
+    let t_star = sim.grains.total_mass().sqrt();
+    let started = std::time::Instant::now();
+    let base = info.seconds;
+    let mut last_save = std::time::Instant::now();
+    let mut last_report = 0u64;
+    ctx.reporter.stage("preparation", None);
+    loop {
+        if sim.step % pc.check_every == 0 {
+            drive.set_forces(sim);
+            sim.refresh_forces()?;
+            info.steps = sim.step;
+            info.time = sim.time / t_star;
+            info.max_force = max_grain_force(sim);
+            info.max_piston_force = max_piston_force(sim);
+            info.packing_fraction = packing_fraction(sim);
+            info.seconds = base + started.elapsed().as_secs_f64();
+            if info.max_force < pc.max_force && info.max_piston_force < pc.max_force {
+                info.converged = true;
+                return Ok(true);
+            }
+            if sim.step >= last_report + 20 * pc.check_every {
+                last_report = sim.step;
+                ctx.reporter.progress(&sim.progress(&StopCriteria::default()));
+                ctx.log_quiet(&format!(
+                    "preparation: t = {:.3} t*, Φ = {:.4}, max |F| = {:.3e}, piston {:.3e}, {} quenches",
+                    info.time, info.packing_fraction, info.max_force, info.max_piston_force, info.quenches
+                ));
+            }
+        }
+        if ctx.interrupted() {
+            return Ok(false);
+        }
+        if sim.time > pc.max_time * t_star {
+            return Err(CoreError::Inconsistent(format!(
+                "the preparation reached no equilibrium within {} t* (`preparation.max_time`): max |F| = {:.3e}, piston {:.3e} (tolerance `preparation.max_force` = {:.1e} p* d̄)",
+                pc.max_time, info.max_force, info.max_piston_force, pc.max_force
+            ))
+            .into());
+        }
+        if last_save.elapsed().as_secs_f64() >= cfg.output.save_every {
+            save(ctx, sim, info)?;
+            last_save = std::time::Instant::now();
+        }
+        let n = pc.check_every - sim.step % pc.check_every;
+        sim.steps(n)?;
+        let g = &sim.grains;
+        let mut power = grainwave_core::util::det_sum(g.len(), |k| g.force[k].dot(g.vel[k]) + g.torque[k] * g.omega[k]);
+        for w in &sim.domain.walls {
+            if let WallMotion::Piston { mass, .. } = w.motion {
+                power += mass * w.accel * w.speed;
+            }
+        }
+        if power < 0.0 {
+            info.quenches += 1;
+            sim.grains.vel.iter_mut().for_each(|v| *v = glam::DVec2::ZERO);
+            sim.grains.omega.iter_mut().for_each(|w| *w = 0.0);
+            sim.domain.walls.iter_mut().for_each(|w| w.speed = 0.0);
+        }
+    }
+}
+
+/// Switches friction on and sets up the loading: the top wall moves at ε̇ H₀, the right wall is a
+/// piston under p* × height.
+pub fn start_loading(sim: &mut Simulation<D2>, cfg: &E2Config) -> Result<Loading> {
+    sim.law = model::grain_law(&cfg.material, cfg.material.friction);
+    let (_, h) = model::box_size(sim);
+    let t_star = sim.grains.total_mass().sqrt();
+    let speed = cfg.loading.strain_rate / t_star * h * if cfg.loading.direction == Direction::Compression { 1.0 } else { -1.0 };
+    sim.domain.walls[TOP].motion = WallMotion::Velocity { speed: TimeFunction::constant(speed) };
+    sim.domain.walls[TOP].speed = speed;
+    let drive = Drive::biaxial(1.0);
+    drive.set_forces(sim);
+    sim.refresh_forces()?;
+    Ok(Loading {
+        tracker: StrainTracker::new(positions_by_id(&sim.grains), cfg.loading.reference_strain),
+        drive,
+        start_time: sim.time,
+        next_checkpoint: 0,
+        series: Vec::new(),
+        checkpoints: Vec::new(),
+        done: false,
+        seconds: 0.0,
+    })
+}
+
+fn write_index(dir: &Path, entries: &[CheckpointEntry]) -> Result<()> {
+    let mut s = String::from("index,step,time,strain_yy,strain_xx,stress_yy,stress_xx,sliding,file\n");
+    for e in entries {
+        s.push_str(&format!(
+            "{},{},{:.17e},{:.17e},{:.17e},{:.17e},{:.17e},{},checkpoints/ck-{:06}.gwck\n",
+            e.index, e.step, e.time, e.strain_yy, e.strain_xx, e.stress_yy, e.stress_xx, e.sliding, e.index
+        ));
+    }
+    grainwave_core::checkpoint::atomic_write(&dir.join("checkpoints").join("index.csv"), s.as_bytes())?;
+    Ok(())
+}
+
+/// Runs the loading until `final_strain` (see the module docs). Returns false when interrupted.
+pub fn load(
+    sim: &mut Simulation<D2>,
+    loading: &mut Loading,
+    units: &Units,
+    cfg: &E2Config,
+    ctx: &mut RunContext<'_>,
+    save: &mut dyn FnMut(&mut RunContext<'_>, &Simulation<D2>, &Loading) -> Result<()>,
+) -> Result<bool> {
+    let lc = &cfg.loading;
+    let dir = ctx.out_dir().to_path_buf();
+    std::fs::create_dir_all(dir.join("checkpoints")).map_err(|e| CoreError::Io {
+        action: "cannot create".into(),
+        path: dir.join("checkpoints").display().to_string(),
+        error: e,
+    })?;
+    let started = std::time::Instant::now();
+    let base = loading.seconds;
+    let mut last_save = std::time::Instant::now();
+    let mut last_report = std::time::Instant::now();
+    ctx.reporter.stage("loading", None);
+    let energy_unit = units.pressure * units.length * units.length;
+    loop {
+        {
+            if (sim.step - loading.series.first().map(|r| r[8] as u64).unwrap_or(sim.step)) % lc.sample_every == 0 {
+                let (exx, eyy) = loading.tracker.update(&positions_by_id(&sim.grains));
+                let (sxx, syy) = model::wall_stresses(sim);
+                let row = [
+                    (sim.time - loading.start_time) / units.time,
+                    eyy,
+                    exx,
+                    syy / units.pressure,
+                    sxx / units.pressure,
+                    sim.counters.sliding as f64,
+                    sim.counters.contacts as f64,
+                    sim.kinetic_energy() / energy_unit,
+                    sim.step as f64,
+                ];
+                loading.series.push(row);
+                let due = lc.checkpoint_strain > 0.0 && (loading.next_checkpoint == 0 || eyy.abs() >= loading.next_checkpoint as f64 * lc.checkpoint_strain);
+                if due {
+                    let k = loading.next_checkpoint;
+                    let ck = StrainCheckpoint { index: k, sim: sim.clone(), drive: loading.drive.clone(), strain: (exx, eyy), units: *units };
+                    grainwave_core::checkpoint::save(&checkpoint_path(&dir, k), CHECKPOINT_TAG, &ck)?;
+                    loading.checkpoints.push(CheckpointEntry {
+                        index: k,
+                        step: sim.step,
+                        time: row[0],
+                        strain_yy: eyy,
+                        strain_xx: exx,
+                        stress_yy: row[3],
+                        stress_xx: row[4],
+                        sliding: sim.counters.sliding,
+                    });
+                    write_index(&dir, &loading.checkpoints)?;
+                    loading.next_checkpoint = (eyy.abs() / lc.checkpoint_strain).floor() as u64 + 1;
+                }
+                if eyy.abs() >= lc.final_strain {
+                    loading.done = true;
+                    loading.seconds = base + started.elapsed().as_secs_f64();
+                    return Ok(true);
+                }
+                if last_report.elapsed().as_secs_f64() > 2.0 {
+                    last_report = std::time::Instant::now();
+                    let mut p = sim.progress(&StopCriteria::default());
+                    p.fraction_of_limit = (eyy.abs() / lc.final_strain).min(1.0);
+                    ctx.reporter.progress(&p);
+                }
+                if ctx.interrupted() {
+                    loading.seconds = base + started.elapsed().as_secs_f64();
+                    return Ok(false);
+                }
+                if last_save.elapsed().as_secs_f64() >= cfg.output.save_every {
+                    loading.seconds = base + started.elapsed().as_secs_f64();
+                    save(ctx, sim, loading)?;
+                    last_save = std::time::Instant::now();
+                }
+            }
+        }
+        loading.drive.step(sim)?;
+    }
+}

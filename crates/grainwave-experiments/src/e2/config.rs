@@ -1,0 +1,352 @@
+//! The keys of an `e2` config (SPEC §6). Units: pressure p* (force per length in 2D), total mass M*
+//! of the grains, and the derived L* = √(M*/ρ*), t* = √(M*/p*), v_a and t_a (see
+//! [`super::model::Units`]); grain sizes in mean diameters d̄.
+
+use schemars::JsonSchema;
+use serde::{Deserialize, Serialize};
+
+/// An `e2` config: acoustics of a 2D packing under biaxial loading, with frictional sliding.
+///
+/// Without `[source]`, a run prepares a packing, loads it biaxially (writing checkpoints every
+/// `loading.checkpoint_strain`) and then runs every `[[replays]]` entry from the checkpoints it
+/// wrote. With `source.dir`, it skips preparation and loading and replays checkpoints of that
+/// earlier run.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct E2Config {
+    /// Which protocol this file configures: `e2`.
+    pub experiment: String,
+    /// Seed of the packing (radii, gas positions).
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// The packing.
+    #[serde(default)]
+    pub packing: PackingConfig,
+    /// Contact parameters (SPEC §6.1).
+    #[serde(default)]
+    pub material: MaterialConfig,
+    /// Preparation by two pistons (SPEC §6.2).
+    #[serde(default)]
+    pub preparation: PreparationConfig,
+    /// The biaxial test (SPEC §6.2).
+    #[serde(default)]
+    pub loading: LoadingConfig,
+    /// Replay checkpoints of an earlier `e2` run instead of preparing and loading a new packing.
+    #[serde(default)]
+    pub source: SourceConfig,
+    /// Replays of checkpoints, each with exactly one modification (SPEC §6.3–6.5).
+    #[serde(default)]
+    pub replays: Vec<ReplayConfig>,
+    /// The Δc/c₀ decomposition of SPEC §6.6 from four wall-pulse replays with equal amplitudes.
+    #[serde(default)]
+    pub static_limit: StaticLimitConfig,
+    /// What to write.
+    #[serde(default)]
+    pub output: OutputConfig,
+}
+
+fn default_seed() -> u64 {
+    1
+}
+
+/// The packing: N = columns × rows disks (SPEC §6.1).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct PackingConfig {
+    /// Grains per row of the (roughly square) packing; N = columns × rows.
+    pub columns: usize,
+    /// Rows of grains.
+    pub rows: usize,
+    /// Polydispersity a: diameters uniform in [d̄(1 − a), d̄(1 + a)], in [0, 1).
+    pub polydispersity: f64,
+    /// Solid fraction of the initial granular gas (random sequential addition; keep it below ≈ 0.5).
+    pub gas_fraction: f64,
+}
+
+impl Default for PackingConfig {
+    fn default() -> Self {
+        PackingConfig { columns: 128, rows: 128, polydispersity: 0.2, gas_fraction: 0.4 }
+    }
+}
+
+/// Linear spring–dashpot contacts (SPEC §6.1). Walls: the same normal spring and dashpot,
+/// frictionless, no rolling resistance.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct MaterialConfig {
+    /// Normal stiffness K_n [p*].
+    pub normal_stiffness: f64,
+    /// Restitution coefficient e of a binary collision, which sets the normal dashpot
+    /// γ_n = 2ζ√(m* K_n) per pair (ζ chosen so that the clamped law restitutes exactly e), in (e⁻², 1].
+    pub restitution: f64,
+    /// K_t / K_n.
+    pub tangential_stiffness_ratio: f64,
+    /// γ_t / γ_n.
+    pub tangential_damping_ratio: f64,
+    /// Grain–grain Coulomb friction μ, switched on after the preparation.
+    pub friction: f64,
+    /// Rolling stiffness k_r / (K_n d̄²) (0: no rolling resistance).
+    pub rolling_stiffness: f64,
+    /// Rolling friction μ_r: the rolling torque is capped at μ_r R* F_n.
+    pub rolling_friction: f64,
+    /// Absorbing walls (SPEC §6.7): the bottom, left and top walls get soft, damped contacts
+    /// (stiffness K_n/√N, dashpot `absorbing_damping` √(m̄ K_n)); the pulse-emitting right wall stays
+    /// stiff. For the whole run.
+    pub absorbing_walls: bool,
+    /// Dashpot of an absorbing-wall contact [√(m̄ K_n)]. The default 0.85 makes the dashpots per unit
+    /// wall length equal to the packing's acoustic impedance ρ* c ≈ (4Φ/π)(c/v_a)√(m̄K_n)/d̄ for
+    /// Φ ≈ 0.83, c ≈ 0.8 v_a and one contact per diameter, which absorbs plane waves.
+    pub absorbing_damping: f64,
+}
+
+impl Default for MaterialConfig {
+    fn default() -> Self {
+        MaterialConfig {
+            normal_stiffness: 2000.0,
+            restitution: 0.92,
+            tangential_stiffness_ratio: 0.5,
+            tangential_damping_ratio: 0.5,
+            friction: 0.2,
+            rolling_stiffness: 1e-4,
+            rolling_friction: 0.01,
+            absorbing_walls: false,
+            absorbing_damping: 0.85,
+        }
+    }
+}
+
+/// Preparation (SPEC §6.2): a frictionless granular gas in a box with the bottom and left walls
+/// fixed and the top and right walls pistons under p* × their length, with a weak gravity along
+/// (−1, −1)/√2, relaxed until equilibrium; then μ is switched on.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct PreparationConfig {
+    /// Mass of each piston [M*].
+    pub wall_mass: f64,
+    /// Strength of the diagonal gravity as M* g / (p* L*): the weight of the packing over the force
+    /// on one wall (0: no gravity). Gravity stays on for the whole run.
+    pub gravity: f64,
+    /// Equilibrium when every grain's |F_i| and every piston's |M a| are below this [p* d̄].
+    pub max_force: f64,
+    /// Check equilibrium (and update the piston forces p* × length) every this many steps [steps].
+    pub check_every: u64,
+    /// Give up after this much simulated time [t*].
+    pub max_time: f64,
+    /// Time step as a fraction of the shortest contact period 2π√(m*_min/K_n).
+    pub dt_fraction: f64,
+}
+
+impl Default for PreparationConfig {
+    fn default() -> Self {
+        PreparationConfig { wall_mass: 0.01, gravity: 0.01, max_force: 1e-4, check_every: 200, max_time: 200.0, dt_fraction: 0.05 }
+    }
+}
+
+/// Direction of the biaxial test.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Direction {
+    /// The top wall moves down.
+    #[default]
+    Compression,
+    /// The top wall moves up.
+    Extension,
+}
+
+impl Direction {
+    /// Lower-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Direction::Compression => "compression",
+            Direction::Extension => "extension",
+        }
+    }
+}
+
+/// The biaxial test (SPEC §6.2): the top wall moves at a constant speed, the right wall stays a
+/// piston under p* × its length, the bottom and left walls are fixed.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct LoadingConfig {
+    /// `compression` (top wall down) or `extension` (top wall up).
+    pub direction: Direction,
+    /// Strain rate |ε̇_yy|: the top wall moves at ε̇ × (initial height) [1/t*].
+    pub strain_rate: f64,
+    /// Stop when |ε_yy| (from grain displacements) reaches this.
+    pub final_strain: f64,
+    /// Write a checkpoint every this much |ε_yy| (SPEC: 1e-5); 0 writes none.
+    pub checkpoint_strain: f64,
+    /// Re-reference the displacements of the strain regression each time the strain since the
+    /// last reference exceeds this (SPEC: 1e-5).
+    pub reference_strain: f64,
+    /// Record the series (stresses, strain, M_s, kinetic energy) every this many steps [steps].
+    pub sample_every: u64,
+}
+
+impl Default for LoadingConfig {
+    fn default() -> Self {
+        LoadingConfig {
+            direction: Direction::Compression,
+            strain_rate: 1e-3,
+            final_strain: 0.01,
+            checkpoint_strain: 1e-5,
+            reference_strain: 1e-5,
+            sample_every: 20,
+        }
+    }
+}
+
+/// An earlier `e2` run whose checkpoints are replayed.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct SourceConfig {
+    /// Output directory of that run (holding `checkpoints/index.csv`); relative paths are taken
+    /// from the current directory.
+    pub dir: Option<String>,
+}
+
+/// Shape of a wall pulse.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum PulseShape {
+    /// f = p_a δ(t − t₀): an impulse p_a p* L_wall delivered in one step.
+    #[default]
+    Delta,
+    /// f(t) = p_a (3 − 6τ² + τ⁴) e^{−τ²/2}, τ = (t − t₀)/T.
+    Wavelet,
+}
+
+/// The one modification of a replay.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum Modification {
+    /// Pressure pulse on the right wall, p(t) = p*[1 + f(t)] (paired replay).
+    #[default]
+    WallPulse,
+    /// The radius of the grain nearest the centre × (1 + amplitude) (paired replay).
+    Radius,
+    /// All velocities (grains, walls, and the top wall's speed) × `factor` (single replay).
+    VelocityScale,
+    /// Grain–grain friction set to `friction` (single replay).
+    Friction,
+    /// The top wall stops smoothly, v(t) = v₀(1 + cos(πt/t_s))/2 for t ≤ t_s = `stop_time` (single replay).
+    WallStop,
+}
+
+impl Modification {
+    /// Lower-case name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Modification::WallPulse => "wall_pulse",
+            Modification::Radius => "radius",
+            Modification::VelocityScale => "velocity_scale",
+            Modification::Friction => "friction",
+            Modification::WallStop => "wall_stop",
+        }
+    }
+
+    /// True for the perturbations replayed in pairs (with and without), whose difference is the
+    /// perturbed velocity field.
+    pub fn paired(self) -> bool {
+        matches!(self, Modification::WallPulse | Modification::Radius)
+    }
+}
+
+/// One replay of a checkpoint (SPEC §6.3–6.5).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct ReplayConfig {
+    /// Name of the replay (its output directory `replays/<name>/`; default `r<k>`).
+    pub name: Option<String>,
+    /// Index of the checkpoint to replay (0 is the state just after μ was switched on; k the one
+    /// written at |ε_yy| ≈ k × `checkpoint_strain`; −1 the last one).
+    pub checkpoint: i64,
+    /// Start from the final state of this earlier single replay of the same config instead of a
+    /// checkpoint (chains such as velocities × γ → wall stop → pulses, SPEC §6.6).
+    pub from: Option<String>,
+    /// The modification: `wall_pulse`, `radius`, `velocity_scale`, `friction` or `wall_stop`.
+    pub modification: Modification,
+    /// `wall_pulse`: `delta` or `wavelet`.
+    pub shape: PulseShape,
+    /// Amplitudes p_a of `wall_pulse` (positive: compression, negative: rarefaction), or relative
+    /// radius changes of `radius`; each gives its own paired replay.
+    pub amplitudes: Vec<f64>,
+    /// Wavelet width T [t_a].
+    pub width: f64,
+    /// Pulse time t₀ after the start of the replay (default: 0 for `delta`, 6 T for `wavelet`) [t_a].
+    pub delay: Option<f64>,
+    /// `velocity_scale`: the factor γ.
+    pub factor: f64,
+    /// `friction`: the new μ.
+    pub friction: f64,
+    /// `wall_stop`: the stopping time t_s [t_a].
+    pub stop_time: f64,
+    /// Duration of the replay [t_a].
+    pub duration: f64,
+    /// Interval Δt between samples of the perturbed velocity field [t_a].
+    pub sample_interval: f64,
+    /// Number of strips perpendicular to the propagation for the pulse speed.
+    pub strips: usize,
+    /// Fit the strip arrivals between these fractions of the largest distance from the source.
+    pub fit_range: [f64; 2],
+    /// Grey bands J of the arrival-time maps (grey = frac(J t_i/t_f)).
+    pub bands: f64,
+}
+
+impl Default for ReplayConfig {
+    fn default() -> Self {
+        ReplayConfig {
+            name: None,
+            checkpoint: -1,
+            from: None,
+            modification: Modification::WallPulse,
+            shape: PulseShape::Delta,
+            amplitudes: vec![1e-6],
+            width: 0.05,
+            delay: None,
+            factor: 0.1,
+            friction: 2.0,
+            stop_time: 1.0,
+            duration: 2.0,
+            sample_interval: 0.005,
+            strips: 128,
+            fit_range: [0.1, 0.9],
+            bands: 4.0,
+        }
+    }
+}
+
+/// Names of four wall-pulse replays (same amplitudes) whose speeds decompose the pulse-speed loss
+/// Δc/c₀ = (c₀ − c_d)/c₀ (SPEC §6.6) into contact loss (c₀ − c_ns)/c₀, sliding (c_ns − c_s)/c₀ and
+/// strain rate (c_s − c_d)/c₀. Leave out to skip the table.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct StaticLimitConfig {
+    /// Replay of the undeformed packing (checkpoint 0): c₀.
+    pub undeformed: Option<String>,
+    /// Replay of the static deformed packing with μ = 2 (non-sliding): c_ns.
+    pub non_sliding: Option<String>,
+    /// Replay of the static deformed packing: c_s.
+    pub static_state: Option<String>,
+    /// Replay of the deforming packing (a checkpoint of the loading): c_d.
+    pub deforming: Option<String>,
+}
+
+/// What to write.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct OutputConfig {
+    /// Draw plots (PNG and SVG).
+    pub plots: bool,
+    /// Write the perturbed velocity fields of paired replays (`field.npy`, float32, shape
+    /// [samples, grains, 2]).
+    pub fields: bool,
+    /// Save the protocol state for `grainwave resume` at least every this many wall-clock seconds [s].
+    pub save_every: f64,
+}
+
+impl Default for OutputConfig {
+    fn default() -> Self {
+        OutputConfig { plots: true, fields: true, save_every: 300.0 }
+    }
+}

@@ -1,0 +1,446 @@
+//! The `e2` protocol (SPEC §6): acoustics of a 2D packing under biaxial loading, with frictional
+//! sliding. See docs/e2.md.
+//!
+//! Stages: preparation by two pistons ([`biaxial::prepare`]), biaxial test with checkpoints every
+//! Δε ([`biaxial::load`]), then the `[[replays]]` of checkpoints ([`replay`]): paired replays with
+//! a pressure pulse or a central radius change, whose difference gives the perturbed velocity
+//! field, the arrival times and the pulse speed ([`arrival`]); or single replays with the
+//! velocities scaled, the friction changed or the top wall stopped. The protocol state (stage,
+//! engine state, series, finished replays) is saved in `checkpoint.gwck`, so `grainwave resume`
+//! continues an interrupted run bit for bit.
+
+pub mod arrival;
+pub mod biaxial;
+pub mod config;
+pub mod model;
+pub mod outputs;
+pub mod replay;
+pub mod strain;
+
+pub use config::E2Config;
+pub use outputs::E2Summary;
+
+use crate::config::{ConfigError, ConfigSource};
+use crate::error::{ExperimentError, Result};
+use crate::protocol::RunContext;
+use biaxial::{Loading, PreparationInfo};
+use grainwave_core::prelude::*;
+use model::Units;
+use serde::{Deserialize, Serialize};
+
+/// Content tag of this protocol's checkpoints.
+pub const TAG: &str = "experiment-e2";
+
+/// Where a run is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Stage {
+    /// Relaxing the gas under the pistons.
+    Preparing,
+    /// The biaxial test.
+    Loading,
+    /// Replaying checkpoints.
+    Replays,
+    /// Everything is written.
+    Finished,
+}
+
+/// The state of an `e2` run (what `checkpoint.gwck` holds).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct E2State {
+    /// The config (stored as its TOML text).
+    #[serde(with = "as_toml")]
+    pub config: E2Config,
+    /// Current stage.
+    pub stage: Stage,
+    /// Engine state during preparation and loading.
+    pub sim: Option<Simulation<D2>>,
+    /// How the preparation went.
+    pub preparation: PreparationInfo,
+    /// Units (known after the preparation, or from the source run).
+    pub units: Option<Units>,
+    /// The loading.
+    pub loading: Option<Loading>,
+    /// Reports of the finished replays.
+    pub replays: Vec<outputs::ReplayReport>,
+}
+
+mod as_toml {
+    use super::E2Config;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    pub fn serialize<S: Serializer>(c: &E2Config, s: S) -> Result<S::Ok, S::Error> {
+        toml::to_string(c).map_err(serde::ser::Error::custom)?.serialize(s)
+    }
+
+    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<E2Config, D::Error> {
+        let text = String::deserialize(d)?;
+        toml::from_str(&text).map_err(serde::de::Error::custom)
+    }
+}
+
+fn positive(src: &ConfigSource, key: &str, v: f64) -> Result<(), ConfigError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(src.error_at_key(key, format!("{v} (allowed: a finite number > 0)")))
+    }
+}
+
+fn non_negative(src: &ConfigSource, key: &str, v: f64) -> Result<(), ConfigError> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(())
+    } else {
+        Err(src.error_at_key(key, format!("{v} (allowed: a finite number ≥ 0)")))
+    }
+}
+
+/// Parses and validates an `e2` config.
+pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
+    let cfg: E2Config = src.parse()?;
+    if cfg.experiment != "e2" {
+        return Err(src.error_at_key("experiment", format!("this protocol is `e2`, not `{}`", cfg.experiment)));
+    }
+    let p = &cfg.packing;
+    if p.columns < 2 || p.rows < 2 {
+        return Err(src.error_at_key("packing.columns", format!("{} × {} (allowed: at least 2 columns and 2 rows)", p.columns, p.rows)));
+    }
+    if !(0.0..1.0).contains(&p.polydispersity) {
+        return Err(src.error_at_key("packing.polydispersity", format!("{} (allowed: a in [0, 1))", p.polydispersity)));
+    }
+    if !(p.gas_fraction > 0.0 && p.gas_fraction <= 0.5) {
+        return Err(src.error_at_key("packing.gas_fraction", format!("{} (allowed: a solid fraction in (0, 0.5])", p.gas_fraction)));
+    }
+    let m = &cfg.material;
+    positive(src, "material.normal_stiffness", m.normal_stiffness)?;
+    if grainwave_core::contact::critical_fraction_for_restitution(m.restitution).is_none() {
+        return Err(src.error_at_key("material.restitution", format!("{} (allowed: a restitution in [e⁻² ≈ 0.1353, 1])", m.restitution)));
+    }
+    positive(src, "material.tangential_stiffness_ratio", m.tangential_stiffness_ratio)?;
+    non_negative(src, "material.tangential_damping_ratio", m.tangential_damping_ratio)?;
+    non_negative(src, "material.friction", m.friction)?;
+    non_negative(src, "material.rolling_stiffness", m.rolling_stiffness)?;
+    non_negative(src, "material.rolling_friction", m.rolling_friction)?;
+    positive(src, "material.absorbing_damping", m.absorbing_damping)?;
+    let pc = &cfg.preparation;
+    positive(src, "preparation.wall_mass", pc.wall_mass)?;
+    non_negative(src, "preparation.gravity", pc.gravity)?;
+    positive(src, "preparation.max_force", pc.max_force)?;
+    positive(src, "preparation.max_time", pc.max_time)?;
+    if pc.check_every == 0 {
+        return Err(src.error_at_key("preparation.check_every", "0 (allowed: at least 1 step)"));
+    }
+    if !(pc.dt_fraction > 0.0 && pc.dt_fraction <= 0.2) {
+        return Err(src.error_at_key("preparation.dt_fraction", format!("{} (allowed: a fraction in (0, 0.2] of the contact period)", pc.dt_fraction)));
+    }
+    let l = &cfg.loading;
+    positive(src, "loading.strain_rate", l.strain_rate)?;
+    positive(src, "loading.final_strain", l.final_strain)?;
+    if l.final_strain >= 0.5 {
+        return Err(src.error_at_key("loading.final_strain", format!("{} (allowed: a strain in (0, 0.5))", l.final_strain)));
+    }
+    non_negative(src, "loading.checkpoint_strain", l.checkpoint_strain)?;
+    positive(src, "loading.reference_strain", l.reference_strain)?;
+    if l.sample_every == 0 {
+        return Err(src.error_at_key("loading.sample_every", "0 (allowed: at least 1 step)"));
+    }
+    if cfg.source.dir.as_deref().is_some_and(str::is_empty) {
+        return Err(src.error_at_key("source.dir", "\"\" (allowed: the output directory of an earlier e2 run)"));
+    }
+    if !cfg.replays.is_empty() && cfg.source.dir.is_none() && l.checkpoint_strain == 0.0 {
+        return Err(src.error_at_key("loading.checkpoint_strain", "0 writes no checkpoint, but `[[replays]]` need them (allowed: a strain > 0)"));
+    }
+    let mut names = std::collections::BTreeSet::new();
+    for (k, r) in cfg.replays.iter().enumerate() {
+        let key = |s: &str| format!("replays[{k}].{s}");
+        let name = r.name.clone().unwrap_or(format!("r{k}"));
+        if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_') {
+            return Err(src.error_at_key(&key("name"), format!("`{name}` (allowed: letters, digits, `-`, `_`)")));
+        }
+        if !names.insert(name.clone()) {
+            return Err(src.error_at_key(&key("name"), format!("`{name}` is used twice (each replay writes replays/<name>/)")));
+        }
+        if let Some(from) = &r.from {
+            match cfg.replays[..k].iter().enumerate().find(|(j, q)| q.name.clone().unwrap_or(format!("r{j}")) == *from) {
+                None => return Err(src.error_at_key(&key("from"), format!("`{from}` (allowed: the name of an earlier replay of this file)"))),
+                Some((_, q)) if q.modification.paired() => {
+                    return Err(src.error_at_key(
+                        &key("from"),
+                        format!("`{from}` is a paired replay (allowed: an earlier single replay: velocity_scale, friction or wall_stop)"),
+                    ))
+                }
+                _ => {}
+            }
+        }
+        if r.checkpoint < -1 {
+            return Err(src.error_at_key(&key("checkpoint"), format!("{} (allowed: a checkpoint index ≥ 0, or −1 for the last)", r.checkpoint)));
+        }
+        positive(src, &key("duration"), r.duration)?;
+        positive(src, &key("sample_interval"), r.sample_interval)?;
+        if r.strips < 2 {
+            return Err(src.error_at_key(&key("strips"), format!("{} (allowed: at least 2)", r.strips)));
+        }
+        if !(0.0 <= r.fit_range[0] && r.fit_range[0] < r.fit_range[1] && r.fit_range[1] <= 1.0) {
+            return Err(src.error_at_key(&key("fit_range"), format!("{:?} (allowed: fractions 0 ≤ from < to ≤ 1)", r.fit_range)));
+        }
+        positive(src, &key("bands"), r.bands)?;
+        match r.modification {
+            config::Modification::WallPulse | config::Modification::Radius => {
+                if r.amplitudes.is_empty() {
+                    return Err(src.error_at_key(&key("amplitudes"), "empty (allowed: one or more finite amplitudes, e.g. [1e-6, -1e-6])"));
+                }
+                for a in &r.amplitudes {
+                    if !a.is_finite() || a.abs() >= 1.0 {
+                        return Err(src.error_at_key(&key("amplitudes"), format!("{a} (allowed: finite amplitudes with |a| < 1)")));
+                    }
+                }
+                positive(src, &key("width"), r.width)?;
+                if let Some(d) = r.delay {
+                    non_negative(src, &key("delay"), d)?;
+                }
+            }
+            config::Modification::VelocityScale => non_negative(src, &key("factor"), r.factor)?,
+            config::Modification::Friction => non_negative(src, &key("friction"), r.friction)?,
+            config::Modification::WallStop => positive(src, &key("stop_time"), r.stop_time)?,
+        }
+    }
+    let sl = &cfg.static_limit;
+    let roles = [
+        ("static_limit.undeformed", &sl.undeformed),
+        ("static_limit.non_sliding", &sl.non_sliding),
+        ("static_limit.static_state", &sl.static_state),
+        ("static_limit.deforming", &sl.deforming),
+    ];
+    let given = roles.iter().filter(|(_, v)| v.is_some()).count();
+    if given != 0 && given != 4 {
+        return Err(src.error_at_key(
+            "static_limit",
+            format!("{given} of the 4 replays named (allowed: all of undeformed, non_sliding, static_state, deforming, or none)"),
+        ));
+    }
+    let mut amplitudes: Option<&Vec<f64>> = None;
+    for (key, name) in roles {
+        if let Some(name) = name {
+            let Some((_, q)) = cfg.replays.iter().enumerate().find(|(j, q)| q.name.clone().unwrap_or(format!("r{j}")) == *name) else {
+                return Err(src.error_at_key(key, format!("`{name}` (allowed: the name of a wall_pulse replay of this file)")));
+            };
+            if q.modification != config::Modification::WallPulse {
+                return Err(src.error_at_key(key, format!("`{name}` is a `{}` replay (allowed: a wall_pulse replay)", q.modification.name())));
+            }
+            if amplitudes.is_some_and(|a| *a != q.amplitudes) {
+                return Err(src.error_at_key(
+                    key,
+                    format!("`{name}` has amplitudes {:?}, the others {:?} (allowed: the same amplitudes in all four)", q.amplitudes, amplitudes.unwrap()),
+                ));
+            }
+            amplitudes = Some(&q.amplitudes);
+        }
+    }
+    positive(src, "output.save_every", cfg.output.save_every)?;
+    Ok(cfg)
+}
+
+/// Lines of `grainwave check` for a valid `e2` config.
+pub fn describe(cfg: &E2Config) -> Vec<String> {
+    let mut v = vec![format!("experiment   e2, seed {}", cfg.seed)];
+    match &cfg.source.dir {
+        Some(d) => v.push(format!("source       checkpoints of {d}")),
+        None => {
+            let p = &cfg.packing;
+            v.push(format!("packing      {} × {} = {} disks, diameters d̄(1 ± {})", p.columns, p.rows, p.columns * p.rows, p.polydispersity));
+            let m = &cfg.material;
+            v.push(format!(
+                "contacts     K_n = {} p*, e = {}, K_t/K_n = {}, γ_t/γ_n = {}, μ = {}, walls frictionless",
+                m.normal_stiffness, m.restitution, m.tangential_stiffness_ratio, m.tangential_damping_ratio, m.friction
+            ));
+            let l = &cfg.loading;
+            v.push(format!(
+                "loading      {} at |ε̇| = {} /t* to |ε_yy| = {}, checkpoints every {}",
+                l.direction.name(),
+                l.strain_rate,
+                l.final_strain,
+                l.checkpoint_strain
+            ));
+        }
+    }
+    for (k, r) in cfg.replays.iter().enumerate() {
+        v.push(format!(
+            "replay       {}: checkpoint {}, {}{}, {} t_a",
+            r.name.clone().unwrap_or(format!("r{k}")),
+            r.checkpoint,
+            r.modification.name(),
+            if r.modification.paired() { format!(" amplitudes {:?}", r.amplitudes) } else { String::new() },
+            r.duration
+        ));
+    }
+    v
+}
+
+impl E2State {
+    /// A fresh state.
+    pub fn new(config: E2Config) -> Self {
+        let stage = if config.source.dir.is_some() { Stage::Replays } else { Stage::Preparing };
+        E2State { config, stage, sim: None, preparation: PreparationInfo::default(), units: None, loading: None, replays: Vec::new() }
+    }
+
+    /// Runs (or continues) the protocol.
+    pub fn run(&mut self, ctx: &mut RunContext<'_>) -> Result<E2Summary> {
+        let cfg = self.config.clone();
+        let started = std::time::Instant::now();
+        if self.stage != Stage::Finished {
+            write_resolved_config(ctx, &cfg)?;
+        }
+        if self.stage == Stage::Preparing {
+            if self.sim.is_none() {
+                ctx.log(&format!("e2: preparing {} disks", cfg.packing.columns * cfg.packing.rows));
+                self.sim = Some(model::build_gas(&cfg.packing, &cfg.material, &cfg.preparation, cfg.seed)?);
+            }
+            let mut sim = self.sim.take().expect("engine state");
+            let snapshot = |stage: Stage, sim: &Simulation<D2>, info: &PreparationInfo| E2State {
+                config: cfg.clone(),
+                stage,
+                sim: Some(sim.clone()),
+                preparation: info.clone(),
+                units: None,
+                loading: None,
+                replays: Vec::new(),
+            };
+            let mut save = |ctx: &mut RunContext<'_>, sim: &Simulation<D2>, info: &PreparationInfo| -> Result<()> {
+                ctx.save_checkpoint(TAG, &snapshot(Stage::Preparing, sim, info))?;
+                Ok(())
+            };
+            let done = biaxial::prepare(&mut sim, &mut self.preparation, &cfg, ctx, &mut save)?;
+            self.sim = Some(sim);
+            if !done {
+                return Err(ctx.interrupted_error(TAG, self));
+            }
+            let sim = self.sim.as_mut().expect("engine state");
+            ctx.log(&format!(
+                "preparation converged: {} steps, {:.3} t*, Φ = {:.4}, max |F| = {:.2e} p* d̄, {} quenches",
+                self.preparation.steps, self.preparation.time, self.preparation.packing_fraction, self.preparation.max_force, self.preparation.quenches
+            ));
+            let units = Units::of(sim, 1.0, cfg.material.normal_stiffness);
+            self.units = Some(units);
+            self.loading = Some(biaxial::start_loading(sim, &cfg)?);
+            let per_sample = cfg.loading.strain_rate / units.time * sim.dt * cfg.loading.sample_every as f64;
+            if cfg.loading.checkpoint_strain > 0.0 && per_sample > 0.5 * cfg.loading.checkpoint_strain {
+                ctx.log(&format!(
+                    "warning: the strain grows by {per_sample:.2e} between samples (`loading.sample_every` = {}), more than half of `loading.checkpoint_strain` = {:.1e}: checkpoints fall up to one sample late, and some are skipped when a sample passes two multiples",
+                    cfg.loading.sample_every, cfg.loading.checkpoint_strain
+                ));
+            }
+            self.stage = Stage::Loading;
+            ctx.save_checkpoint(TAG, self)?;
+        }
+        if self.stage == Stage::Loading {
+            let units = self.units.expect("units after preparation");
+            let mut sim = self.sim.take().expect("engine state");
+            let mut loading = self.loading.take().expect("loading state");
+            let base = E2State { sim: None, loading: None, ..self.clone() };
+            let mut save = |ctx: &mut RunContext<'_>, sim: &Simulation<D2>, loading: &Loading| -> Result<()> {
+                let s = E2State { sim: Some(sim.clone()), loading: Some(loading.clone()), ..base.clone() };
+                ctx.save_checkpoint(TAG, &s)?;
+                Ok(())
+            };
+            let done = biaxial::load(&mut sim, &mut loading, &units, &cfg, ctx, &mut save)?;
+            self.sim = Some(sim);
+            self.loading = Some(loading);
+            if !done {
+                return Err(ctx.interrupted_error(TAG, self));
+            }
+            let l = self.loading.as_ref().expect("loading");
+            ctx.log(&format!(
+                "loading done: ε_yy = {:.4e} after {:.3} t*, {} checkpoints, {:.1} s",
+                l.series.last().map(|r| r[1]).unwrap_or(0.0),
+                l.series.last().map(|r| r[0]).unwrap_or(0.0),
+                l.checkpoints.len(),
+                l.seconds
+            ));
+            outputs::write_loading(ctx.out_dir(), &cfg, l)?;
+            self.sim = None; // the state lives on in the strain checkpoints
+            self.stage = Stage::Replays;
+            ctx.save_checkpoint(TAG, self)?;
+        }
+        if self.stage == Stage::Replays {
+            let source = match &cfg.source.dir {
+                Some(d) => std::path::PathBuf::from(d),
+                None => ctx.out_dir().to_path_buf(),
+            };
+            while self.replays.len() < cfg.replays.len() {
+                if ctx.interrupted() {
+                    return Err(ctx.interrupted_error(TAG, self));
+                }
+                let k = self.replays.len();
+                let report = outputs::run_replay(ctx, &cfg, k, &source)?;
+                if self.units.is_none() {
+                    self.units = Some(report.units);
+                }
+                self.replays.push(report);
+                ctx.save_checkpoint(TAG, self)?;
+            }
+            self.stage = Stage::Finished;
+        }
+        let summary = outputs::write_summary(ctx.out_dir(), self, started.elapsed().as_secs_f64())?;
+        ctx.save_checkpoint(TAG, self)?;
+        Ok(summary)
+    }
+}
+
+/// Writes `config.resolved.toml`.
+fn write_resolved_config(ctx: &RunContext<'_>, config: &E2Config) -> Result<()> {
+    let text = toml::to_string_pretty(config).expect("a config serializes to TOML");
+    let header = format!(
+        "# The config of this run with every default filled in (grainwave {}). Running it again gives\n\
+         # the same results.\n\n",
+        grainwave_core::VERSION
+    );
+    grainwave_core::checkpoint::atomic_write(&ctx.path("config.resolved.toml"), format!("{header}{text}").as_bytes())?;
+    Ok(())
+}
+
+/// Re-makes the plots and the summary of the finished run in `dir` (`grainwave plot DIR`).
+pub fn replot(dir: &std::path::Path, state: &E2State) -> Result<Vec<String>> {
+    if state.stage != Stage::Finished {
+        return Err(ExperimentError::Resume { path: dir.to_path_buf(), reason: "the run has not finished: resume it first".into() });
+    }
+    if let Some(l) = &state.loading {
+        outputs::write_loading(dir, &state.config, l)?;
+    }
+    Ok(outputs::write_summary(dir, state, 0.0)?.files)
+}
+
+/// Parses, validates and runs an `e2` config into `ctx`'s directory.
+pub fn run_config(src: &ConfigSource, ctx: &mut RunContext<'_>) -> Result<E2Summary> {
+    let cfg = prepare(src)?;
+    E2State::new(cfg).run(ctx)
+}
+
+/// Lines the command line prints after a run.
+pub fn summary_lines(r: &E2Summary, out: &std::path::Path) -> Vec<String> {
+    let mut v = vec![format!("e2: {} grains, seed {}", r.grains, r.seed)];
+    if let Some(u) = &r.units {
+        v.push(format!(
+            "units        L* = {:.4} d̄, t* = {:.4}, v_a = {:.4}, t_a = {:.4} (engine units)",
+            u.length, u.time, u.acoustic_velocity, u.acoustic_time
+        ));
+    }
+    if let Some(l) = &r.loading {
+        v.push(format!(
+            "loading      ε_yy = {:.4e}, σ_yy = {:.4} p*, σ_xx = {:.4} p*, M_s = {}, {} checkpoints, {:.1} s",
+            l.final_strain_yy, l.final_stress_yy, l.final_stress_xx, l.final_sliding, l.checkpoints, l.seconds
+        ));
+    }
+    for rep in &r.replays {
+        for p in &rep.pairs {
+            v.push(format!(
+                "replay       {} ({}, a = {:e}): speed {} v_a, max |δv| {:.3e}",
+                rep.name,
+                rep.modification,
+                p.amplitude,
+                p.speed.map(|s| format!("{s:.4}")).unwrap_or("—".into()),
+                p.max_difference
+            ));
+        }
+    }
+    v.push(format!("outputs      {}/", out.display()));
+    v
+}

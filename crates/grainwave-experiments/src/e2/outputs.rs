@@ -1,0 +1,609 @@
+//! Outputs of `e2`: the loading series and plots, the replays (fields, arrivals, strip fits,
+//! arrival-time maps, M_s(t)), and `summary.json`.
+
+use super::biaxial::{self, Loading, StrainCheckpoint};
+use super::config::E2Config;
+use super::model::{self, Units};
+use super::replay;
+use super::{E2State, Stage};
+use crate::error::{ExperimentError, Result};
+use crate::protocol::RunContext;
+use grainwave_core::prelude::*;
+use grainwave_io::plot::{LinePlot, PackingPicture};
+use grainwave_io::Series;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+
+/// Outcome of the loading, for the summary.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct LoadingReport {
+    /// `compression` or `extension`.
+    pub direction: String,
+    /// ε_yy at the end (compression positive).
+    pub final_strain_yy: f64,
+    /// ε_xx at the end (compression positive).
+    pub final_strain_xx: f64,
+    /// σ_yy at the end [p*].
+    pub final_stress_yy: f64,
+    /// σ_xx at the end [p*].
+    pub final_stress_xx: f64,
+    /// Largest σ_yy/σ_xx along the way.
+    pub peak_stress_ratio: f64,
+    /// Sliding contacts at the end.
+    pub final_sliding: u64,
+    /// Duration of the loading [t*].
+    pub time: f64,
+    /// Checkpoints written.
+    pub checkpoints: usize,
+    /// Rows of the series.
+    pub samples: usize,
+    /// Wall-clock seconds of the loading [s].
+    pub seconds: f64,
+}
+
+/// One paired replay (one amplitude).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct PairReport {
+    /// Amplitude (p_a, or the relative radius change).
+    pub amplitude: f64,
+    /// Pulse speed from the strip fit [v_a] (None: too few strips with arrivals).
+    pub speed: Option<f64>,
+    /// Strips in the fit.
+    pub strips_used: usize,
+    /// Grains with an arrival.
+    pub arrived: usize,
+    /// Largest |δv| component [v_a].
+    pub max_difference: f64,
+    /// Largest |M_s(with) − M_s(without)| over the replay.
+    pub max_sliding_difference: i64,
+    /// M_s(with) − M_s(without) at the end.
+    pub final_sliding_difference: i64,
+    /// Samples of the field.
+    pub samples: usize,
+    /// Files of this amplitude (relative to the output directory).
+    pub files: Vec<String>,
+}
+
+/// A single replay.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SingleReport {
+    /// σ_yy at the end [p*].
+    pub final_stress_yy: f64,
+    /// σ_xx at the end [p*].
+    pub final_stress_xx: f64,
+    /// M_s at the start and at the end.
+    pub sliding: [u64; 2],
+    /// Kinetic energy at the start and at the end [p* L*²].
+    pub kinetic_energy: [f64; 2],
+}
+
+/// One `[[replays]]` entry.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct ReplayReport {
+    /// Name (directory `replays/<name>/`).
+    pub name: String,
+    /// Checkpoint index replayed.
+    pub checkpoint: u64,
+    /// ε_yy of that checkpoint.
+    pub strain_yy: f64,
+    /// The modification.
+    pub modification: String,
+    /// Units of the source run.
+    pub units: Units,
+    /// Paired replays, one per amplitude.
+    pub pairs: Vec<PairReport>,
+    /// The single replay.
+    pub single: Option<SingleReport>,
+    /// Wall-clock seconds [s].
+    pub seconds: f64,
+}
+
+/// The summary of an `e2` run (`summary.json`).
+#[derive(Clone, Debug, Serialize)]
+pub struct E2Summary {
+    /// Protocol name.
+    pub experiment: String,
+    /// grainwave version.
+    pub version: String,
+    /// Seed.
+    pub seed: u64,
+    /// Grains N.
+    pub grains: usize,
+    /// Unit of every quantity, by name.
+    pub unit_system: BTreeMap<String, String>,
+    /// The units (engine values; engine: d̄ = 1, grain density 1, p* = 1).
+    pub units: Option<Units>,
+    /// The preparation.
+    pub preparation: biaxial::PreparationInfo,
+    /// The loading.
+    pub loading: Option<LoadingReport>,
+    /// The replays.
+    pub replays: Vec<ReplayReport>,
+    /// The Δc/c₀ decomposition (SPEC §6.6), one row per amplitude.
+    pub static_limit: Vec<StaticLimitRow>,
+    /// Wall-clock seconds of this process [s].
+    pub wall_seconds: f64,
+    /// Files written, relative to the output directory.
+    pub files: Vec<String>,
+}
+
+fn rel(dir: &Path, p: &Path) -> String {
+    p.strip_prefix(dir).unwrap_or(p).display().to_string()
+}
+
+fn push_plot(dir: &Path, files: &mut Vec<String>, r: grainwave_io::Result<grainwave_io::plot::PlotFiles>) -> Result<()> {
+    let f = r?;
+    files.push(rel(dir, &f.png));
+    files.push(rel(dir, &f.svg));
+    Ok(())
+}
+
+/// Files of the loading stage (relative paths).
+pub fn write_loading(dir: &Path, cfg: &E2Config, l: &Loading) -> Result<Vec<String>> {
+    let mut files = Vec::new();
+    let col = |k: usize| l.series.iter().map(|r| r[k]).collect::<Vec<f64>>();
+    let series = Series::from_columns(biaxial::SERIES_COLUMNS.iter().enumerate().map(|(k, n)| (n.to_string(), col(k))))?;
+    let f = series.write(dir, "loading")?;
+    files.push(rel(dir, &f.npz));
+    files.push(rel(dir, &f.csv));
+    if !l.checkpoints.is_empty() {
+        files.push("checkpoints/index.csv".into());
+    }
+    if cfg.output.plots && l.series.len() >= 2 {
+        let eps: Vec<f64> = col(1).iter().map(|e| 100.0 * e).collect();
+        push_plot(
+            dir,
+            &mut files,
+            LinePlot::new(&format!("Biaxial {}: stresses", cfg.loading.direction.name()))
+                .x_label("ε_yy (%)")
+                .y_label("stress / p*")
+                .series("σ_yy (top wall)", &eps, &col(3))
+                .series("σ_xx (right wall)", &eps, &col(4))
+                .save(dir, "stress_strain"),
+        )?;
+        push_plot(
+            dir,
+            &mut files,
+            LinePlot::new("Sliding contacts").x_label("ε_yy (%)").y_label("M_s").series("M_s", &eps, &col(5)).save(dir, "sliding_strain"),
+        )?;
+        let ke: Vec<f64> = col(7).iter().map(|k| k.max(1e-300)).collect();
+        push_plot(
+            dir,
+            &mut files,
+            LinePlot::new("Kinetic energy").x_label("ε_yy (%)").y_label("KE / (p* L*²)").log_y().series("KE", &eps, &ke).save(dir, "kinetic_energy_strain"),
+        )?;
+    }
+    Ok(files)
+}
+
+/// Checkpoint indices present in `dir/checkpoints`.
+pub fn checkpoint_indices(dir: &Path) -> Vec<u64> {
+    let mut v: Vec<u64> = std::fs::read_dir(dir.join("checkpoints"))
+        .map(|rd| {
+            rd.filter_map(|e| e.ok())
+                .filter_map(|e| {
+                    let n = e.file_name().to_string_lossy().to_string();
+                    n.strip_prefix("ck-").and_then(|s| s.strip_suffix(".gwck")).and_then(|s| s.parse().ok())
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    v.sort();
+    v
+}
+
+/// Loads checkpoint `k` (−1: the last) of the run in `source`.
+pub fn load_checkpoint(source: &Path, k: i64) -> Result<StrainCheckpoint> {
+    let have = checkpoint_indices(source);
+    let index = if k < 0 { have.last().copied() } else { have.iter().copied().find(|&i| i == k as u64) };
+    let Some(index) = index else {
+        return Err(ExperimentError::Resume {
+            path: source.to_path_buf(),
+            reason: format!("no checkpoint {k} in {}/checkpoints (present: {:?})", source.display(), have),
+        });
+    };
+    Ok(grainwave_core::checkpoint::load(&biaxial::checkpoint_path(source, index), biaxial::CHECKPOINT_TAG)?)
+}
+
+fn write_csv(path: &Path, header: &str, rows: impl Iterator<Item = String>) -> Result<()> {
+    let mut s = String::from(header);
+    s.push('\n');
+    for r in rows {
+        s.push_str(&r);
+        s.push('\n');
+    }
+    grainwave_core::checkpoint::atomic_write(path, s.as_bytes())?;
+    Ok(())
+}
+
+/// Runs replay `k` of the config on the checkpoints of `source`, writing `replays/<name>/`.
+pub fn run_replay(ctx: &mut RunContext<'_>, cfg: &E2Config, k: usize, source: &Path) -> Result<ReplayReport> {
+    let started = std::time::Instant::now();
+    let rc = &cfg.replays[k];
+    let name = rc.name.clone().unwrap_or(format!("r{k}"));
+    let out_root = ctx.out_dir().to_path_buf();
+    let dir = out_root.join("replays").join(&name);
+    std::fs::create_dir_all(&dir).map_err(|e| CoreError::Io { action: "cannot create".into(), path: dir.display().to_string(), error: e })?;
+    let ck = match &rc.from {
+        Some(from) => grainwave_core::checkpoint::load(&out_root.join("replays").join(from).join("final.gwck"), biaxial::CHECKPOINT_TAG)?,
+        None => load_checkpoint(source, rc.checkpoint)?,
+    };
+    let u = ck.units;
+    ctx.reporter.stage(&format!("replay {name}"), None);
+    ctx.log(&format!("replay {name}: checkpoint {} (ε_yy = {:.4e}), {}", ck.index, ck.strain.1, rc.modification.name()));
+    let steps = (rc.duration * u.acoustic_time / ck.sim.dt).round().max(1.0) as u64;
+    let sample_every = (rc.sample_interval * u.acoustic_time / ck.sim.dt).round().max(1.0) as u64;
+    let mut report = ReplayReport {
+        name: name.clone(),
+        checkpoint: ck.index,
+        strain_yy: ck.strain.1,
+        modification: rc.modification.name().into(),
+        units: u,
+        pairs: Vec::new(),
+        single: None,
+        seconds: 0.0,
+    };
+    if let Some(pert) = replay::perturbation_of(rc, &ck.sim, &u) {
+        let snapshot = ck.sim.snapshot();
+        let mut sliding_curves: Vec<(String, Vec<f64>, Vec<f64>)> = Vec::new();
+        let mut speeds: Vec<(f64, f64)> = Vec::new();
+        for (ai, &a) in rc.amplitudes.iter().enumerate() {
+            let stem = format!("a{ai}");
+            let r = replay::paired_replay(&ck.sim, &ck.drive, &pert, a, steps, sample_every)?;
+            let arr = replay::arrivals(&r, &ck.sim, &ck.drive, &pert, rc.strips, rc.fit_range);
+            let mut files = Vec::new();
+            let times_ta: Vec<f64> = r.times.iter().map(|t| t / u.acoustic_time).collect();
+            if cfg.output.fields {
+                let p = dir.join(format!("{stem}_field.npy"));
+                grainwave_io::npy::write_npy(&p, &[r.times.len(), r.grains, 2], &r.field)?;
+                files.push(rel(&out_root, &p));
+            }
+            let p = dir.join(format!("{stem}_times.npy"));
+            grainwave_io::npy::write_npy(&p, &[times_ta.len()], &times_ta)?;
+            files.push(rel(&out_root, &p));
+            let p = dir.join(format!("{stem}_arrivals.csv"));
+            write_csv(
+                &p,
+                "id,x,y,distance,arrival",
+                (0..r.grains).map(|i| {
+                    format!(
+                        "{i},{:.9e},{:.9e},{:.9e},{}",
+                        r.positions[i].x / u.length,
+                        r.positions[i].y / u.length,
+                        arr.distance[i] / u.length,
+                        arr.time[i].map(|t| format!("{:.9e}", t / u.acoustic_time)).unwrap_or_default()
+                    )
+                }),
+            )?;
+            files.push(rel(&out_root, &p));
+            let p = dir.join(format!("{stem}_sliding.csv"));
+            write_csv(
+                &p,
+                "time,sliding,sliding_reference",
+                (0..r.times.len()).map(|s| format!("{:.9e},{},{}", times_ta[s], r.sliding[s], r.sliding_reference[s])),
+            )?;
+            files.push(rel(&out_root, &p));
+            let diff: Vec<f64> = r.sliding.iter().zip(&r.sliding_reference).map(|(a, b)| *a as f64 - *b as f64).collect();
+            sliding_curves.push((format!("a = {a:e}"), times_ta.clone(), diff.clone()));
+            let speed = arr.fit.as_ref().map(|f| f.speed / u.acoustic_velocity);
+            if let Some(f) = &arr.fit {
+                let p = dir.join(format!("{stem}_strips.csv"));
+                write_csv(&p, "distance,arrival", f.distance.iter().zip(&f.time).map(|(s, t)| format!("{:.9e},{:.9e}", s / u.length, t / u.acoustic_time)))?;
+                files.push(rel(&out_root, &p));
+                speeds.push((a, f.speed / u.acoustic_velocity));
+            }
+            if cfg.output.plots {
+                // arrival map, grains in storage order of the snapshot
+                let t_f = rc.duration * u.acoustic_time;
+                let times: Vec<f64> = snapshot.id.iter().map(|&id| arr.time[id as usize].unwrap_or(f64::NAN)).collect();
+                push_plot(
+                    &out_root,
+                    &mut files,
+                    PackingPicture::new(&snapshot, &format!("Arrival times, {} a = {a:e} (J = {})", rc.modification.name(), rc.bands))
+                        .x_label("x (d̄)")
+                        .y_label("y (d̄)")
+                        .arrival_times(&times, t_f, rc.bands)
+                        .save(&dir, &format!("{stem}_arrival_map")),
+                )?;
+                let (mut xs, mut ys) = (Vec::new(), Vec::new());
+                for (s, t) in arr.distance.iter().zip(&arr.time) {
+                    if let Some(t) = t {
+                        xs.push(t / u.acoustic_time);
+                        ys.push(s / u.length);
+                    }
+                }
+                if !xs.is_empty() {
+                    let mut plot = LinePlot::new(&format!("Arrival vs distance, a = {a:e}"))
+                        .x_label("arrival time / t_a")
+                        .y_label("distance from source / L*")
+                        .scatter("grains", &xs, &ys);
+                    if let Some(f) = &arr.fit {
+                        let ft: Vec<f64> = f.time.iter().map(|t| t / u.acoustic_time).collect();
+                        let fs: Vec<f64> = f.distance.iter().map(|s| s / u.length).collect();
+                        plot = plot.scatter("3rd earliest per strip", &ft, &fs);
+                        let (t0, t1) = (ft.iter().cloned().fold(f64::INFINITY, f64::min), ft.iter().cloned().fold(0.0, f64::max));
+                        let line = |t: f64| (f.speed * t * u.acoustic_time + f.intercept) / u.length;
+                        plot = plot.series(&format!("fit: c = {:.4} v_a", f.speed / u.acoustic_velocity), &[t0, t1], &[line(t0), line(t1)]);
+                    }
+                    push_plot(&out_root, &mut files, plot.save(&dir, &format!("{stem}_arrival_fit")))?;
+                }
+            }
+            let max_sd = diff.iter().map(|d| d.abs()).fold(0.0, f64::max) as i64;
+            report.pairs.push(PairReport {
+                amplitude: a,
+                speed,
+                strips_used: arr.fit.as_ref().map(|f| f.strips_used).unwrap_or(0),
+                arrived: arr.time.iter().filter(|t| t.is_some()).count(),
+                max_difference: r.max_difference / u.acoustic_velocity,
+                max_sliding_difference: max_sd,
+                final_sliding_difference: diff.last().copied().unwrap_or(0.0) as i64,
+                samples: r.times.len(),
+                files,
+            });
+            ctx.log(&format!(
+                "replay {name} a = {a:e}: speed {} v_a, max |δv| = {:.3e} v_a",
+                speed.map(|s| format!("{s:.4}")).unwrap_or("—".into()),
+                r.max_difference / u.acoustic_velocity
+            ));
+        }
+        if cfg.output.plots {
+            let mut files = Vec::new();
+            let mut plot = LinePlot::new(&format!("Sliding contacts after the perturbation ({name})")).x_label("t / t_a").y_label("M_s(with) − M_s(without)");
+            for (label, t, d) in &sliding_curves {
+                plot = plot.series(label, t, d);
+            }
+            push_plot(&out_root, &mut files, plot.save(&dir, "sliding_difference"))?;
+            let pos: Vec<(f64, f64)> = speeds.iter().filter(|(a, _)| *a > 0.0).cloned().collect();
+            let neg: Vec<(f64, f64)> = speeds.iter().filter(|(a, _)| *a < 0.0).cloned().collect();
+            if pos.len() + neg.len() >= 2 {
+                let mut plot = LinePlot::new(&format!("Pulse speed vs amplitude ({name})")).x_label("|a|").y_label("c / v_a").log_x();
+                if !pos.is_empty() {
+                    plot = plot.series("compression (a > 0)", &pos.iter().map(|p| p.0).collect::<Vec<_>>(), &pos.iter().map(|p| p.1).collect::<Vec<_>>());
+                }
+                if !neg.is_empty() {
+                    plot = plot.series("rarefaction (a < 0)", &neg.iter().map(|p| -p.0).collect::<Vec<_>>(), &neg.iter().map(|p| p.1).collect::<Vec<_>>());
+                }
+                push_plot(&out_root, &mut files, plot.save(&dir, "speed_vs_amplitude"))?;
+            }
+            if let Some(p) = report.pairs.first_mut() {
+                p.files.extend(files);
+            }
+        }
+    } else {
+        let mut sim = ck.sim.clone();
+        let drive = ck.drive.clone();
+        let energy = u.pressure * u.length * u.length;
+        let ke0 = sim.kinetic_energy() / energy;
+        let m0 = sim.counters.sliding;
+        replay::apply_single(rc, &mut sim, &u, &cfg.material)?;
+        let mut rows: Vec<[f64; 5]> = Vec::new();
+        let t0 = sim.time;
+        let record = |sim: &Simulation<D2>, rows: &mut Vec<[f64; 5]>| {
+            let (sxx, syy) = model::wall_stresses(sim);
+            rows.push([(sim.time - t0) / u.acoustic_time, syy / u.pressure, sxx / u.pressure, sim.counters.sliding as f64, sim.kinetic_energy() / energy]);
+        };
+        record(&sim, &mut rows);
+        for s in 1..=steps {
+            drive.step(&mut sim)?;
+            if s % sample_every == 0 {
+                record(&sim, &mut rows);
+            }
+        }
+        let col = |k: usize| rows.iter().map(|r| r[k]).collect::<Vec<f64>>();
+        let series =
+            Series::from_columns(["time", "stress_yy", "stress_xx", "sliding", "kinetic_energy"].iter().enumerate().map(|(k, n)| (n.to_string(), col(k))))?;
+        series.write(&dir, "series")?;
+        if cfg.output.plots {
+            let ke: Vec<f64> = col(4).iter().map(|k| k.max(1e-300)).collect();
+            LinePlot::new(&format!("Replay {name}: {}", rc.modification.name()))
+                .x_label("t / t_a")
+                .y_label("KE / (p* L*²)")
+                .log_y()
+                .series("KE", &col(0), &ke)
+                .save(&dir, "kinetic_energy")?;
+            LinePlot::new(&format!("Replay {name}: sliding contacts"))
+                .x_label("t / t_a")
+                .y_label("M_s")
+                .series("M_s", &col(0), &col(3))
+                .save(&dir, "sliding")?;
+        }
+        let last = rows.last().expect("rows");
+        let end = StrainCheckpoint { index: ck.index, sim: sim.clone(), drive, strain: ck.strain, units: u };
+        grainwave_core::checkpoint::save(&dir.join("final.gwck"), biaxial::CHECKPOINT_TAG, &end)?;
+        report.single =
+            Some(SingleReport { final_stress_yy: last[1], final_stress_xx: last[2], sliding: [m0, sim.counters.sliding], kinetic_energy: [ke0, last[4]] });
+    }
+    report.seconds = started.elapsed().as_secs_f64();
+    Ok(report)
+}
+
+/// One amplitude of the Δc/c₀ decomposition (speeds in v_a of each replay's own source run).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct StaticLimitRow {
+    /// p_a.
+    pub amplitude: f64,
+    /// c₀ (undeformed) [v_a].
+    pub undeformed: Option<f64>,
+    /// c_ns (static, μ = 2) [v_a].
+    pub non_sliding: Option<f64>,
+    /// c_s (static) [v_a].
+    pub static_state: Option<f64>,
+    /// c_d (deforming) [v_a].
+    pub deforming: Option<f64>,
+    /// (c₀ − c_ns)/c₀.
+    pub contact_loss: Option<f64>,
+    /// (c_ns − c_s)/c₀.
+    pub sliding: Option<f64>,
+    /// (c_s − c_d)/c₀.
+    pub strain_rate: Option<f64>,
+    /// (c₀ − c_d)/c₀.
+    pub total: Option<f64>,
+}
+
+/// The Δc/c₀ table of the replays named in `[static_limit]` (empty when not configured).
+pub fn static_limit_rows(cfg: &E2Config, replays: &[ReplayReport]) -> Vec<StaticLimitRow> {
+    let sl = &cfg.static_limit;
+    let (Some(u), Some(ns), Some(st), Some(d)) = (&sl.undeformed, &sl.non_sliding, &sl.static_state, &sl.deforming) else {
+        return Vec::new();
+    };
+    let find = |n: &str| replays.iter().find(|r| r.name == n);
+    let (Some(u), Some(ns), Some(st), Some(d)) = (find(u), find(ns), find(st), find(d)) else {
+        return Vec::new();
+    };
+    (0..u.pairs.len())
+        .map(|k| {
+            let c = |r: &ReplayReport| r.pairs.get(k).and_then(|p| p.speed);
+            let (c0, cns, cs, cd) = (c(u), c(ns), c(st), c(d));
+            let rel = |a: Option<f64>, b: Option<f64>| match (c0, a, b) {
+                (Some(c0), Some(a), Some(b)) => Some((a - b) / c0),
+                _ => None,
+            };
+            StaticLimitRow {
+                amplitude: u.pairs[k].amplitude,
+                undeformed: c0,
+                non_sliding: cns,
+                static_state: cs,
+                deforming: cd,
+                contact_loss: rel(c0, cns),
+                sliding: rel(cns, cs),
+                strain_rate: rel(cs, cd),
+                total: rel(c0, cd),
+            }
+        })
+        .collect()
+}
+
+fn write_static_limit(dir: &Path, cfg: &E2Config, rows: &[StaticLimitRow]) -> Result<()> {
+    if rows.is_empty() {
+        return Ok(());
+    }
+    let f = |x: Option<f64>| x.map(|v| format!("{v:.9e}")).unwrap_or_default();
+    write_csv(
+        &dir.join("static_limit.csv"),
+        "amplitude,undeformed,non_sliding,static,deforming,contact_loss,sliding,strain_rate,total",
+        rows.iter().map(|r| {
+            format!(
+                "{:e},{},{},{},{},{},{},{},{}",
+                r.amplitude,
+                f(r.undeformed),
+                f(r.non_sliding),
+                f(r.static_state),
+                f(r.deforming),
+                f(r.contact_loss),
+                f(r.sliding),
+                f(r.strain_rate),
+                f(r.total)
+            )
+        }),
+    )?;
+    if cfg.output.plots {
+        let mut plot = LinePlot::new("Pulse speed vs amplitude").x_label("|p_a|").y_label("c / v_a").log_x();
+        let states: [(&str, fn(&StaticLimitRow) -> Option<f64>); 4] =
+            [("undeformed", |r| r.undeformed), ("static, μ = 2", |r| r.non_sliding), ("static", |r| r.static_state), ("deforming", |r| r.deforming)];
+        let mut any = false;
+        for (label, get) in states {
+            for (sign, name) in [(1.0, "compression"), (-1.0, "rarefaction")] {
+                let pts: Vec<(f64, f64)> = rows.iter().filter(|r| r.amplitude * sign > 0.0).filter_map(|r| get(r).map(|c| (r.amplitude.abs(), c))).collect();
+                if !pts.is_empty() {
+                    any = true;
+                    let x: Vec<f64> = pts.iter().map(|p| p.0).collect();
+                    let y: Vec<f64> = pts.iter().map(|p| p.1).collect();
+                    plot = if sign > 0.0 { plot.series(&format!("{label}, {name}"), &x, &y) } else { plot.dashed(&format!("{label}, {name}"), &x, &y) };
+                }
+            }
+        }
+        if any {
+            plot.save(dir, "static_limit_speeds")?;
+        }
+    }
+    Ok(())
+}
+
+fn unit_system() -> BTreeMap<String, String> {
+    let mut u = BTreeMap::new();
+    for (k, v) in [
+        ("engine", "d̄ = 1 (mean diameter), disks of unit thickness and material density 1, p* = 1"),
+        ("units.*", "engine units; L* = √(M*/ρ*), t* = √(M*/p*), v_a = d̄√(K_n/m̄), t_a = L*/v_a"),
+        ("preparation.time", "t*"),
+        ("preparation.max_force", "p* d̄"),
+        ("loading.*strain*", "dimensionless, compression positive"),
+        ("loading.*stress*", "p*"),
+        ("loading.time", "t*"),
+        ("replays.*.pairs.*.speed", "v_a"),
+        ("static_limit.*", "v_a (speeds), fractions of c₀ (losses)"),
+        ("replays.*.pairs.*.max_difference", "v_a"),
+        ("replays.*.single.kinetic_energy", "p* L*²"),
+        ("files: *_times.npy, *_arrivals.csv times", "t_a"),
+        ("files: *_arrivals.csv positions and distances", "L*"),
+        ("files: *_field.npy", "engine velocity (divide by units.acoustic_velocity for v_a)"),
+        ("files: loading.* time / stress / kinetic_energy", "t* / p* / p* L*²"),
+        ("seconds", "s (wall clock)"),
+    ] {
+        u.insert(k.to_string(), v.to_string());
+    }
+    u
+}
+
+fn walk(dir: &Path, root: &Path, out: &mut Vec<String>) {
+    if let Ok(rd) = std::fs::read_dir(dir) {
+        let mut entries: Vec<PathBuf> = rd.filter_map(|e| e.ok()).map(|e| e.path()).collect();
+        entries.sort();
+        for p in entries {
+            if p.is_dir() {
+                walk(&p, root, out);
+            } else {
+                out.push(rel(root, &p));
+            }
+        }
+    }
+}
+
+/// Writes `summary.json` and returns the summary (its `files` lists every file in the directory
+/// except the checkpoints).
+pub fn write_summary(dir: &Path, state: &E2State, wall_seconds: f64) -> Result<E2Summary> {
+    let loading = state.loading.as_ref().filter(|l| !l.series.is_empty()).map(|l| {
+        let last = l.series.last().expect("rows");
+        LoadingReport {
+            direction: state.config.loading.direction.name().into(),
+            final_strain_yy: last[1],
+            final_strain_xx: last[2],
+            final_stress_yy: last[3],
+            final_stress_xx: last[4],
+            peak_stress_ratio: l.series.iter().map(|r| r[3] / r[4]).filter(|x| x.is_finite()).fold(0.0, f64::max),
+            final_sliding: last[5] as u64,
+            time: last[0],
+            checkpoints: l.checkpoints.len(),
+            samples: l.series.len(),
+            seconds: l.seconds,
+        }
+    });
+    let static_limit = static_limit_rows(&state.config, &state.replays);
+    write_static_limit(dir, &state.config, &static_limit)?;
+    let mut files = Vec::new();
+    walk(dir, dir, &mut files);
+    files.retain(|f| !f.ends_with(".gwck") && f != "summary.json" && f != crate::protocol::LOG_FILE);
+    files.push("summary.json".into());
+    let grains = state.config.packing.columns * state.config.packing.rows;
+    let s = E2Summary {
+        experiment: "e2".into(),
+        version: grainwave_core::VERSION.into(),
+        seed: state.config.seed,
+        grains: if state.config.source.dir.is_some() {
+            state.replays.first().map(|r| (r.units.total_mass / r.units.mean_mass).round() as usize).unwrap_or(0)
+        } else {
+            grains
+        },
+        unit_system: unit_system(),
+        units: state.units,
+        preparation: state.preparation.clone(),
+        loading,
+        replays: state.replays.clone(),
+        static_limit,
+        wall_seconds,
+        files,
+    };
+    grainwave_io::write_json_atomic(&dir.join("summary.json"), &s)?;
+    let _ = Stage::Finished;
+    Ok(s)
+}

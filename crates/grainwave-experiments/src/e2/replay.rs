@@ -1,0 +1,206 @@
+//! Replays of checkpoints (SPEC §6.3–6.5).
+//!
+//! **Paired replays** (wall pulse, radius change): two copies of the checkpointed state are
+//! advanced in lockstep, one with the perturbation of amplitude a and one with amplitude 0 — the
+//! same code path, so that the two differ by nothing but a. Every `sample_every` steps the
+//! perturbed velocity of each grain, δv_i = v_i(with) − v_i(without), is stored (float32, by grain
+//! id), together with the sliding-contact counts of both copies. Since the engine is deterministic
+//! for any number of threads, a = 0 gives δv = 0 exactly.
+//!
+//! **Single replays** (velocities × γ, friction changed, wall stop ramp): one copy with the
+//! modification, run for the replay's duration; its stresses, M_s and kinetic energy are recorded.
+
+use super::arrival::{self, StripFit};
+use super::config::{Modification, PulseShape, ReplayConfig};
+use super::model::{self, Drive, Pulse, Units, TOP};
+use glam::DVec2;
+use grainwave_core::prelude::*;
+use serde::{Deserialize, Serialize};
+
+/// A perturbation of a paired replay; its size is the amplitude given to [`paired_replay`].
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub enum Perturbation {
+    /// A pressure pulse on the right wall (the amplitude is p_a).
+    WallPulse {
+        /// δ or wavelet.
+        shape: PulseShape,
+        /// t₀ after the start of the replay [engine time].
+        delay: f64,
+        /// Wavelet width T [engine time].
+        width: f64,
+    },
+    /// The radius of grain `grain` (id) × (1 + amplitude); its mass is unchanged.
+    Radius {
+        /// Grain id.
+        grain: u32,
+    },
+}
+
+impl Perturbation {
+    /// Applies the perturbation with `amplitude` to `sim` and `drive` at the start of a replay.
+    fn apply(&self, sim: &mut Simulation<D2>, drive: &mut Drive, amplitude: f64) -> Result<()> {
+        match *self {
+            Perturbation::WallPulse { shape, delay, width } => {
+                drive.pulse = Some(Pulse { shape, amplitude, start: sim.time, delay, width });
+                Ok(())
+            }
+            Perturbation::Radius { grain } => {
+                let k = sim.grains.index_of(grain).ok_or_else(|| CoreError::invalid("grain", grain, "the id of a grain of the packing"))?;
+                sim.grains.radius[k] *= 1.0 + amplitude;
+                sim.refresh()
+            }
+        }
+    }
+}
+
+/// The outcome of a paired replay.
+#[derive(Clone, Debug, Default)]
+pub struct PairResult {
+    /// Sample times from the start of the replay [engine time].
+    pub times: Vec<f64>,
+    /// Number of grains.
+    pub grains: usize,
+    /// δv as [samples][grain id][x, y], float32.
+    pub field: Vec<f32>,
+    /// Largest |δv| component, computed in float64 before rounding.
+    pub max_difference: f64,
+    /// Sliding contacts of the perturbed copy at each sample.
+    pub sliding: Vec<u64>,
+    /// Sliding contacts of the unperturbed copy at each sample.
+    pub sliding_reference: Vec<u64>,
+    /// Positions at the start (by id).
+    pub positions: Vec<DVec2>,
+    /// State fingerprints of the two copies at the end.
+    pub hashes: (u64, u64),
+}
+
+/// Runs the paired replay of `base` driven by `drive` for `steps` steps (see the module docs).
+pub fn paired_replay(base: &Simulation<D2>, drive: &Drive, perturbation: &Perturbation, amplitude: f64, steps: u64, sample_every: u64) -> Result<PairResult> {
+    let sample_every = sample_every.max(1);
+    let mut with = base.clone();
+    let mut without = base.clone();
+    let mut drive_with = drive.clone();
+    let mut drive_without = drive.clone();
+    perturbation.apply(&mut with, &mut drive_with, amplitude)?;
+    perturbation.apply(&mut without, &mut drive_without, 0.0)?;
+    let n = base.len();
+    let mut out = PairResult { grains: n, positions: super::strain::positions_by_id(&base.grains), ..Default::default() };
+    let t0 = base.time;
+    let sample = |a: &Simulation<D2>, b: &Simulation<D2>, out: &mut PairResult| {
+        out.times.push(a.time - t0);
+        let mut row = vec![0.0f32; 2 * n];
+        for k in 0..n {
+            let id = a.grains.id[k] as usize;
+            let kb = if b.grains.id[k] as usize == id { k } else { b.grains.index_of(id as u32).expect("same grains") };
+            let d = a.grains.vel[k] - b.grains.vel[kb];
+            out.max_difference = out.max_difference.max(d.x.abs()).max(d.y.abs());
+            row[2 * id] = d.x as f32;
+            row[2 * id + 1] = d.y as f32;
+        }
+        out.field.extend_from_slice(&row);
+        out.sliding.push(a.counters.sliding);
+        out.sliding_reference.push(b.counters.sliding);
+    };
+    sample(&with, &without, &mut out);
+    grainwave_core::util::in_pool(|| -> Result<()> {
+        for s in 1..=steps {
+            drive_with.step(&mut with)?;
+            drive_without.step(&mut without)?;
+            if s % sample_every == 0 {
+                sample(&with, &without, &mut out);
+            }
+        }
+        Ok(())
+    })?;
+    out.hashes = (with.state_hash(), without.state_hash());
+    Ok(out)
+}
+
+/// Id of the grain nearest the centre of the box.
+pub fn central_grain(sim: &Simulation<D2>) -> u32 {
+    let w = &sim.domain.walls;
+    let c = DVec2::new(0.5 * (w[model::LEFT].position.x + w[model::RIGHT].position.x), 0.5 * (w[model::BOTTOM].position.y + w[TOP].position.y));
+    let mut best = (f64::INFINITY, 0u32);
+    for k in 0..sim.len() {
+        let d = (sim.grains.pos[k] - c).length_squared();
+        if d < best.0 || (d == best.0 && sim.grains.id[k] < best.1) {
+            best = (d, sim.grains.id[k]);
+        }
+    }
+    best.1
+}
+
+/// Arrival times and the strip fit of a paired replay.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+pub struct Arrivals {
+    /// Per grain id: distance from the source [engine length].
+    pub distance: Vec<f64>,
+    /// Per grain id: arrival time (None: no arrival) [engine time].
+    pub time: Vec<Option<f64>>,
+    /// The strip fit (None: too few strips).
+    pub fit: Option<StripFit>,
+}
+
+/// Arrivals of a paired replay: for a wall pulse the distance is from the pulse wall's position
+/// at the start and the arrival is the maximum of |δv_x|; for a radius change the distance is
+/// from the changed grain and the arrival is the first time |δv| reaches 10 % of its maximum.
+pub fn arrivals(result: &PairResult, base: &Simulation<D2>, drive: &Drive, perturbation: &Perturbation, strips: usize, fit_range: [f64; 2]) -> Arrivals {
+    let (distance, time) = match perturbation {
+        Perturbation::WallPulse { .. } => {
+            let wall = &base.domain.walls[drive.pulse_wall];
+            (result.positions.iter().map(|p| wall.distance(*p)).collect::<Vec<_>>(), arrival::arrival_of_maximum(&result.field, result.grains, &result.times))
+        }
+        Perturbation::Radius { grain } => {
+            let c = result.positions[*grain as usize];
+            (result.positions.iter().map(|p| (*p - c).length()).collect(), arrival::arrival_of_threshold(&result.field, result.grains, &result.times, 0.1))
+        }
+    };
+    let fit = arrival::strip_speed(&distance, &time, strips, fit_range);
+    Arrivals { distance, time, fit }
+}
+
+/// Resolves the perturbation of replay `rc` for `sim` in units `u`.
+pub fn perturbation_of(rc: &ReplayConfig, sim: &Simulation<D2>, u: &Units) -> Option<Perturbation> {
+    match rc.modification {
+        Modification::WallPulse => {
+            let width = rc.width * u.acoustic_time;
+            let delay = rc.delay.map(|d| d * u.acoustic_time).unwrap_or(match rc.shape {
+                PulseShape::Delta => sim.dt,
+                PulseShape::Wavelet => 6.0 * width,
+            });
+            Some(Perturbation::WallPulse { shape: rc.shape, delay, width })
+        }
+        Modification::Radius => Some(Perturbation::Radius { grain: central_grain(sim) }),
+        _ => None,
+    }
+}
+
+/// Applies a single modification (velocity scale, friction, wall stop) to `sim` at the start of
+/// a replay.
+pub fn apply_single(rc: &ReplayConfig, sim: &mut Simulation<D2>, u: &Units, material: &super::config::MaterialConfig) -> Result<()> {
+    match rc.modification {
+        Modification::VelocityScale => {
+            let g = rc.factor;
+            sim.grains.vel.iter_mut().for_each(|v| *v *= g);
+            sim.grains.omega.iter_mut().for_each(|w| *w *= g);
+            for w in sim.domain.walls.iter_mut() {
+                w.speed *= g;
+                if let WallMotion::Velocity { speed: TimeFunction::Constant { value } } = &mut w.motion {
+                    *value *= g;
+                }
+            }
+            sim.refresh_forces()
+        }
+        Modification::Friction => {
+            sim.law = model::grain_law(material, rc.friction);
+            sim.refresh_forces()
+        }
+        Modification::WallStop => {
+            let v0 = sim.domain.walls[TOP].speed;
+            sim.domain.walls[TOP].motion =
+                WallMotion::Velocity { speed: TimeFunction::CosineStop { value: v0, start: sim.time, duration: rc.stop_time * u.acoustic_time } };
+            Ok(())
+        }
+        Modification::WallPulse | Modification::Radius => Ok(()),
+    }
+}

@@ -1,0 +1,328 @@
+//! E2 (SPEC §6): strain regression, strip method, paired replays (exact zero, thread
+//! independence), pulse speed in a perfect lattice, and a small end-to-end run.
+
+use glam::DVec2;
+use grainwave_core::prelude::*;
+use grainwave_experiments::config::ConfigSource;
+use grainwave_experiments::e2::arrival::{arrival_of_maximum, strip_speed};
+use grainwave_experiments::e2::config::{MaterialConfig, PulseShape};
+use grainwave_experiments::e2::model::{self, Drive, PistonLoad};
+use grainwave_experiments::e2::outputs::load_checkpoint;
+use grainwave_experiments::e2::replay::{arrivals, central_grain, paired_replay, Perturbation};
+use grainwave_experiments::e2::strain::{strain_between, StrainTracker};
+use grainwave_experiments::protocol::{RunContext, SilentReporter};
+use grainwave_experiments::registry;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+use std::sync::{Arc, OnceLock};
+
+fn tmp(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("grainwave-e2-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+#[test]
+fn strain_regression_recovers_an_imposed_affine_strain() {
+    let mut rng = ChaCha8Rng::seed_from_u64(3);
+    let reference: Vec<DVec2> = (0..500).map(|_| DVec2::new(40.0 * rng.random::<f64>(), 30.0 * rng.random::<f64>())).collect();
+    let (exx, eyy) = (-3.7e-6, 1.25e-5);
+    // affine: x' = (1 − ε_xx) x + shift (compression positive), plus a rigid translation
+    let current: Vec<DVec2> = reference.iter().map(|p| DVec2::new((1.0 - exx) * p.x + 0.3, (1.0 - eyy) * p.y - 0.1)).collect();
+    let (mxx, myy) = strain_between(&reference, &current);
+    // Exact up to rounding of the displacements (~1e-16 × 40 per grain, over strains ~1e-5).
+    assert!((mxx - exx).abs() < 1e-9 * exx.abs(), "ε_xx {mxx} vs {exx}");
+    assert!((myy - eyy).abs() < 1e-9 * eyy.abs(), "ε_yy {myy} vs {eyy}");
+    // Tracker: increments of 4e-6 with re-referencing at 1e-5 add up.
+    let mut t = StrainTracker::new(reference.clone(), 1e-5);
+    let mut pos = reference.clone();
+    let mut expected = 0.0;
+    for _ in 0..10 {
+        let e = 4e-6;
+        pos = pos.iter().map(|p| DVec2::new(p.x, (1.0 - e) * p.y)).collect();
+        expected += e;
+        let (_, total) = t.update(&pos);
+        // each increment is measured on the current reference: the sum differs from the sum of
+        // the imposed increments only by the compounding of strains since the last reference,
+        // O(ε²) ≈ 1e-10.
+        assert!((total - expected).abs() < 1e-9, "{total} vs {expected}");
+    }
+    assert!(t.accumulated.1 > 0.0, "the reference was renewed");
+}
+
+#[test]
+fn strip_method_recovers_a_known_speed() {
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let c = 0.8437;
+    let n = 6000;
+    let distance: Vec<f64> = (0..n).map(|_| 100.0 * rng.random::<f64>()).collect();
+    // exact front: every grain arrives at s/c + t₀
+    let exact: Vec<Option<f64>> = distance.iter().map(|s| Some(s / c + 2.5)).collect();
+    let fit = strip_speed(&distance, &exact, 128, [0.1, 0.9]).unwrap();
+    assert!((fit.speed - c).abs() < 1e-10 * c, "{}", fit.speed);
+    assert!((fit.intercept + 2.5 * c).abs() < 1e-8);
+    assert!(fit.strips_used > 90);
+    // a front with delays: 30 % of the grains on time, the others later by up to 20 time units,
+    // some never. A strip of ~47 grains holds ~14 on time, but a slightly delayed grain near the
+    // strip's near edge may come before an on-time grain at its far edge, so each point lies
+    // within one strip width Δs = 0.78 (in s) of the line, at random: the slope is recovered to
+    // about Δs/(fit range × √strips) ≈ 0.78/(80 × 10) ≈ 1e-3.
+    let noisy: Vec<Option<f64>> = distance
+        .iter()
+        .map(|s| {
+            let u: f64 = rng.random();
+            if u < 0.3 {
+                Some(s / c + 2.5)
+            } else if u < 0.95 {
+                Some(s / c + 2.5 + 20.0 * rng.random::<f64>())
+            } else {
+                None
+            }
+        })
+        .collect();
+    let fit = strip_speed(&distance, &noisy, 128, [0.1, 0.9]).unwrap();
+    assert!((fit.speed - c).abs() < 1e-3 * c, "{}", fit.speed);
+    assert!(fit.speed != c, "the noisy front is not exact");
+    // the method is not trivially right: taking the first strip grain of a front delayed by
+    // a growing amount gives a smaller speed
+    let slow: Vec<Option<f64>> = distance.iter().map(|s| Some(s / c * 1.1)).collect();
+    let fit = strip_speed(&distance, &slow, 128, [0.1, 0.9]).unwrap();
+    assert!((fit.speed - c / 1.1).abs() < 1e-9);
+}
+
+/// A small e2 run (prepared once per test process): 12 × 12 disks, compressed to ε_yy = 2e-4
+/// with checkpoints every 5e-5, one wall-pulse replay.
+fn small_run() -> &'static Path {
+    static DIR: OnceLock<PathBuf> = OnceLock::new();
+    DIR.get_or_init(|| {
+        let out = tmp("small");
+        let text = r#"
+experiment = "e2"
+seed = 5
+[packing]
+columns = 12
+rows = 12
+[loading]
+strain_rate = 0.005
+final_strain = 2e-4
+checkpoint_strain = 5e-5
+reference_strain = 1e-5
+sample_every = 5
+[[replays]]
+name = "pulse"
+checkpoint = 2
+amplitudes = [1e-4, 0.0]
+duration = 1.5
+[[replays]]
+name = "stop"
+checkpoint = -1
+modification = "wall_stop"
+stop_time = 0.2
+duration = 0.5
+"#;
+        let src = ConfigSource::from_text("small e2", text);
+        let mut rep = SilentReporter;
+        let mut ctx = RunContext::new(&out, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
+        registry::run(&src, &mut ctx).unwrap();
+        out
+    })
+}
+
+#[test]
+fn small_run_writes_checkpoints_series_replays_and_plots() {
+    let dir = small_run();
+    let summary: serde_json::Value = serde_json::from_slice(&std::fs::read(dir.join("summary.json")).unwrap()).unwrap();
+    let l = &summary["loading"];
+    assert!(l["final_strain_yy"].as_f64().unwrap() >= 2e-4);
+    // compression: σ_yy rises above the lateral pressure p* which the right piston holds
+    let syy = l["final_stress_yy"].as_f64().unwrap();
+    let sxx = l["final_stress_xx"].as_f64().unwrap();
+    assert!(syy > sxx, "σ_yy {syy} σ_xx {sxx}");
+    // the right wall is a piston at p*: σ_xx within a few % (dynamics of the loading) of 1
+    assert!((sxx - 1.0).abs() < 0.05, "σ_xx {sxx}");
+    let n_ck = l["checkpoints"].as_u64().unwrap();
+    assert!(n_ck >= 5, "{n_ck} checkpoints");
+    let index = std::fs::read_to_string(dir.join("checkpoints/index.csv")).unwrap();
+    assert_eq!(index.lines().count() as u64, n_ck + 1);
+    let u = &summary["units"];
+    let (va, ta, l_star) = (u["acoustic_velocity"].as_f64().unwrap(), u["acoustic_time"].as_f64().unwrap(), u["length"].as_f64().unwrap());
+    assert!((ta - l_star / va).abs() < 1e-12 * ta);
+    // v_a = d̄ √(K_n/m̄) with d̄ ≈ 1, m̄ ≈ π/4 (1 + a²/3): √(2000 × 4/π) ≈ 50.5 within the
+    // spread of a 144-grain sample
+    assert!((va - 50.46).abs() < 1.5, "v_a {va}");
+    let pairs = summary["replays"][0]["pairs"].as_array().unwrap();
+    assert_eq!(pairs.len(), 2);
+    assert!(pairs[0]["max_difference"].as_f64().unwrap() > 0.0);
+    assert_eq!(pairs[1]["max_difference"].as_f64().unwrap(), 0.0, "zero amplitude, zero field");
+    let speed = pairs[0]["speed"].as_f64().expect("a pulse speed");
+    // a disordered packing at K_n/p* = 2000 transmits sound at a fraction of v_a (the lattice
+    // value is √(9/8) v_a): any value in (0.2, 1.2) v_a is physical, outside it the fit is wrong
+    assert!(speed > 0.2 && speed < 1.2, "speed {speed}");
+    for f in summary["files"].as_array().unwrap() {
+        assert!(dir.join(f.as_str().unwrap()).exists(), "{f}");
+    }
+    for f in [
+        "stress_strain.png",
+        "sliding_strain.svg",
+        "kinetic_energy_strain.png",
+        "replays/pulse/a0_arrival_map.png",
+        "replays/pulse/a0_arrival_fit.svg",
+        "replays/pulse/a0_field.npy",
+        "replays/stop/series.csv",
+    ] {
+        assert!(dir.join(f).exists(), "{f} missing");
+    }
+    let single = &summary["replays"][1]["single"];
+    assert!(single["kinetic_energy"][1].as_f64().unwrap() < single["kinetic_energy"][0].as_f64().unwrap(), "the stopped packing calms down");
+}
+
+#[test]
+fn zero_amplitude_pulse_gives_exactly_zero_perturbation() {
+    let ck = load_checkpoint(small_run(), 1).unwrap();
+    let pert = Perturbation::WallPulse { shape: PulseShape::Delta, delay: ck.sim.dt, width: 1.0 };
+    let r = paired_replay(&ck.sim, &ck.drive, &pert, 0.0, 400, 20).unwrap();
+    assert!(r.field.iter().all(|v| v.to_bits() == 0), "δv must be +0.0 everywhere");
+    assert_eq!(r.max_difference, 0.0);
+    assert_eq!(r.hashes.0, r.hashes.1);
+    // and the radius perturbation likewise
+    let pert = Perturbation::Radius { grain: central_grain(&ck.sim) };
+    let r = paired_replay(&ck.sim, &ck.drive, &pert, 0.0, 200, 20).unwrap();
+    assert!(r.field.iter().all(|v| v.to_bits() == 0));
+    // a tiny pulse is not lost: p_a = 1e-10 gives a non-zero field
+    let pert = Perturbation::WallPulse { shape: PulseShape::Delta, delay: ck.sim.dt, width: 1.0 };
+    let r = paired_replay(&ck.sim, &ck.drive, &pert, 1e-10, 400, 20).unwrap();
+    assert!(r.max_difference > 0.0);
+    assert!(r.hashes.0 != r.hashes.1);
+}
+
+#[test]
+fn paired_replay_is_identical_on_one_and_two_threads() {
+    let ck = load_checkpoint(small_run(), 2).unwrap();
+    let pert = Perturbation::WallPulse { shape: PulseShape::Wavelet, delay: 0.1, width: 0.02 };
+    let run = |threads: usize| {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(threads).build().unwrap();
+        pool.install(|| paired_replay(&ck.sim, &ck.drive, &pert, -1e-5, 300, 10).unwrap())
+    };
+    let a = run(1);
+    let b = run(2);
+    assert!(a.max_difference > 0.0);
+    assert_eq!(a.field.len(), b.field.len());
+    assert!(a.field.iter().zip(&b.field).all(|(x, y)| x.to_bits() == y.to_bits()));
+    assert_eq!(a.hashes, b.hashes);
+    assert_eq!(a.sliding, b.sliding);
+}
+
+/// A triangular lattice of identical disks (diameter 1, mass π/4), columns parallel to the
+/// walls at x = const (a lattice direction parallel to the source wall), periodic in y, every
+/// contact compressed by δ. Left wall fixed, right wall a piston; all forces balance.
+fn lattice(columns: usize, per_column: usize, delta: f64) -> (Simulation<D2>, Drive) {
+    lattice_with_walls(columns, per_column, delta, false)
+}
+
+/// [`lattice`], with the left wall absorbing (SPEC §6.7) when `absorbing`.
+fn lattice_with_walls(columns: usize, per_column: usize, delta: f64, absorbing: bool) -> (Simulation<D2>, Drive) {
+    let a = 1.0 - delta;
+    let dx = a * 3f64.sqrt() / 2.0;
+    let mut grains = Grains::<D2>::new(GrainKind::Disk { thickness: 1.0 });
+    for i in 0..columns {
+        for j in 0..per_column {
+            let y = (j as f64 + if i % 2 == 1 { 0.5 } else { 0.0 }) * a;
+            grains.push_with_mass(DVec2::new(0.5 + i as f64 * dx, y), 0.5, std::f64::consts::FRAC_PI_4, DVec2::ZERO);
+        }
+    }
+    let k = 2000.0;
+    let material = MaterialConfig { restitution: 1.0, friction: 0.0, rolling_stiffness: 0.0, normal_stiffness: k, ..Default::default() };
+    let law = model::grain_law(&material, 0.0);
+    let wall = model::wall_law(&material);
+    // each boundary grain has two neighbours at ±30° in the next column: their x-forces sum to
+    // √3 K δ, balanced by a wall overlap of √3 δ (K/k_w times more on a softer wall)
+    let wall_overlap = 3f64.sqrt() * delta;
+    let n = columns * per_column;
+    let left = if absorbing { model::absorbing_wall_law(&material, n, std::f64::consts::FRAC_PI_4) } else { wall };
+    let left_overlap = if absorbing { wall_overlap * (n as f64).sqrt() } else { wall_overlap };
+    let x_left = 0.5 - 0.5 + left_overlap;
+    let x_right = 0.5 + (columns - 1) as f64 * dx + 0.5 - wall_overlap;
+    let height = per_column as f64 * a;
+    let force = 3f64.sqrt() * k * delta * per_column as f64;
+    let mass = grains.total_mass() / 100.0;
+    let domain = Domain::new(DVec2::new(x_left - 1.0, 0.0), DVec2::new(x_right + 1.0, height), [false, true, false])
+        .with_wall(Wall::axis_aligned("left", 0, x_left, true, left))
+        .with_wall(Wall::axis_aligned("right", 0, x_right, false, wall).with_motion(WallMotion::Piston { mass, force: TimeFunction::constant(force) }));
+    // the soft wall's overlap is √N √3 δ ≈ 0.11 R: allowed explicitly
+    let sim = SimulationBuilder::new(grains, domain, law).dt_fraction(0.05).max_initial_overlap(0.2).build().unwrap();
+    (sim, Drive { pressure: 1.0, pistons: vec![(1, PistonLoad::Force(force))], pulse_wall: 1, pulse: None })
+}
+
+#[test]
+fn pulse_in_a_perfect_lattice_travels_at_the_lattice_speed() {
+    let delta = 1e-3;
+    let (sim, drive) = lattice(160, 6, delta);
+    // the state is static: every force balances to rounding
+    let max_f = sim.grains.force.iter().map(|f| f.length()).fold(0.0, f64::max);
+    assert!(max_f < 1e-9, "lattice not in equilibrium: {max_f}");
+    let (k, m, a) = (2000.0, std::f64::consts::FRAC_PI_4, 1.0 - delta);
+    // Long-wavelength longitudinal speed of a triangular lattice with central springs K, spacing
+    // a: Lamé λ = μ = √3K/4, density ρ = m/(√3a²/2), so c² = (λ + 2μ)/ρ = 9Ka²/(8m). In units of
+    // v_a = d̄√(K/m) with d̄ = 1: c/v_a = a √(9/8). (Pre-stress changes it by O(δ) = 1e-3.)
+    let v_a = (k / m).sqrt();
+    let expected = a * (9.0f64 / 8.0).sqrt();
+    // A wavelet of width T = 12 a/v_a: its dominant wavenumber k ≈ 2/(cT) gives ka ≈ 0.16, whose
+    // dispersion slows the group velocity by ≈ (ka)²/8 ≈ 0.3 %, well inside the 2 % tolerance.
+    let width = 12.0 / v_a;
+    let pert = Perturbation::WallPulse { shape: PulseShape::Wavelet, delay: 6.0 * width, width };
+    let travel = 160.0 * 0.866 / (expected * v_a);
+    let steps = ((6.0 * width + travel * 1.1) / sim.dt) as u64;
+    let r = paired_replay(&sim, &drive, &pert, 1e-3, steps, 1).unwrap();
+    let arr = arrivals(&r, &sim, &drive, &pert, 128, [0.1, 0.8]);
+    let fit = arr.fit.expect("a fit");
+    let c = fit.speed / v_a;
+    assert!((c - expected).abs() < 0.02 * expected, "pulse speed {c} v_a, expected {expected} v_a");
+    // the arrival map is a plane front: all grains of a column arrive at the same sample
+    let times = arrival_of_maximum(&r.field, r.grains, &r.times);
+    for col in [30usize, 80] {
+        let t0 = times[col * 6];
+        assert!((0..6).all(|j| times[col * 6 + j] == t0));
+    }
+}
+
+/// Kinetic energy of the perturbation, Σ ½ m |δv|², at each sample (all masses π/4).
+fn perturbation_energy(field: &[f32], grains: usize) -> Vec<f64> {
+    field.chunks(2 * grains).map(|s| s.iter().map(|v| 0.5 * std::f64::consts::FRAC_PI_4 * (*v as f64) * (*v as f64)).sum()).collect()
+}
+
+#[test]
+fn absorbing_walls_absorb_a_pulse_that_stiff_walls_reflect() {
+    // A wavelet emitted by the right wall crosses a 160-column lattice, hits the left wall and
+    // comes back. In a travelling wave kinetic and elastic energy are equal, so the perturbation's
+    // kinetic energy, averaged over a window of ±1.5 T, measures the pulse energy: once when the
+    // incident pulse is in the middle of the lattice, once when the reflected one is.
+    let delta = 1e-3;
+    let v_a = (2000.0f64 / std::f64::consts::FRAC_PI_4).sqrt();
+    let c = (1.0 - delta) * (9.0f64 / 8.0).sqrt() * v_a;
+    let width = 6.0 / v_a;
+    let length = 159.0 * (1.0 - delta) * 3f64.sqrt() / 2.0;
+    let reflection = |absorbing: bool| {
+        let (sim, drive) = lattice_with_walls(160, 6, delta, absorbing);
+        let max_f = sim.grains.force.iter().map(|f| f.length()).fold(0.0, f64::max);
+        assert!(max_f < 1e-9, "not in equilibrium: {max_f}");
+        let pert = Perturbation::WallPulse { shape: PulseShape::Wavelet, delay: 6.0 * width, width };
+        let t_in = 6.0 * width + 0.5 * length / c;
+        let t_back = 6.0 * width + 1.5 * length / c;
+        let steps = ((t_back + 2.0 * width) / sim.dt) as u64;
+        let r = paired_replay(&sim, &drive, &pert, 1e-3, steps, 1).unwrap();
+        let e = perturbation_energy(&r.field, r.grains);
+        let mean_near = |t: f64| {
+            let v: Vec<f64> = r.times.iter().zip(&e).filter(|(s, _)| (**s - t).abs() <= 1.5 * width).map(|(_, e)| *e).collect();
+            v.iter().sum::<f64>() / v.len() as f64
+        };
+        mean_near(t_back) / mean_near(t_in)
+    };
+    let stiff = reflection(false);
+    let soft = reflection(true);
+    // an undamped stiff wall reflects everything (up to the dispersion of the pulse tail)
+    assert!(stiff > 0.8, "stiff wall reflects {stiff}");
+    assert!(soft < 0.1, "absorbing wall reflects {soft}");
+    eprintln!("reflected energy: stiff wall {stiff:.4}, absorbing wall {soft:.4}");
+}
