@@ -72,8 +72,8 @@ impl<D: Dim> Simulation<D> {
                     }
                     for k in 0..w.len() {
                         w[k] += t[k] * (h / inertia[k]);
-                        o[k] = D::rotate_orientation(o[k], w[k], dt);
                     }
+                    D::rotate_orientations(o, w, dt);
                     max_d2
                 })
                 .reduce(|| 0.0, nan_max)
