@@ -158,6 +158,24 @@ impl<D: Dim> Domain<D> {
         self.wrap_in(&self.image(), x, v, image);
     }
 
+    /// Bounds of a quick test for [`Domain::wrap_in`]: a grain needs wrapping only when some
+    /// coordinate is at or above `hi` or below `lo` (lo and lo + L along periodic axes, the
+    /// comparisons of `wrap_in`; ∓∞ along the others). Not valid in a sheared cell.
+    #[inline]
+    pub(crate) fn wrap_bounds(&self) -> (D::Vector, D::Vector) {
+        let (mut lo, mut hi) = (D::Vector::ZERO, D::Vector::ZERO);
+        for k in 0..D::D {
+            if self.periodic[k] {
+                lo.set(k, self.lo.get(k));
+                hi.set(k, self.lo.get(k) + self.length(k));
+            } else {
+                lo.set(k, f64::NEG_INFINITY);
+                hi.set(k, f64::INFINITY);
+            }
+        }
+        (lo, hi)
+    }
+
     /// [`Domain::wrap_moving`] with the cell's [`PeriodicImage`] computed once by the caller.
     #[inline]
     pub fn wrap_in(&self, img: &PeriodicImage<D>, x: &mut D::Vector, v: &mut D::Vector, image: &mut [i32; 3]) {
@@ -305,6 +323,14 @@ impl<D: Dim> PeriodicImage<D> {
     pub fn displacement_velocity(&self, from: D::Vector, to: D::Vector) -> (D::Vector, D::Vector) {
         let mut d = to - from;
         let mut dv = D::Vector::ZERO;
+        if !self.sheared {
+            // the same operations without the tilt terms, tested once per pair
+            for k in (0..D::D).rev() {
+                let dk = d.get(k);
+                d.set(k, dk - self.length.get(k) * nearest_integer(dk * self.inverse.get(k)));
+            }
+            return (d, dv);
+        }
         for k in (0..D::D).rev() {
             let dk = d.get(k);
             let n = nearest_integer(dk * self.inverse.get(k));

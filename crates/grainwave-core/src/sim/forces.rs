@@ -168,12 +168,9 @@ fn eval_pair<D: Dim, P: LawParts>(law: &P, inp: &Inputs<D>, h: &mut History<D>, 
             st.changes += (was <= 0.0) as u64;
             st.contacts += 1;
             st.sliding += o.sliding as u64;
-            let r_min = a.r.min(b.r);
-            if kin.overlap > st.deepest.0 * r_min {
-                let ratio = kin.overlap / r_min;
-                if ratio > st.deepest.0 {
-                    st.deepest = (ratio, 0, p);
-                }
+            let ratio = kin.overlap / if a.r < b.r { a.r } else { b.r };
+            if ratio > st.deepest.0 {
+                st.deepest = (ratio, 0, p);
             }
             let n = kin.normal;
             let t = D::cross(n, o.tangential_force);
@@ -301,14 +298,19 @@ fn finish_grain<D: Dim>(
 ) {
     let li = i - g0;
     let (mut fi, mut ti) = (force[li], torque[li]);
-    let cb = cross.cross_begin[i] as usize;
-    for c in &cross.forces[cross.cross_slot[i] as usize..cross.cross_slot[i] as usize + (inp.owner_start[i + 1] as usize - cb)] {
-        fi += c.force;
-        ti += c.torque_i;
+    // (one block: no cross-block pairs; no walls: no wall contacts)
+    if !cross.forces.is_empty() {
+        let cb = cross.cross_begin[i] as usize;
+        for c in &cross.forces[cross.cross_slot[i] as usize..cross.cross_slot[i] as usize + (inp.owner_start[i + 1] as usize - cb)] {
+            fi += c.force;
+            ti += c.torque_i;
+        }
     }
-    for c in &fin.wall_force[fin.wall_start[i] as usize..fin.wall_start[i + 1] as usize] {
-        fi += c.force;
-        ti += c.torque;
+    if !fin.wall_force.is_empty() {
+        for c in &fin.wall_force[fin.wall_start[i] as usize..fin.wall_start[i + 1] as usize] {
+            fi += c.force;
+            ti += c.torque;
+        }
     }
     let m = inp.mass[i];
     fi = fi + fin.gravity * m;
@@ -434,9 +436,10 @@ fn push_pair<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &mut History<D>, v: Vel
 #[inline(always)]
 fn eval_window<D: Dim, L: WindowLaw>(law: &L, inp: &Inputs<D>, h: &mut History<D>, w: &mut Window, st: &mut ForceStats) {
     lanes::compute::<D, L>(law, w, inp.dt);
-    for k in 0..w.len.min(CAP) {
-        let p = w.pair[k] as usize;
-        let q = p - h.base;
+    let len = w.len.min(CAP);
+    let (mut changes, mut sliding) = (0, 0);
+    for k in 0..len {
+        let q = w.pair[k] as usize - h.base;
         debug_assert!(q < h.spring.len());
         // SAFETY: the window only holds pairs of this history range (`push_pair`).
         let was = unsafe { *h.overlap.get_unchecked(q) };
@@ -445,15 +448,25 @@ fn eval_window<D: Dim, L: WindowLaw>(law: &L, inp: &Inputs<D>, h: &mut History<D
             *h.overlap.get_unchecked_mut(q) = w.overlap[k];
             *h.sliding.get_unchecked_mut(q) = w.sliding[k];
         }
-        st.changes += (was <= 0.0) as u64;
-        st.contacts += 1;
-        st.sliding += w.sliding[k] as u64;
-        let r_min = w.rad_i[k].min(w.rad_j[k]);
-        if w.overlap[k] > st.deepest.0 * r_min {
-            let ratio = w.overlap[k] / r_min;
-            if ratio > st.deepest.0 {
-                st.deepest = (ratio, 0, p);
-            }
+        changes += (was <= 0.0) as u64;
+        sliding += w.sliding[k] as u64;
+    }
+    st.changes += changes;
+    st.contacts += len as u64;
+    st.sliding += sliding;
+    // Deepest contact: overlap / smaller radius over all lanes at once (stale lanes are finite
+    // and ignored), then the first contact reaching a new maximum (as `eval_pair`).
+    let mut ratio = [0.0; CAP];
+    for k in 0..CAP {
+        ratio[k] = w.overlap[k] / if w.rad_i[k] < w.rad_j[k] { w.rad_i[k] } else { w.rad_j[k] };
+    }
+    let mut top = st.deepest.0;
+    for &r in &ratio[..len] {
+        top = if r > top { r } else { top };
+    }
+    if top > st.deepest.0 {
+        if let Some(k) = ratio[..len].iter().position(|&r| r == top) {
+            st.deepest = (top, 0, w.pair[k] as usize);
         }
     }
 }

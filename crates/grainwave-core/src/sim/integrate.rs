@@ -44,6 +44,7 @@ impl<D: Dim> Simulation<D> {
         let max_displacement2 = {
             let Simulation { grains: g, domain: dom, nlist, .. } = self;
             let image = dom.image();
+            let (lo, hi) = dom.wrap_bounds();
             let reference = &nlist.ref_pos;
             let track = reference.len() == g.pos.len();
             g.pos
@@ -58,17 +59,29 @@ impl<D: Dim> Simulation<D> {
                 .map(|(c, ((((((x, v), im), f), w), o), t))| {
                     let base = c * MIN_LEN;
                     let mut max_d2 = 0.0;
+                    let (mass, inertia) = (&g.mass[base..base + x.len()], &g.inertia[base..base + x.len()]);
                     for k in 0..x.len() {
-                        let (m, inertia) = (g.mass[base + k], g.inertia[base + k]);
-                        v[k] += f[k] * (h / m);
+                        v[k] += f[k] * (h / mass[k]);
                         x[k] += v[k] * dt;
-                        dom.wrap_in(&image, &mut x[k], &mut v[k], &mut im[k]);
-                        w[k] += t[k] * (h / inertia);
-                        o[k] = D::rotate_orientation(o[k], w[k], dt);
-                        if track {
-                            max_d2 = nan_max(max_d2, image.displacement(reference[base + k], x[k]).norm2());
+                        // most grains stay inside the cell: the full wrap only for the others
+                        let mut out = image.sheared;
+                        for c in 0..D::D {
+                            out |= x[k].get(c) >= hi.get(c) || x[k].get(c) < lo.get(c);
+                        }
+                        if out {
+                            dom.wrap_in(&image, &mut x[k], &mut v[k], &mut im[k]);
                         }
                     }
+                    if track {
+                        let reference = &reference[base..base + x.len()];
+                        for k in 0..x.len() {
+                            max_d2 = nan_max(max_d2, image.displacement(reference[k], x[k]).norm2());
+                        }
+                    }
+                    for k in 0..w.len() {
+                        w[k] += t[k] * (h / inertia[k]);
+                    }
+                    D::rotate_orientations(o, w, dt);
                     max_d2
                 })
                 .reduce(|| 0.0, nan_max)
