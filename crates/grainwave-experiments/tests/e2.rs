@@ -10,8 +10,9 @@ use grainwave_experiments::e2::model::{self, Drive, PistonLoad};
 use grainwave_experiments::e2::outputs::load_checkpoint;
 use grainwave_experiments::e2::replay::{arrivals, central_grain, paired_replay, Perturbation};
 use grainwave_experiments::e2::strain::{strain_between, StrainTracker};
-use grainwave_experiments::protocol::{RunContext, SilentReporter};
+use grainwave_experiments::protocol::{Reporter, RunContext, SilentReporter};
 use grainwave_experiments::registry;
+use grainwave_experiments::{ExperimentError, Progress};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::path::{Path, PathBuf};
@@ -121,6 +122,25 @@ checkpoint = -1
 modification = "wall_stop"
 stop_time = 0.2
 duration = 0.5
+[[replays]]
+name = "top"
+from = "stop"
+modification = "top_piston"
+duration = 0.2
+[[replays]]
+name = "py"
+from = "top"
+pulse_wall = "top"
+amplitudes = [1e-6]
+duration = 1.5
+[[replays]]
+name = "px"
+from = "top"
+amplitudes = [1e-6]
+duration = 1.5
+[anisotropy]
+along_y = "py"
+along_x = "px"
 "#;
         let src = ConfigSource::from_text("small e2", text);
         let mut rep = SilentReporter;
@@ -174,6 +194,12 @@ fn small_run_writes_checkpoints_series_replays_and_plots() {
     ] {
         assert!(dir.join(f).exists(), "{f} missing");
     }
+    // anisotropy from pulses along y (top wall) and x (right wall) of the same stopped state
+    let a = &summary["anisotropy"][0];
+    let (cy, cx) = (a["along_y"].as_f64().unwrap(), a["along_x"].as_f64().unwrap());
+    assert!(cy > 0.2 && cy < 1.2 && cx > 0.2 && cx < 1.2, "c_y {cy}, c_x {cx}");
+    assert!((a["anisotropy"].as_f64().unwrap() - 2.0 * (cy - cx) / (cy + cx)).abs() < 1e-12);
+    assert!(dir.join("anisotropy.csv").exists());
     let single = &summary["replays"][1]["single"];
     assert!(single["kinetic_energy"][1].as_f64().unwrap() < single["kinetic_energy"][0].as_f64().unwrap(), "the stopped packing calms down");
 }
@@ -280,7 +306,7 @@ fn pulse_in_a_perfect_lattice_travels_at_the_lattice_speed() {
     let c = fit.speed / v_a;
     assert!((c - expected).abs() < 0.02 * expected, "pulse speed {c} v_a, expected {expected} v_a");
     // the arrival map is a plane front: all grains of a column arrive at the same sample
-    let times = arrival_of_maximum(&r.field, r.grains, &r.times);
+    let times = arrival_of_maximum(&r.field, r.grains, &r.times, 0);
     for col in [30usize, 80] {
         let t0 = times[col * 6];
         assert!((0..6).all(|j| times[col * 6 + j] == t0));
@@ -325,4 +351,104 @@ fn absorbing_walls_absorb_a_pulse_that_stiff_walls_reflect() {
     assert!(stiff > 0.8, "stiff wall reflects {stiff}");
     assert!(soft < 0.1, "absorbing wall reflects {soft}");
     eprintln!("reflected energy: stiff wall {stiff:.4}, absorbing wall {soft:.4}");
+}
+
+#[test]
+fn bad_e2_configs_name_the_key_the_value_and_what_is_allowed() {
+    let check = |text: &str, key: &str, allowed: &str| {
+        let src = ConfigSource::from_text("bad.toml", format!("experiment = \"e2\"\n{text}"));
+        let e = registry::check(&src).expect_err(text).to_string();
+        assert!(e.contains(key) && e.contains(allowed), "{text}: {e}");
+    };
+    check("[packing]\npolydispersity = 1.5", "packing.polydispersity", "allowed: a in [0, 1)");
+    check("[material]\nrestitution = 0.05", "material.restitution", "allowed");
+    check("[loading]\ncheckpoint_strain = -1e-5", "loading.checkpoint_strain", "≥ 0");
+    check("[[replays]]\nfrom = \"nowhere\"", "replays[0].from", "earlier replay");
+    check("[[replays]]\nname = \"a\"\n[[replays]]\nname = \"b\"\nfrom = \"a\"", "replays[1].from", "single replay");
+    check("[[replays]]\namplitudes = []", "replays[0].amplitudes", "one or more");
+    check("[static_limit]\nundeformed = \"x\"", "static_limit", "all of undeformed");
+    check("[loading]\ndirection = \"sideways\"", "direction", "compression");
+}
+
+/// Raises the interrupt flag at the `after`-th progress report.
+struct Interrupter {
+    flag: Arc<AtomicBool>,
+    after: usize,
+    seen: usize,
+}
+
+impl Reporter for Interrupter {
+    fn stage(&mut self, _: &str, _: Option<u64>) {}
+    fn progress(&mut self, _: &Progress) {
+        self.seen += 1;
+        if self.seen == self.after {
+            self.flag.store(true, std::sync::atomic::Ordering::Relaxed);
+        }
+    }
+    fn samples(&mut self, _: usize, _: usize) {}
+    fn message(&mut self, _: &str) {}
+}
+
+#[test]
+fn interrupted_e2_runs_resume_to_the_same_bits() {
+    let text = r#"
+experiment = "e2"
+seed = 9
+[packing]
+columns = 8
+rows = 8
+[loading]
+strain_rate = 0.005
+final_strain = 1e-4
+checkpoint_strain = 2e-5
+sample_every = 5
+[[replays]]
+checkpoint = 2
+amplitudes = [1e-6]
+duration = 0.5
+"#;
+    let files = |d: &Path| -> Vec<(String, Vec<u8>)> {
+        ["loading.csv", "checkpoints/index.csv", "checkpoints/ck-000003.gwck", "replays/r0/a0_field.npy", "replays/r0/a0_arrivals.csv"]
+            .iter()
+            .map(|f| (f.to_string(), std::fs::read(d.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"))))
+            .collect()
+    };
+    let straight = tmp("straight");
+    {
+        let mut rep = SilentReporter;
+        let mut ctx = RunContext::new(&straight, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
+        ctx.report_every = 20;
+        registry::run(&ConfigSource::from_text("resume.toml", text), &mut ctx).unwrap();
+    }
+    // the preparation reports every 20 checks; the loading every 20 steps here
+    let reports = {
+        let flag = Arc::new(AtomicBool::new(false));
+        let mut rep = Interrupter { flag: flag.clone(), after: usize::MAX, seen: 0 };
+        let d = tmp("count");
+        let mut ctx = RunContext::new(&d, &mut rep, flag).unwrap();
+        ctx.report_every = 20;
+        registry::run(&ConfigSource::from_text("resume.toml", text), &mut ctx).unwrap();
+        drop(ctx);
+        rep.seen
+    };
+    assert!(reports >= 4, "{reports} reports");
+    for after in [1, reports - 2] {
+        let split = tmp(&format!("split-{after}"));
+        let flag = Arc::new(AtomicBool::new(false));
+        let mut rep = Interrupter { flag: flag.clone(), after, seen: 0 };
+        {
+            let mut ctx = RunContext::new(&split, &mut rep, flag.clone()).unwrap();
+            ctx.report_every = 20;
+            match registry::run(&ConfigSource::from_text("resume.toml", text), &mut ctx) {
+                Err(ExperimentError::Interrupted { checkpoint, .. }) => assert!(checkpoint.exists()),
+                other => panic!("expected an interruption after {after} reports, got {other:?}"),
+            }
+        }
+        assert!(!split.join("summary.json").exists());
+        let mut rep = SilentReporter;
+        let mut ctx = RunContext::new(&split, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
+        ctx.report_every = 20;
+        registry::resume(&split, &mut ctx).unwrap();
+        assert!(files(&straight) == files(&split), "interrupted after {after} reports: different results");
+    }
 }

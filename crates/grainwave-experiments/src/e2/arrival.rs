@@ -1,6 +1,7 @@
 //! Arrival times and pulse speed (SPEC §6.5).
 //!
-//! * Wall pulse: the arrival at grain i is the sample time of the maximum of |δv_x,i|.
+//! * Wall pulse: the arrival at grain i is the sample time of the maximum of |δv_x,i| (|δv_y,i| for
+//!   a pulse from the top wall).
 //! * Central source: the first sample time at which |δv_i| reaches 10 % of its maximum.
 //! * Pulse speed: the grains are binned by their distance s from the source into strips of equal
 //!   width (128 by default) perpendicular to the propagation; in each strip the grain with the
@@ -9,17 +10,18 @@
 
 use serde::{Deserialize, Serialize};
 
-/// Arrival by the maximum of |δv_x| (wall pulse). `field` is [samples][grains][2] (row-major),
-/// `times` the sample times. Grains that never move get `None`, and so do those whose maximum is
-/// at the last sample (the pulse may not have passed yet).
-pub fn arrival_of_maximum(field: &[f32], grains: usize, times: &[f64]) -> Vec<Option<f64>> {
+/// Arrival by the maximum of |δv_c|, c = `component` (0: x, 1: y; a wall pulse uses the component
+/// along the wall normal, SPEC's |v_x| for the right wall). `field` is [samples][grains][2]
+/// (row-major), `times` the sample times. Grains that never move get `None`, and so do those whose
+/// maximum is at the last sample (the pulse may not have passed yet).
+pub fn arrival_of_maximum(field: &[f32], grains: usize, times: &[f64], component: usize) -> Vec<Option<f64>> {
     let samples = times.len();
     (0..grains)
         .map(|i| {
             let mut best = 0.0f32;
             let mut at = None;
             for s in 0..samples {
-                let v = field[(s * grains + i) * 2].abs();
+                let v = field[(s * grains + i) * 2 + component].abs();
                 if v > best {
                     best = v;
                     at = Some(s);

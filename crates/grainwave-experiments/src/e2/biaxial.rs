@@ -252,7 +252,6 @@ pub fn load(
     let started = std::time::Instant::now();
     let base = loading.seconds;
     let mut last_save = std::time::Instant::now();
-    let mut last_report = std::time::Instant::now();
     ctx.reporter.stage("loading", None);
     let energy_unit = units.pressure * units.length * units.length;
     loop {
@@ -295,8 +294,8 @@ pub fn load(
                     loading.seconds = base + started.elapsed().as_secs_f64();
                     return Ok(true);
                 }
-                if last_report.elapsed().as_secs_f64() > 2.0 {
-                    last_report = std::time::Instant::now();
+                let every = (ctx.report_every / lc.sample_every).max(1) as usize;
+                if loading.series.len() % every == 0 {
                     let mut p = sim.progress(&StopCriteria::default());
                     p.fraction_of_limit = (eyy.abs() / lc.final_strain).min(1.0);
                     ctx.reporter.progress(&p);

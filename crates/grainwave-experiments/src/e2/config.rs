@@ -40,6 +40,10 @@ pub struct E2Config {
     /// The Δc/c₀ decomposition of SPEC §6.6 from four wall-pulse replays with equal amplitudes.
     #[serde(default)]
     pub static_limit: StaticLimitConfig,
+    /// The anisotropy A = 2(c₁ − c₂)/(c₁ + c₂) (SPEC §6.6) from two wall-pulse replays with equal
+    /// amplitudes, along y (c₁, the compression axis) and along x (c₂).
+    #[serde(default)]
+    pub anisotropy: AnisotropyConfig,
     /// What to write.
     #[serde(default)]
     pub output: OutputConfig,
@@ -216,6 +220,17 @@ pub enum PulseShape {
     Wavelet,
 }
 
+/// The wall a pulse comes from.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum PulseWall {
+    /// The right wall (a piston under p*).
+    #[default]
+    Right,
+    /// The top wall (after a `top_piston` replay).
+    Top,
+}
+
 /// The one modification of a replay.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
@@ -231,6 +246,9 @@ pub enum Modification {
     Friction,
     /// The top wall stops smoothly, v(t) = v₀(1 + cos(πt/t_s))/2 for t ≤ t_s = `stop_time` (single replay).
     WallStop,
+    /// The top wall becomes a piston of mass `preparation.wall_mass` M* under its current load, so
+    /// that later replays can pulse it (`pulse_wall = "top"`) (single replay).
+    TopPiston,
 }
 
 impl Modification {
@@ -242,6 +260,7 @@ impl Modification {
             Modification::VelocityScale => "velocity_scale",
             Modification::Friction => "friction",
             Modification::WallStop => "wall_stop",
+            Modification::TopPiston => "top_piston",
         }
     }
 
@@ -268,6 +287,9 @@ pub struct ReplayConfig {
     pub modification: Modification,
     /// `wall_pulse`: `delta` or `wavelet`.
     pub shape: PulseShape,
+    /// `wall_pulse`: the wall that emits it, `right` (propagation along x) or `top` (along y; the
+    /// top wall must be a piston: start `from` a `top_piston` replay).
+    pub pulse_wall: PulseWall,
     /// Amplitudes p_a of `wall_pulse` (positive: compression, negative: rarefaction), or relative
     /// radius changes of `radius`; each gives its own paired replay.
     pub amplitudes: Vec<f64>,
@@ -301,6 +323,7 @@ impl Default for ReplayConfig {
             from: None,
             modification: Modification::WallPulse,
             shape: PulseShape::Delta,
+            pulse_wall: PulseWall::Right,
             amplitudes: vec![1e-6],
             width: 0.05,
             delay: None,
@@ -330,6 +353,16 @@ pub struct StaticLimitConfig {
     pub static_state: Option<String>,
     /// Replay of the deforming packing (a checkpoint of the loading): c_d.
     pub deforming: Option<String>,
+}
+
+/// Names of two wall-pulse replays of the same state with equal amplitudes.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct AnisotropyConfig {
+    /// Replay with `pulse_wall = "top"`: c₁ along y.
+    pub along_y: Option<String>,
+    /// Replay with `pulse_wall = "right"`: c₂ along x.
+    pub along_x: Option<String>,
 }
 
 /// What to write.

@@ -201,6 +201,7 @@ pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
             config::Modification::VelocityScale => non_negative(src, &key("factor"), r.factor)?,
             config::Modification::Friction => non_negative(src, &key("friction"), r.friction)?,
             config::Modification::WallStop => positive(src, &key("stop_time"), r.stop_time)?,
+            config::Modification::TopPiston => {}
         }
     }
     let sl = &cfg.static_limit;
@@ -230,6 +231,28 @@ pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
                 return Err(src.error_at_key(
                     key,
                     format!("`{name}` has amplitudes {:?}, the others {:?} (allowed: the same amplitudes in all four)", q.amplitudes, amplitudes.unwrap()),
+                ));
+            }
+            amplitudes = Some(&q.amplitudes);
+        }
+    }
+    let an = &cfg.anisotropy;
+    if an.along_y.is_some() != an.along_x.is_some() {
+        return Err(src.error_at_key("anisotropy", "one of the two replays named (allowed: both of along_y, along_x, or none)"));
+    }
+    let mut amplitudes: Option<&Vec<f64>> = None;
+    for (key, name, wall) in [("anisotropy.along_y", &an.along_y, config::PulseWall::Top), ("anisotropy.along_x", &an.along_x, config::PulseWall::Right)] {
+        if let Some(name) = name {
+            let Some((_, q)) = cfg.replays.iter().enumerate().find(|(j, q)| q.name.clone().unwrap_or(format!("r{j}")) == *name) else {
+                return Err(src.error_at_key(key, format!("`{name}` (allowed: the name of a wall_pulse replay of this file)")));
+            };
+            if q.modification != config::Modification::WallPulse || q.pulse_wall != wall {
+                return Err(src.error_at_key(key, format!("`{name}` is not a wall_pulse replay from the {:?} wall (allowed: such a replay)", wall)));
+            }
+            if amplitudes.is_some_and(|a| *a != q.amplitudes) {
+                return Err(src.error_at_key(
+                    key,
+                    format!("`{name}` has amplitudes {:?}, the other {:?} (allowed: the same amplitudes)", q.amplitudes, amplitudes.unwrap()),
                 ));
             }
             amplitudes = Some(&q.amplitudes);

@@ -122,6 +122,8 @@ pub struct E2Summary {
     pub replays: Vec<ReplayReport>,
     /// The Δc/c₀ decomposition (SPEC §6.6), one row per amplitude.
     pub static_limit: Vec<StaticLimitRow>,
+    /// The anisotropy (SPEC §6.6), one row per amplitude.
+    pub anisotropy: Vec<AnisotropyRow>,
     /// Wall-clock seconds of this process [s].
     pub wall_seconds: f64,
     /// Files written, relative to the output directory.
@@ -167,12 +169,20 @@ pub fn write_loading(dir: &Path, cfg: &E2Config, l: &Loading) -> Result<Vec<Stri
             &mut files,
             LinePlot::new("Sliding contacts").x_label("ε_yy (%)").y_label("M_s").series("M_s", &eps, &col(5)).save(dir, "sliding_strain"),
         )?;
-        let ke: Vec<f64> = col(7).iter().map(|k| k.max(1e-300)).collect();
-        push_plot(
-            dir,
-            &mut files,
-            LinePlot::new("Kinetic energy").x_label("ε_yy (%)").y_label("KE / (p* L*²)").log_y().series("KE", &eps, &ke).save(dir, "kinetic_energy_strain"),
-        )?;
+        // a log axis cannot show KE = 0 (e.g. right after a quench): those samples are left out
+        let (ke_x, ke): (Vec<f64>, Vec<f64>) = eps.iter().zip(col(7)).filter(|(_, k)| *k > 0.0).map(|(e, k)| (*e, k)).unzip();
+        if ke.len() >= 2 {
+            push_plot(
+                dir,
+                &mut files,
+                LinePlot::new("Kinetic energy")
+                    .x_label("ε_yy (%)")
+                    .y_label("KE / (p* L*²)")
+                    .log_y()
+                    .series("KE", &ke_x, &ke)
+                    .save(dir, "kinetic_energy_strain"),
+            )?;
+        }
     }
     Ok(files)
 }
@@ -244,6 +254,16 @@ pub fn run_replay(ctx: &mut RunContext<'_>, cfg: &E2Config, k: usize, source: &P
         single: None,
         seconds: 0.0,
     };
+    let mut ck = ck;
+    if rc.modification == super::config::Modification::WallPulse && rc.pulse_wall == super::config::PulseWall::Top {
+        if !ck.drive.pistons.iter().any(|(k, _)| *k == model::TOP) {
+            return Err(ExperimentError::Resume {
+                path: source.to_path_buf(),
+                reason: format!("replay `{name}`: the top wall of its start state is not a piston (start it `from` a `top_piston` replay)"),
+            });
+        }
+        ck.drive.pulse_wall = model::TOP;
+    }
     if let Some(pert) = replay::perturbation_of(rc, &ck.sim, &u) {
         let snapshot = ck.sim.snapshot();
         let mut sliding_curves: Vec<(String, Vec<f64>, Vec<f64>)> = Vec::new();
@@ -372,11 +392,11 @@ pub fn run_replay(ctx: &mut RunContext<'_>, cfg: &E2Config, k: usize, source: &P
         }
     } else {
         let mut sim = ck.sim.clone();
-        let drive = ck.drive.clone();
+        let mut drive = ck.drive.clone();
         let energy = u.pressure * u.length * u.length;
         let ke0 = sim.kinetic_energy() / energy;
         let m0 = sim.counters.sliding;
-        replay::apply_single(rc, &mut sim, &u, &cfg.material)?;
+        replay::apply_single(rc, &mut sim, &mut drive, &u, cfg)?;
         let mut rows: Vec<[f64; 5]> = Vec::new();
         let t0 = sim.time;
         let record = |sim: &Simulation<D2>, rows: &mut Vec<[f64; 5]>| {
@@ -395,13 +415,15 @@ pub fn run_replay(ctx: &mut RunContext<'_>, cfg: &E2Config, k: usize, source: &P
             Series::from_columns(["time", "stress_yy", "stress_xx", "sliding", "kinetic_energy"].iter().enumerate().map(|(k, n)| (n.to_string(), col(k))))?;
         series.write(&dir, "series")?;
         if cfg.output.plots {
-            let ke: Vec<f64> = col(4).iter().map(|k| k.max(1e-300)).collect();
-            LinePlot::new(&format!("Replay {name}: {}", rc.modification.name()))
-                .x_label("t / t_a")
-                .y_label("KE / (p* L*²)")
-                .log_y()
-                .series("KE", &col(0), &ke)
-                .save(&dir, "kinetic_energy")?;
+            let (ke_t, ke): (Vec<f64>, Vec<f64>) = col(0).iter().zip(col(4)).filter(|(_, k)| *k > 0.0).map(|(t, k)| (*t, k)).unzip();
+            if ke.len() >= 2 {
+                LinePlot::new(&format!("Replay {name}: {}", rc.modification.name()))
+                    .x_label("t / t_a")
+                    .y_label("KE / (p* L*²)")
+                    .log_y()
+                    .series("KE", &ke_t, &ke)
+                    .save(&dir, "kinetic_energy")?;
+            }
             LinePlot::new(&format!("Replay {name}: sliding contacts"))
                 .x_label("t / t_a")
                 .y_label("M_s")
@@ -439,6 +461,44 @@ pub struct StaticLimitRow {
     pub strain_rate: Option<f64>,
     /// (c₀ − c_d)/c₀.
     pub total: Option<f64>,
+}
+
+/// One amplitude of the anisotropy table.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct AnisotropyRow {
+    /// p_a.
+    pub amplitude: f64,
+    /// c₁ along y [v_a].
+    pub along_y: Option<f64>,
+    /// c₂ along x [v_a].
+    pub along_x: Option<f64>,
+    /// A = 2(c₁ − c₂)/(c₁ + c₂).
+    pub anisotropy: Option<f64>,
+}
+
+/// The anisotropy table of the replays named in `[anisotropy]` (empty when not configured).
+pub fn anisotropy_rows(cfg: &E2Config, replays: &[ReplayReport]) -> Vec<AnisotropyRow> {
+    let (Some(y), Some(x)) = (&cfg.anisotropy.along_y, &cfg.anisotropy.along_x) else {
+        return Vec::new();
+    };
+    let (Some(y), Some(x)) = (replays.iter().find(|r| r.name == *y), replays.iter().find(|r| r.name == *x)) else {
+        return Vec::new();
+    };
+    (0..y.pairs.len())
+        .map(|k| {
+            let c1 = y.pairs[k].speed;
+            let c2 = x.pairs.get(k).and_then(|p| p.speed);
+            AnisotropyRow {
+                amplitude: y.pairs[k].amplitude,
+                along_y: c1,
+                along_x: c2,
+                anisotropy: match (c1, c2) {
+                    (Some(a), Some(b)) => Some(2.0 * (a - b) / (a + b)),
+                    _ => None,
+                },
+            }
+        })
+        .collect()
 }
 
 /// The Δc/c₀ table of the replays named in `[static_limit]` (empty when not configured).
@@ -580,6 +640,15 @@ pub fn write_summary(dir: &Path, state: &E2State, wall_seconds: f64) -> Result<E
     });
     let static_limit = static_limit_rows(&state.config, &state.replays);
     write_static_limit(dir, &state.config, &static_limit)?;
+    let anisotropy = anisotropy_rows(&state.config, &state.replays);
+    if !anisotropy.is_empty() {
+        let f = |x: Option<f64>| x.map(|v| format!("{v:.9e}")).unwrap_or_default();
+        write_csv(
+            &dir.join("anisotropy.csv"),
+            "amplitude,along_y,along_x,anisotropy",
+            anisotropy.iter().map(|r| format!("{:e},{},{},{}", r.amplitude, f(r.along_y), f(r.along_x), f(r.anisotropy))),
+        )?;
+    }
     let mut files = Vec::new();
     walk(dir, dir, &mut files);
     files.retain(|f| !f.ends_with(".gwck") && f != "summary.json" && f != crate::protocol::LOG_FILE);
@@ -600,6 +669,7 @@ pub fn write_summary(dir: &Path, state: &E2State, wall_seconds: f64) -> Result<E
         loading,
         replays: state.replays.clone(),
         static_limit,
+        anisotropy,
         wall_seconds,
         files,
     };

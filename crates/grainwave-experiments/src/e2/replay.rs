@@ -142,13 +142,17 @@ pub struct Arrivals {
 }
 
 /// Arrivals of a paired replay: for a wall pulse the distance is from the pulse wall's position
-/// at the start and the arrival is the maximum of |δv_x|; for a radius change the distance is
+/// at the start and the arrival is the maximum of the δv component along the wall normal; for a radius change the distance is
 /// from the changed grain and the arrival is the first time |δv| reaches 10 % of its maximum.
 pub fn arrivals(result: &PairResult, base: &Simulation<D2>, drive: &Drive, perturbation: &Perturbation, strips: usize, fit_range: [f64; 2]) -> Arrivals {
     let (distance, time) = match perturbation {
         Perturbation::WallPulse { .. } => {
             let wall = &base.domain.walls[drive.pulse_wall];
-            (result.positions.iter().map(|p| wall.distance(*p)).collect::<Vec<_>>(), arrival::arrival_of_maximum(&result.field, result.grains, &result.times))
+            let component = if wall.normal.x.abs() >= wall.normal.y.abs() { 0 } else { 1 };
+            (
+                result.positions.iter().map(|p| wall.distance(*p)).collect::<Vec<_>>(),
+                arrival::arrival_of_maximum(&result.field, result.grains, &result.times, component),
+            )
         }
         Perturbation::Radius { grain } => {
             let c = result.positions[*grain as usize];
@@ -177,7 +181,8 @@ pub fn perturbation_of(rc: &ReplayConfig, sim: &Simulation<D2>, u: &Units) -> Op
 
 /// Applies a single modification (velocity scale, friction, wall stop) to `sim` at the start of
 /// a replay.
-pub fn apply_single(rc: &ReplayConfig, sim: &mut Simulation<D2>, u: &Units, material: &super::config::MaterialConfig) -> Result<()> {
+pub fn apply_single(rc: &ReplayConfig, sim: &mut Simulation<D2>, drive: &mut Drive, u: &Units, cfg: &super::config::E2Config) -> Result<()> {
+    let material = &cfg.material;
     match rc.modification {
         Modification::VelocityScale => {
             let g = rc.factor;
@@ -200,6 +205,13 @@ pub fn apply_single(rc: &ReplayConfig, sim: &mut Simulation<D2>, u: &Units, mate
             sim.domain.walls[TOP].motion =
                 WallMotion::Velocity { speed: TimeFunction::CosineStop { value: v0, start: sim.time, duration: rc.stop_time * u.acoustic_time } };
             Ok(())
+        }
+        Modification::TopPiston => {
+            let load = sim.domain.walls[TOP].normal_load();
+            sim.domain.walls[TOP].motion = WallMotion::Piston { mass: cfg.preparation.wall_mass * u.total_mass, force: TimeFunction::constant(load) };
+            drive.pistons.retain(|(k, _)| *k != TOP);
+            drive.pistons.push((TOP, model::PistonLoad::Force(load)));
+            sim.refresh_forces()
         }
         Modification::WallPulse | Modification::Radius => Ok(()),
     }
