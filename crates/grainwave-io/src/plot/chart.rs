@@ -100,11 +100,18 @@ fn union(a: Option<(f64, f64)>, b: Option<(f64, f64)>) -> Option<(f64, f64)> {
     }
 }
 
+/// Most decades a log axis spans by default: data further below the largest value are clipped
+/// (a range of hundreds of decades, e.g. a kinetic energy that reaches 1e-300, is unreadable and
+/// makes the tick generation of the plotting backend practically endless).
+pub(crate) const MAX_LOG_DECADES: f64 = 40.0;
+
 /// Widens a data extent by 4 % on each side (in log space on a log axis); a degenerate extent
-/// becomes ±1 around its value (× or ÷ 10 on a log axis).
+/// becomes ±1 around its value (× or ÷ 10 on a log axis). A log axis spans at most
+/// [`MAX_LOG_DECADES`] below its largest value.
 fn pad((lo, hi): (f64, f64), log: bool) -> (f64, f64) {
     if log {
         let (a, b) = (lo.log10(), hi.log10());
+        let a = a.max(b - MAX_LOG_DECADES);
         let (a, b) = if b - a < 1e-12 { (a - 1.0, b + 1.0) } else { (a - 0.04 * (b - a), b + 0.04 * (b - a)) };
         (10f64.powf(a), 10f64.powf(b))
     } else if hi - lo <= 1e-12 * hi.abs().max(lo.abs()).max(f64::MIN_POSITIVE) {
@@ -458,6 +465,20 @@ impl Figure for Chart {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn log_axes_span_at_most_max_log_decades_and_still_render() {
+        let mut c = Chart::new("t");
+        c.log_y = true;
+        c.layers.push(Layer::Line { name: "ke".into(), x: vec![0.0, 1.0, 2.0], y: vec![1.0, 1e-150, 1e-300], dashed: false });
+        let (_, (y0, y1)) = c.ranges().unwrap();
+        assert!(y1 > 1.0 && y0 >= 10f64.powf(-1.05 * MAX_LOG_DECADES) && y0 < 1e-39, "{y0} {y1}"); // 40 decades + 4 % padding
+        // a span of 300 decades used to keep the backend's tick generation busy practically forever
+        let dir = std::env::temp_dir().join(format!("grainwave-io-{}-logspan", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        crate::plot::LinePlot::new("t").log_y().series("ke", &[0.0, 1.0, 2.0], &[1.0, 1e-150, 1e-300]).save(&dir, "ke").unwrap();
+        assert!(std::fs::metadata(dir.join("ke.png")).unwrap().len() > 0);
+    }
 
     #[test]
     fn ranges_follow_data_and_axes() {
