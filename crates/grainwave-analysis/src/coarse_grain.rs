@@ -257,11 +257,7 @@ pub fn coarse_grain<D: Dim>(snapshot: &Snapshot<D>, grid: &Grid<D>, options: &Co
     };
     let overlaps = |lo: D::Vector, hi: D::Vector| (0..d).all(|k| hi.get(k) >= glo.get(k) && lo.get(k) <= ghi.get(k));
 
-    let max_id = snapshot.id.iter().copied().max().map_or(0, |m| m as usize + 1);
-    let mut index = vec![usize::MAX; max_id];
-    for (k, &id) in snapshot.id.iter().enumerate() {
-        index[id as usize] = k;
-    }
+    let index = snapshot.index_by_id();
     let mut segments = Vec::with_capacity(snapshot.contacts.len());
     for c in &snapshot.contacts {
         if !options.walls && matches!(c.j, Counterpart::Wall(_)) {

@@ -155,11 +155,7 @@ pub struct NetworkChanges<D: Dim> {
 }
 
 fn sides<D: Dim>(snapshot: &Snapshot<D>) -> BTreeMap<ContactKey, ContactSide<D>> {
-    let max_id = snapshot.id.iter().copied().max().map_or(0, |m| m as usize + 1);
-    let mut index = vec![usize::MAX; max_id];
-    for (k, &id) in snapshot.id.iter().enumerate() {
-        index[id as usize] = k;
-    }
+    let index = snapshot.index_by_id();
     let side = |c: &ContactRecord<D>| {
         let key = ContactKey::new(c.i, c.j);
         let pos = snapshot.pos[index[c.i as usize]];

@@ -179,7 +179,7 @@ pub fn cap_volume_below(r: f64, h: f64) -> f64 {
 /// Iterated rattler removal (see the module docs): flags per grain, storage order.
 pub fn find_rattlers<D: Dim>(snapshot: &Snapshot<D>, min_contacts: usize) -> Vec<bool> {
     let n = snapshot.len();
-    let index = id_index(snapshot);
+    let index = snapshot.index_by_id();
     let links: Vec<(usize, Option<usize>)> = snapshot
         .contacts
         .iter()
@@ -226,15 +226,6 @@ pub fn default_rattler_threshold<D: Dim>(snapshot: &Snapshot<D>) -> usize {
     } else {
         D::D + 1
     }
-}
-
-fn id_index<D: Dim>(snapshot: &Snapshot<D>) -> Vec<usize> {
-    let max = snapshot.id.iter().copied().max().map_or(0, |m| m as usize + 1);
-    let mut map = vec![usize::MAX; max];
-    for (k, &id) in snapshot.id.iter().enumerate() {
-        map[id as usize] = k;
-    }
-    map
 }
 
 /// Walls closing `axis`: (lower coordinate, upper coordinate), from the walls perpendicular to it.
@@ -350,7 +341,7 @@ pub fn characterize<D: Dim>(snapshot: &Snapshot<D>, options: &CharacterizationOp
     let axis = options.axis.unwrap_or(d - 1);
     let n = snapshot.len();
     let kind = snapshot.kind;
-    let index = id_index(snapshot);
+    let index = snapshot.index_by_id();
     let mean_diameter = if n > 0 { 2.0 * snapshot.radius.iter().sum::<f64>() / n as f64 } else { 0.0 };
     let (y_lo, y_hi) = wall_gap(&snapshot.domain, axis).unwrap_or_else(|| {
         let lo = snapshot.domain.lo.get(axis);

@@ -204,6 +204,17 @@ impl<D: Dim> Snapshot<D> {
         self.id.is_empty()
     }
 
+    /// Storage index of every stable id: `index_by_id()[id]` is the position of grain `id` in the
+    /// per-grain arrays (`usize::MAX` for ids not present). Contact records name grains by id.
+    pub fn index_by_id(&self) -> Vec<usize> {
+        let len = self.id.iter().copied().max().map_or(0, |m| m as usize + 1);
+        let mut index = vec![usize::MAX; len];
+        for (k, &id) in self.id.iter().enumerate() {
+            index[id as usize] = k;
+        }
+        index
+    }
+
     /// Sum of the normal loads of all contacts with wall `w`: the force the grains exert on it
     /// along its outward direction (equal to the push of the wall on the grains along its normal).
     pub fn wall_load(&self, w: u32) -> f64 {

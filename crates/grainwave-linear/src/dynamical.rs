@@ -44,7 +44,7 @@
 use crate::contact::{LinearContact, Partner};
 use crate::dofs::{Constraints, DofLayout};
 use crate::error::{LinearError, Result};
-use crate::rattlers::{default_min_contacts, find_rattlers, id_to_index};
+use crate::rattlers::{default_min_contacts, find_rattlers};
 use faer::sparse::{SparseRowMat, SparseRowMatRef, SymbolicSparseRowMat};
 use faer::Mat;
 use grainwave_core::contact::{Rolling, Twisting};
@@ -193,7 +193,7 @@ impl<D: Dim> DynamicalMatrix<D> {
                 find_rattlers(snapshot, threshold)
             }
         };
-        let index = id_to_index(snapshot);
+        let index = snapshot.index_by_id();
         let lookup = |id: u32| -> Result<usize> {
             index
                 .get(id as usize)

@@ -63,11 +63,7 @@ impl NetworkWindow {
 /// The spring network of the grain–grain contacts of `snapshot` whose contact points lie in
 /// `window`; `keep_sliding_tangential` keeps kᵗ on sliding contacts (default use: false).
 pub fn spring_network(snapshot: &Snapshot<D2>, window: &NetworkWindow, keep_sliding_tangential: bool) -> SpringNetwork {
-    let max_id = snapshot.id.iter().copied().max().map_or(0, |m| m as usize + 1);
-    let mut index = vec![usize::MAX; max_id];
-    for (k, &id) in snapshot.id.iter().enumerate() {
-        index[id as usize] = k;
-    }
+    let index = snapshot.index_by_id();
     let mut bonds = Vec::new();
     for c in &snapshot.contacts {
         if !matches!(c.j, Counterpart::Grain(_)) {

@@ -36,11 +36,7 @@ fn plot_err(e: grainwave_io::OutputError) -> crate::error::ExperimentError {
 /// `magnitude`, `normal_force_before`, `normal_force_after`, `normal_change`, `opened`,
 /// `created`, `sliding`, `wall` (index, −1 for grain pairs), `i`, `j` (−1 for walls).
 pub fn difference_dataset(changes: &NetworkChanges<D2>, reference: &Snapshot<D2>) -> Result<VtkDataSet> {
-    let max_id = reference.id.iter().copied().max().map_or(0, |m| m as usize + 1);
-    let mut index = vec![usize::MAX; max_id];
-    for (k, &id) in reference.id.iter().enumerate() {
-        index[id as usize] = k;
-    }
+    let index = reference.index_by_id();
     let mut points = Vec::new();
     let mut lines = Vec::new();
     let (mut df, mut mag, mut fb, mut fa, mut dn, mut opened, mut created, mut sliding, mut wall, mut gi, mut gj) =
@@ -93,11 +89,7 @@ pub fn difference_dataset(changes: &NetworkChanges<D2>, reference: &Snapshot<D2>
 
 /// Segments of a [`ContactChangePicture`].
 fn change_segments(changes: &NetworkChanges<D2>, reference: &Snapshot<D2>) -> Vec<ContactChange> {
-    let max_id = reference.id.iter().copied().max().map_or(0, |m| m as usize + 1);
-    let mut index = vec![usize::MAX; max_id];
-    for (k, &id) in reference.id.iter().enumerate() {
-        index[id as usize] = k;
-    }
+    let index = reference.index_by_id();
     changes
         .contacts
         .iter()
