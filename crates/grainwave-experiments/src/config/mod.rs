@@ -161,6 +161,33 @@ impl miette::Diagnostic for ConfigError {
     }
 }
 
+/// Checks that `v` (the value of `key`) is a finite number > 0.
+pub fn positive(src: &ConfigSource, key: &str, v: f64) -> Result<(), ConfigError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(src.error_at_key(key, format!("{v} (allowed: a finite number > 0)")))
+    }
+}
+
+/// `#[serde(with = "crate::config::toml_text")]`: stores a config as TOML text inside binary
+/// checkpoints (its tagged enums and "number or table" values need a self-describing format).
+pub mod toml_text {
+    use serde::de::DeserializeOwned;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    /// Serializes `c` as its TOML text.
+    pub fn serialize<S: Serializer, T: Serialize>(c: &T, s: S) -> Result<S::Ok, S::Error> {
+        toml::to_string(c).map_err(serde::ser::Error::custom)?.serialize(s)
+    }
+
+    /// Parses the TOML text written by [`serialize`].
+    pub fn deserialize<'de, D: Deserializer<'de>, T: DeserializeOwned>(d: D) -> Result<T, D::Error> {
+        let text = String::deserialize(d)?;
+        toml::from_str(&text).map_err(serde::de::Error::custom)
+    }
+}
+
 /// 1-based line and column (in characters) of byte offset `at`.
 pub fn line_column(text: &str, at: usize) -> (usize, usize) {
     let at = at.min(text.len());

@@ -44,25 +44,10 @@ pub const TAG: &str = "experiment-e1";
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct E1State {
     /// The config with computed defaults filled in (stored as its TOML text).
-    #[serde(with = "as_toml")]
+    #[serde(with = "crate::config::toml_text")]
     pub config: E1Config,
     /// All samples are done and the outputs written.
     pub finished: bool,
-}
-
-/// Stores a config as TOML text inside binary checkpoints.
-mod as_toml {
-    use super::E1Config;
-    use serde::{Deserialize, Deserializer, Serialize, Serializer};
-
-    pub fn serialize<S: Serializer>(c: &E1Config, s: S) -> Result<S::Ok, S::Error> {
-        toml::to_string(c).map_err(serde::ser::Error::custom)?.serialize(s)
-    }
-
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<E1Config, D::Error> {
-        let text = String::deserialize(d)?;
-        toml::from_str(&text).map_err(serde::de::Error::custom)
-    }
 }
 
 /// Parses and validates an `e1` config.

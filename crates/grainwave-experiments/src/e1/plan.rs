@@ -2,7 +2,7 @@
 //! with its time grid) and the sample tasks.
 
 use super::config::*;
-use crate::config::{ConfigError, ConfigSource};
+use crate::config::{positive, ConfigError, ConfigSource};
 use grainwave_core::util::Fnv64;
 use std::f64::consts::PI;
 
@@ -97,14 +97,6 @@ pub fn hertz_chain_speed(pressure: f64) -> f64 {
 
 fn err(src: &ConfigSource, key: &str, msg: impl Into<String>) -> ConfigError {
     src.error_at_key(key, msg)
-}
-
-fn positive(src: &ConfigSource, key: &str, v: f64) -> Result<(), ConfigError> {
-    if v.is_finite() && v > 0.0 {
-        Ok(())
-    } else {
-        Err(err(src, key, format!("{v} (allowed: a finite number > 0)")))
-    }
 }
 
 fn pressures(src: &ConfigSource, key: &str, p: &[f64]) -> Result<(), ConfigError> {

@@ -20,7 +20,7 @@ pub mod strain;
 pub use config::E2Config;
 pub use outputs::E2Summary;
 
-use crate::config::{ConfigError, ConfigSource};
+use crate::config::{positive, ConfigError, ConfigSource};
 use crate::error::{ExperimentError, Result};
 use crate::protocol::RunContext;
 use biaxial::{Loading, PreparationInfo};
@@ -48,7 +48,7 @@ pub enum Stage {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct E2State {
     /// The config (stored as its TOML text).
-    #[serde(with = "as_toml")]
+    #[serde(with = "crate::config::toml_text")]
     pub config: E2Config,
     /// Current stage.
     pub stage: Stage,
@@ -62,28 +62,6 @@ pub struct E2State {
     pub loading: Option<Loading>,
     /// Reports of the finished replays.
     pub replays: Vec<outputs::ReplayReport>,
-}
-
-mod as_toml {
-    use super::E2Config;
-    use serde::{Deserialize, Deserializer, Serialize, Serializer};
-
-    pub fn serialize<S: Serializer>(c: &E2Config, s: S) -> Result<S::Ok, S::Error> {
-        toml::to_string(c).map_err(serde::ser::Error::custom)?.serialize(s)
-    }
-
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<E2Config, D::Error> {
-        let text = String::deserialize(d)?;
-        toml::from_str(&text).map_err(serde::de::Error::custom)
-    }
-}
-
-fn positive(src: &ConfigSource, key: &str, v: f64) -> Result<(), ConfigError> {
-    if v.is_finite() && v > 0.0 {
-        Ok(())
-    } else {
-        Err(src.error_at_key(key, format!("{v} (allowed: a finite number > 0)")))
-    }
 }
 
 fn non_negative(src: &ConfigSource, key: &str, v: f64) -> Result<(), ConfigError> {

@@ -21,7 +21,7 @@ pub mod units;
 pub use config::E3Config;
 pub use outputs::E3Summary;
 
-use crate::config::{ConfigError, ConfigSource};
+use crate::config::{positive, ConfigError, ConfigSource};
 use crate::error::Result;
 use crate::protocol::RunContext;
 use config::Mode;
@@ -35,7 +35,7 @@ pub const TAG: &str = "experiment-e3";
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct E3State {
     /// The config (stored as its TOML text).
-    #[serde(with = "as_toml")]
+    #[serde(with = "crate::config::toml_text")]
     pub config: E3Config,
     /// Per case: its reference state is done.
     pub references_done: Vec<bool>,
@@ -43,29 +43,6 @@ pub struct E3State {
     pub runs_done: Vec<bool>,
     /// All outputs are written.
     pub finished: bool,
-}
-
-/// Stores the config as TOML text inside binary checkpoints.
-mod as_toml {
-    use super::E3Config;
-    use serde::{Deserialize, Deserializer, Serialize, Serializer};
-
-    pub fn serialize<S: Serializer>(c: &E3Config, s: S) -> Result<S::Ok, S::Error> {
-        toml::to_string(c).map_err(serde::ser::Error::custom)?.serialize(s)
-    }
-
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<E3Config, D::Error> {
-        let text = String::deserialize(d)?;
-        toml::from_str(&text).map_err(serde::de::Error::custom)
-    }
-}
-
-fn positive(src: &ConfigSource, key: &str, v: f64) -> Result<(), ConfigError> {
-    if v.is_finite() && v > 0.0 {
-        Ok(())
-    } else {
-        Err(src.error_at_key(key, format!("{v} (allowed: a finite number > 0)")))
-    }
 }
 
 fn non_negative(src: &ConfigSource, key: &str, v: f64) -> Result<(), ConfigError> {

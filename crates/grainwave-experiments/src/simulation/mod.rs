@@ -64,7 +64,7 @@ impl SeriesData {
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct SimulationState {
     /// The config, with computed defaults filled in (stored as its TOML text).
-    #[serde(with = "as_toml")]
+    #[serde(with = "crate::config::toml_text")]
     pub config: SimulationConfig,
     /// The engine state.
     pub sim: AnySim,
@@ -80,22 +80,6 @@ pub struct SimulationState {
     pub last_checkpoint_step: Option<u64>,
     /// Why the run stopped, once it has.
     pub outcome: Option<StopReason>,
-}
-
-/// Stores a config as TOML text inside binary checkpoints (its tagged enums and "number or
-/// table" values need a self-describing format).
-mod as_toml {
-    use super::SimulationConfig;
-    use serde::{Deserialize, Deserializer, Serialize, Serializer};
-
-    pub fn serialize<S: Serializer>(c: &SimulationConfig, s: S) -> Result<S::Ok, S::Error> {
-        toml::to_string(c).map_err(serde::ser::Error::custom)?.serialize(s)
-    }
-
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<SimulationConfig, D::Error> {
-        let text = String::deserialize(d)?;
-        toml::from_str(&text).map_err(serde::de::Error::custom)
-    }
 }
 
 /// A validated `simulation` config: the parsed keys and the built engine state.
