@@ -38,6 +38,41 @@ pub fn atomic_write(path: &Path, bytes: &[u8]) -> Result<()> {
     written
 }
 
+/// Removes the temporary files that [`atomic_write`] leaves behind when its process is killed
+/// (SIGKILL, power loss) between creating and renaming them: files named `.NAME.PID.tmp` in
+/// `dir` and its subdirectories whose process `PID` is not running (on systems without `/proc`,
+/// every such file not belonging to this process). Called before a run is resumed, so that a
+/// resumed directory holds only complete files. Returns the paths removed.
+pub fn remove_stale_temporaries(dir: &Path) -> Vec<std::path::PathBuf> {
+    let me = std::process::id();
+    let alive = |pid: u32| pid == me || (Path::new("/proc/self").exists() && Path::new("/proc").join(pid.to_string()).exists());
+    let mut removed = Vec::new();
+    let mut stack = vec![dir.to_path_buf()];
+    while let Some(d) = stack.pop() {
+        let Ok(entries) = std::fs::read_dir(&d) else { continue };
+        for e in entries.flatten() {
+            let p = e.path();
+            if e.file_type().map(|t| t.is_dir()).unwrap_or(false) {
+                stack.push(p);
+                continue;
+            }
+            let name = e.file_name().to_string_lossy().into_owned();
+            let pid = name
+                .strip_prefix('.')
+                .and_then(|n| n.strip_suffix(".tmp"))
+                .and_then(|n| n.rsplit_once('.'))
+                .and_then(|(_, pid)| pid.parse::<u32>().ok());
+            if let Some(pid) = pid {
+                if !alive(pid) && std::fs::remove_file(&p).is_ok() {
+                    removed.push(p);
+                }
+            }
+        }
+    }
+    removed.sort();
+    removed
+}
+
 /// Serializes `payload` under content tag `tag` into checkpoint bytes.
 pub fn encode<T: Serialize>(tag: &str, payload: &T) -> Result<Vec<u8>> {
     let body = bincode::serialize(payload).map_err(|e| CoreError::Inconsistent(format!("cannot serialize checkpoint: {e}")))?;
@@ -144,5 +179,30 @@ pub fn load_simulation(path: &Path) -> Result<AnySimulation> {
     } else {
         let reason = format!("holds `{tag}`, not a simulation");
         Err(CoreError::Checkpoint { path: p, reason })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn stale_temporaries_of_dead_processes_are_removed_and_nothing_else() {
+        let dir = std::env::temp_dir().join(format!("grainwave-stale-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(dir.join("sub")).unwrap();
+        // a pid far above any pid_max in use is not running
+        let dead = dir.join("sub/.checkpoint.gwck.4000000000.tmp");
+        let own = dir.join(format!(".series.csv.{}.tmp", std::process::id()));
+        let keep = [dir.join("checkpoint.gwck"), dir.join("notes.tmp"), dir.join(".x.abc.tmp"), own.clone()];
+        for p in keep.iter().chain([&dead]) {
+            std::fs::write(p, b"x").unwrap();
+        }
+        assert_eq!(remove_stale_temporaries(&dir), vec![dead.clone()]);
+        assert!(!dead.exists());
+        assert!(keep.iter().all(|p| p.exists()), "only stale temporaries are removed");
+        atomic_write(&dir.join("out.bin"), b"abc").unwrap();
+        assert_eq!(std::fs::read(dir.join("out.bin")).unwrap(), b"abc");
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 }

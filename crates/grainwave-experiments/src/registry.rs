@@ -170,6 +170,10 @@ pub fn run(src: &ConfigSource, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
 /// Continues the run whose checkpoint is in `dir`.
 pub fn resume(dir: &Path, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
     let (file, tag) = checkpoint_tag(dir)?;
+    // a process killed while writing leaves its temporary file; the resumed run rewrites the file
+    for stale in grainwave_core::checkpoint::remove_stale_temporaries(dir) {
+        ctx.log(&format!("removed the temporary file {} left by an interrupted write", stale.display()));
+    }
     match tag.as_str() {
         simulation::TAG => {
             let mut state: simulation::SimulationState = load_state(&file, &tag)?;
