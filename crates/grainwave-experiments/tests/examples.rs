@@ -48,3 +48,20 @@ fn every_example_runs_and_draws_its_plots() {
     }
     assert!(ran >= 1);
 }
+
+#[test]
+fn every_example_passes_validation_including_the_skipped_ones() {
+    // The full-size studies are not run by the suite, but a typo in one of their keys must still
+    // fail it.
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");
+    let mut checked = 0;
+    for e in std::fs::read_dir(&dir).unwrap() {
+        let path = e.unwrap().path();
+        if path.extension().is_some_and(|e| e == "toml") {
+            let src = ConfigSource::from_file(&path).unwrap();
+            registry::check(&src).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+            checked += 1;
+        }
+    }
+    assert!(checked >= 10, "only {checked} examples found");
+}

@@ -2,6 +2,12 @@
 //!
 //! * Wall pulse: the arrival at grain i is the sample time of the maximum of |δv_x,i| (|δv_y,i| for
 //!   a pulse from the top wall).
+//! * Wall pulse, first lobe (an extension for deforming packings, `arrival = "first_lobe"`): with
+//!   u_i = ±δv_x,i signed so that the incident pulse's motion is positive, the arrival is the time
+//!   of the peak of the first interval where u_i > 0 (a "lobe") that starts by u_i reaching
+//!   `lobe_threshold` × A_inc, A_inc being the incident amplitude, the largest |δv_x| among the
+//!   grains of the strip next to the pulsing wall while the pulse enters ([`incident_amplitude`]).
+//!   A lobe still open at the end of the record gives no arrival.
 //! * Central source: the first sample time at which |δv_i| reaches 10 % of its maximum.
 //! * Pulse speed: the grains are binned by their distance s from the source into strips of equal
 //!   width (128 by default) perpendicular to the propagation; in each strip the grain with the
@@ -33,6 +39,50 @@ pub fn arrival_of_maximum(field: &[f32], grains: usize, times: &[f64], component
             }
         })
         .collect()
+}
+
+/// Arrival by the peak of the first lobe of u_i = `sign` × δv_c,i that reaches `threshold`
+/// (absolute, in the field's units): from the first sample where u_i ≥ `threshold` to the next
+/// sample where u_i ≤ 0, the time of the largest u_i. `None` for grains that never reach the
+/// threshold and for lobes still open at the last sample.
+pub fn arrival_of_first_lobe(field: &[f32], grains: usize, times: &[f64], component: usize, sign: f64, threshold: f64) -> Vec<Option<f64>> {
+    let samples = times.len();
+    let u = |s: usize, i: usize| sign * field[(s * grains + i) * 2 + component] as f64;
+    (0..grains)
+        .map(|i| {
+            let start = (0..samples).find(|&s| u(s, i) >= threshold)?;
+            let mut best = start;
+            for s in start + 1..samples {
+                let v = u(s, i);
+                if v <= 0.0 {
+                    return Some(times[best]);
+                }
+                if v > u(best, i) {
+                    best = s;
+                }
+            }
+            None
+        })
+        .collect()
+}
+
+/// The incident amplitude A_inc of a wall pulse: the largest |δv_c| among the grains whose
+/// distance from the pulsing wall is below `near` (the first strip) at samples up to time
+/// `until` (the pulse has entered; later the near-wall grains also carry reflections and, in a
+/// deforming packing, the growth of the perturbation). Zero when nothing moved.
+pub fn incident_amplitude(field: &[f32], grains: usize, times: &[f64], component: usize, distance: &[f64], near: f64, until: f64) -> f64 {
+    let mut a = 0.0f64;
+    for (s, &t) in times.iter().enumerate() {
+        if t > until {
+            break;
+        }
+        for (i, &d) in distance.iter().enumerate().take(grains) {
+            if d < near {
+                a = a.max((field[(s * grains + i) * 2 + component] as f64).abs());
+            }
+        }
+    }
+    a
 }
 
 /// Arrival by the first time |δv| reaches `fraction` (SPEC: 10 %) of its maximum (central source).

@@ -220,6 +220,22 @@ pub enum PulseShape {
     Wavelet,
 }
 
+/// How the arrival of a wall pulse at a grain is defined (SPEC §6.5 and its extension for
+/// deforming states; see `docs/e2.md`, "Arrival in a deforming packing").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum ArrivalDefinition {
+    /// SPEC §6.5: the time of the maximum of |δv_x| over the whole record.
+    #[default]
+    Maximum,
+    /// The time of the peak of the first lobe of δv_x in the direction of the incident pulse
+    /// whose value reaches `lobe_threshold` × the incident amplitude. Equal to `maximum` (within
+    /// 1 % in the measured static states) where the pulse is the largest signal, and still the
+    /// pulse's own peak in a deforming packing, where the perturbation keeps growing behind the
+    /// front and the overall maximum comes late.
+    FirstLobe,
+}
+
 /// The wall a pulse comes from.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
@@ -313,6 +329,13 @@ pub struct ReplayConfig {
     pub fit_range: [f64; 2],
     /// Grey bands J of the arrival-time maps (grey = frac(J t_i/t_f)).
     pub bands: f64,
+    /// Wall pulses: which arrival defines the pulse speed, `maximum` (SPEC §6.5: time of the
+    /// maximum of |δv_x|) or `first_lobe` (peak of the first lobe of δv_x in the pulse's direction
+    /// above `lobe_threshold` of the incident amplitude). Both speeds are always reported.
+    pub arrival: ArrivalDefinition,
+    /// `first_lobe`: a lobe counts from this fraction of the incident amplitude (the largest
+    /// |δv_x| next to the pulsing wall as the pulse enters), in (0, 1].
+    pub lobe_threshold: f64,
 }
 
 impl Default for ReplayConfig {
@@ -335,6 +358,8 @@ impl Default for ReplayConfig {
             strips: 128,
             fit_range: [0.1, 0.9],
             bands: 4.0,
+            arrival: ArrivalDefinition::Maximum,
+            lobe_threshold: 0.01,
         }
     }
 }

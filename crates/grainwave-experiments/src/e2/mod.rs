@@ -161,6 +161,9 @@ pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
             return Err(src.error_at_key(&key("fit_range"), format!("{:?} (allowed: fractions 0 ≤ from < to ≤ 1)", r.fit_range)));
         }
         positive(src, &key("bands"), r.bands)?;
+        if !(r.lobe_threshold > 0.0 && r.lobe_threshold <= 1.0) {
+            return Err(src.error_at_key(&key("lobe_threshold"), format!("{} (allowed: a fraction 0 < f ≤ 1)", r.lobe_threshold)));
+        }
         match r.modification {
             config::Modification::WallPulse | config::Modification::Radius => {
                 if r.amplitudes.is_empty() {

@@ -25,7 +25,7 @@ pub const RIGHT: usize = 2;
 pub const TOP: usize = 3;
 
 /// The units of SPEC §6.1, in engine units, and the derived acoustic scales.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct Units {
     /// p* [force/length].
     pub pressure: f64,

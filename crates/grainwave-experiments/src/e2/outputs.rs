@@ -47,8 +47,17 @@ pub struct LoadingReport {
 pub struct PairReport {
     /// Amplitude (p_a, or the relative radius change).
     pub amplitude: f64,
-    /// Pulse speed from the strip fit [v_a] (None: too few strips with arrivals).
+    /// Pulse speed from the strip fit [v_a] (None: too few strips with arrivals), by the replay's
+    /// arrival definition.
     pub speed: Option<f64>,
+    /// Wall pulses: the speed by the SPEC arrival, the maximum of |δv_x| [v_a].
+    pub speed_maximum: Option<f64>,
+    /// Wall pulses: the speed by the first-lobe arrival [v_a].
+    pub speed_first_lobe: Option<f64>,
+    /// Wall pulses: incident amplitude A_inc [v_a].
+    pub incident_amplitude: f64,
+    /// Wall pulses: round-off floor of δv [v_a]; A_inc / floor is the usable dynamic range.
+    pub resolution_floor: f64,
     /// Strips in the fit.
     pub strips_used: usize,
     /// Grains with an arrival.
@@ -271,7 +280,7 @@ pub fn run_replay(ctx: &mut RunContext<'_>, cfg: &E2Config, k: usize, source: &P
         for (ai, &a) in rc.amplitudes.iter().enumerate() {
             let stem = format!("a{ai}");
             let r = replay::paired_replay(&ck.sim, &ck.drive, &pert, a, steps, sample_every)?;
-            let arr = replay::arrivals(&r, &ck.sim, &ck.drive, &pert, rc.strips, rc.fit_range);
+            let arr = replay::arrivals(&r, &ck.sim, &ck.drive, &pert, a, rc, &u);
             let mut files = Vec::new();
             let times_ta: Vec<f64> = r.times.iter().map(|t| t / u.acoustic_time).collect();
             if cfg.output.fields {
@@ -353,6 +362,10 @@ pub fn run_replay(ctx: &mut RunContext<'_>, cfg: &E2Config, k: usize, source: &P
             report.pairs.push(PairReport {
                 amplitude: a,
                 speed,
+                speed_maximum: arr.fit_maximum.as_ref().map(|f| f.speed / u.acoustic_velocity),
+                speed_first_lobe: arr.fit_first_lobe.as_ref().map(|f| f.speed / u.acoustic_velocity),
+                incident_amplitude: arr.incident / u.acoustic_velocity,
+                resolution_floor: arr.floor / u.acoustic_velocity,
                 strips_used: arr.fit.as_ref().map(|f| f.strips_used).unwrap_or(0),
                 arrived: arr.time.iter().filter(|t| t.is_some()).count(),
                 max_difference: r.max_difference / u.acoustic_velocity,
@@ -361,11 +374,23 @@ pub fn run_replay(ctx: &mut RunContext<'_>, cfg: &E2Config, k: usize, source: &P
                 samples: r.times.len(),
                 files,
             });
+            let show = |s: Option<f64>| s.map(|s| format!("{s:.4}")).unwrap_or("—".into());
+            let (by_max, by_lobe) = (report.pairs.last().and_then(|p| p.speed_maximum), report.pairs.last().and_then(|p| p.speed_first_lobe));
             ctx.log(&format!(
-                "replay {name} a = {a:e}: speed {} v_a, max |δv| = {:.3e} v_a",
-                speed.map(|s| format!("{s:.4}")).unwrap_or("—".into()),
+                "replay {name} a = {a:e}: speed {} v_a (maximum {}, first lobe {}), max |δv| = {:.3e} v_a",
+                show(speed),
+                show(by_max),
+                show(by_lobe),
                 r.max_difference / u.acoustic_velocity
             ));
+            if let (Some(m), Some(l)) = (by_max, by_lobe) {
+                if (m - l).abs() > 0.05 * l.abs() {
+                    ctx.log(&format!(
+                        "replay {name} a = {a:e}: the two arrival definitions differ by more than 5 % — the largest |δv_x| is not the pulse's peak \
+                         (the perturbation grows behind the front, as in a deforming packing); see docs/e2.md"
+                    ));
+                }
+            }
         }
         if cfg.output.plots {
             let mut files = Vec::new();

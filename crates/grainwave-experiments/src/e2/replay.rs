@@ -11,7 +11,7 @@
 //! modification, run for the replay's duration; its stresses, M_s and kinetic energy are recorded.
 
 use super::arrival::{self, StripFit};
-use super::config::{Modification, PulseShape, ReplayConfig};
+use super::config::{ArrivalDefinition, Modification, PulseShape, ReplayConfig};
 use super::model::{self, Drive, Pulse, Units, TOP};
 use glam::DVec2;
 use grainwave_core::prelude::*;
@@ -135,32 +135,80 @@ pub fn central_grain(sim: &Simulation<D2>) -> u32 {
 pub struct Arrivals {
     /// Per grain id: distance from the source [engine length].
     pub distance: Vec<f64>,
-    /// Per grain id: arrival time (None: no arrival) [engine time].
+    /// Per grain id: arrival time by the replay's definition (None: no arrival) [engine time].
     pub time: Vec<Option<f64>>,
-    /// The strip fit (None: too few strips).
+    /// The strip fit of `time` (None: too few strips).
     pub fit: Option<StripFit>,
+    /// Wall pulses: the strip fit of the SPEC arrival (maximum of |δv_x|).
+    pub fit_maximum: Option<StripFit>,
+    /// Wall pulses: the strip fit of the first-lobe arrival.
+    pub fit_first_lobe: Option<StripFit>,
+    /// Wall pulses: the incident amplitude A_inc [engine velocity].
+    pub incident: f64,
+    /// Wall pulses: the round-off floor of δv [engine velocity] (see [`resolution_floor`]).
+    pub floor: f64,
 }
 
-/// Arrivals of a paired replay: for a wall pulse the distance is from the pulse wall's position
-/// at the start and the arrival is the maximum of the δv component along the wall normal; for a radius change the distance is
-/// from the changed grain and the arrival is the first time |δv| reaches 10 % of its maximum.
-pub fn arrivals(result: &PairResult, base: &Simulation<D2>, drive: &Drive, perturbation: &Perturbation, strips: usize, fit_range: [f64; 2]) -> Arrivals {
-    let (distance, time) = match perturbation {
-        Perturbation::WallPulse { .. } => {
+/// The smallest velocity difference the float64 state resolves: one unit in the last place of
+/// the largest coordinate, ε |x|_max, oscillating at the contact frequency √(K_n/m̄) = v_a/d̄,
+/// gives δv ≈ ε |x|_max v_a/d̄. Below it, δv is round-off carried along by the dynamics (it is
+/// not proportional to the amplitude, and it runs ahead of the pulse: it is seeded wherever the
+/// two replays differ at all). Measured on a 64 × 64 packing (|x|_max ≈ 64 d̄): the early part
+/// of δv_x at p_a = 1e−10 is ≈ 7e−13 (engine units), and so is this formula.
+pub fn resolution_floor(positions: &[DVec2], u: &Units) -> f64 {
+    let x_max = positions.iter().map(|p| p.x.abs().max(p.y.abs())).fold(0.0, f64::max);
+    f64::EPSILON * x_max * u.acoustic_velocity / u.mean_diameter
+}
+
+/// Arrivals of a paired replay of amplitude `amplitude` under the settings of replay `rc` (arrival
+/// definition, lobe threshold, strips, fit range), with v_a from `u`. For a wall pulse the distance is from
+/// the pulse wall's position at the start; both arrival definitions are computed (maximum of the
+/// δv component along the wall normal, and its first lobe in the direction of the incident
+/// motion, sign(p_a) × inward normal) and `rc.arrival` picks the one in `time` and `fit`. For a
+/// radius change the distance is from the changed grain and the arrival is the first time |δv|
+/// reaches 10 % of its maximum.
+pub fn arrivals(result: &PairResult, base: &Simulation<D2>, drive: &Drive, perturbation: &Perturbation, amplitude: f64, rc: &ReplayConfig, u: &Units) -> Arrivals {
+    let (strips, fit_range) = (rc.strips, rc.fit_range);
+    match perturbation {
+        Perturbation::WallPulse { shape, delay, width } => {
             let wall = &base.domain.walls[drive.pulse_wall];
             let component = if wall.normal.x.abs() >= wall.normal.y.abs() { 0 } else { 1 };
-            (
-                result.positions.iter().map(|p| wall.distance(*p)).collect::<Vec<_>>(),
-                arrival::arrival_of_maximum(&result.field, result.grains, &result.times, component),
-            )
+            let inward = if component == 0 { wall.normal.x } else { wall.normal.y };
+            let distance: Vec<f64> = result.positions.iter().map(|p| wall.distance(*p)).collect();
+            let maximum = arrival::arrival_of_maximum(&result.field, result.grains, &result.times, component);
+            // the pulse has entered the first strip once it has been emitted (a wavelet lasts
+            // about ±6 T around t₀) and a front at v_a/4 has crossed the strip
+            let s_max = distance.iter().cloned().fold(0.0, f64::max);
+            let near = s_max / strips.max(1) as f64;
+            let emitted = delay + if *shape == PulseShape::Wavelet { 6.0 * width } else { 0.0 };
+            let until = emitted + 4.0 * near / u.acoustic_velocity;
+            let incident = arrival::incident_amplitude(&result.field, result.grains, &result.times, component, &distance, near, until);
+            let sign = amplitude.signum() * inward.signum();
+            // a lobe must also stand ten times above the round-off floor, or the floor's own
+            // fluctuations, which run ahead of the pulse, are taken for it (p_a = 1e−10)
+            let floor = resolution_floor(&result.positions, u);
+            let threshold = (rc.lobe_threshold * incident).max(10.0 * floor);
+            let first_lobe = if incident > 0.0 {
+                arrival::arrival_of_first_lobe(&result.field, result.grains, &result.times, component, sign, threshold)
+            } else {
+                vec![None; result.grains]
+            };
+            let fit_maximum = arrival::strip_speed(&distance, &maximum, strips, fit_range);
+            let fit_first_lobe = arrival::strip_speed(&distance, &first_lobe, strips, fit_range);
+            let (time, fit) = match rc.arrival {
+                ArrivalDefinition::Maximum => (maximum, fit_maximum.clone()),
+                ArrivalDefinition::FirstLobe => (first_lobe, fit_first_lobe.clone()),
+            };
+            Arrivals { distance, time, fit, fit_maximum, fit_first_lobe, incident, floor }
         }
         Perturbation::Radius { grain } => {
             let c = result.positions[*grain as usize];
-            (result.positions.iter().map(|p| (*p - c).length()).collect(), arrival::arrival_of_threshold(&result.field, result.grains, &result.times, 0.1))
+            let distance: Vec<f64> = result.positions.iter().map(|p| (*p - c).length()).collect();
+            let time = arrival::arrival_of_threshold(&result.field, result.grains, &result.times, 0.1);
+            let fit = arrival::strip_speed(&distance, &time, strips, fit_range);
+            Arrivals { distance, time, fit, ..Default::default() }
         }
-    };
-    let fit = arrival::strip_speed(&distance, &time, strips, fit_range);
-    Arrivals { distance, time, fit }
+    }
 }
 
 /// Resolves the perturbation of replay `rc` for `sim` in units `u`.
