@@ -229,8 +229,9 @@ pub enum ArrivalDefinition {
     #[default]
     Maximum,
     /// The time of the peak of the first lobe of δv_x in the direction of the incident pulse
-    /// whose value reaches `lobe_threshold` × the incident amplitude. Equal to `maximum` (within
-    /// 1 % in the measured static states) where the pulse is the largest signal, and still the
+    /// whose value reaches `lobe_threshold` × the incident amplitude (and 10× the round-off floor).
+    /// Equal to `maximum` (within 3 %, typically 1 %, in the measured static states) where the
+    /// pulse is the largest signal, and still the
     /// pulse's own peak in a deforming packing, where the perturbation keeps growing behind the
     /// front and the overall maximum comes late.
     FirstLobe,
