@@ -109,6 +109,34 @@ fn line_plots_legends_log_axes_and_bands() {
 }
 
 #[test]
+fn series_past_the_palette_are_told_apart_by_dashes() {
+    // Nine solid series: the ninth gets the first one's colour (blue 0, 114, 178) again, so it
+    // must be drawn dashed. Series 0 runs along the bottom of the plot, series 8 along the top,
+    // the others in the middle: the top half holds far fewer blue pixels than the bottom half
+    // (dashes of 9 px on, 6 off: ≈ 60 %), where two solid lines would give about the same.
+    let (dir, keep) = out_dir("plots-palette");
+    let x: Vec<f64> = (0..50).map(|k| k as f64).collect();
+    let mut plot = LinePlot::new("Nine series").x_label("x").y_label("y");
+    for k in 0..9 {
+        let y = match k {
+            0 => 0.0,
+            8 => 1.0,
+            _ => 0.5,
+        };
+        plot = plot.series(&format!("s{k}"), &x, &vec![y; x.len()]);
+    }
+    let files = plot.save(&dir, "palette_rounds").unwrap();
+    let png = check_files(&files, &["s0", "s8"]);
+    let blue = |p: [u8; 3]| p == [0, 114, 178];
+    let (top, bottom) = (png.count(0, png.height / 2, blue), png.count(png.height / 2, png.height, blue));
+    assert!(bottom > 1000, "the solid first series is drawn: {bottom} px");
+    assert!((top as f64) < 0.8 * bottom as f64, "the ninth series is not dashed: {top} blue px on top vs {bottom} below");
+    if !keep {
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+}
+
+#[test]
 fn histogram_of_contact_forces() {
     let (dir, keep) = out_dir("plots-hist");
     let s = settled_pile();

@@ -312,10 +312,14 @@ impl Chart {
         let mut legend = false;
         for (colour_index, layer) in self.layers.iter().enumerate() {
             let colour = PALETTE[colour_index % PALETTE.len()];
+            // past the palette's length the colours repeat; every second round of them flips
+            // solid and dashed lines and fills, so that no two series look alike
+            let second_round = (colour_index / PALETTE.len()) % 2 == 1;
             let name = layer.name().to_string();
             let line = colour.stroke_width(LINE_WIDTH);
             let anno = match layer {
                 Layer::Line { x, y, dashed, .. } => {
+                    let dashed = &(*dashed != second_round);
                     let pieces = self.polylines(x.iter().copied().zip(y.iter().copied()), &rect);
                     let mut anno = None;
                     for piece in pieces {
@@ -335,7 +339,7 @@ impl Chart {
                 }
                 Layer::Scatter { x, y, .. } => {
                     let points: Vec<(f64, f64)> = x.iter().copied().zip(y.iter().copied()).filter(|&p| self.usable(p) && rect.contains(self.point_to_axis(p))).collect();
-                    let fill = colour.filled();
+                    let fill = if second_round { colour.stroke_width(2) } else { colour.filled() };
                     let a = chart.draw_series(points.into_iter().map(|p| Circle::new(p, 4, fill))).map_err(e)?;
                     Some(a.legend(move |(x, y)| Circle::new((x + 11, y), 4, fill).into_dyn()))
                 }

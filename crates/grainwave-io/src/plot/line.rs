@@ -7,8 +7,9 @@ use std::path::Path;
 
 /// An x–y plot of one or more series, built step by step and saved as PNG + SVG.
 ///
-/// Every series gets the next colour of a colour-blind-safe palette and, if its name is not
-/// empty, an entry in the legend. Axis labels should carry units in brackets
+/// Every series gets the next colour of a colour-blind-safe palette of eight (after eight the
+/// colours repeat with solid and dashed lines, filled and hollow markers swapped) and, if its
+/// name is not empty, an entry in the legend. Axis labels should carry units in brackets
 /// (`"t [t*]"`, `"E_kin [m d² / t*²]"`). Points that are not finite — or not positive on a
 /// logarithmic axis — are skipped and break lines; axis ranges default to the data (padded by
 /// 4 %) and anything outside explicit ranges is clipped.
