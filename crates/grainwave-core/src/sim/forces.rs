@@ -319,7 +319,7 @@ fn finish_grain<D: Dim>(
         ti += fin.loads[*load].2;
         *load += 1;
     }
-    if !(fi.is_finite_vec() && ti.is_finite_vec()) {
+    if !all_finite::<D>(fi, ti) {
         st.bad = st.bad.min(i);
     } else if let Some(hk) = fin.kick {
         vel[li] += fi * (hk / m);
@@ -327,6 +327,23 @@ fn finish_grain<D: Dim>(
     }
     force[li] = fi;
     torque[li] = ti;
+}
+
+/// True when every component of `f` and `t` is finite (as `is_finite_vec` on both), without a
+/// branch per component: x − x is +0 for a finite x and NaN for ±∞ or NaN, and a sum of +0s is
+/// +0 while a NaN term makes it NaN.
+#[inline(always)]
+fn all_finite<D: Dim>(f: D::Vector, t: D::AngVector) -> bool {
+    let mut s = 0.0;
+    for c in 0..<D::Vector as VectorOps>::LEN {
+        let x = f.get(c);
+        s += x - x;
+    }
+    for c in 0..<D::AngVector as VectorOps>::LEN {
+        let x = t.get(c);
+        s += x - x;
+    }
+    s == 0.0
 }
 
 /// Phase B for one block.

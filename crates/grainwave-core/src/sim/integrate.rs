@@ -64,9 +64,10 @@ impl<D: Dim> Simulation<D> {
                         v[k] += f[k] * (h / mass[k]);
                         x[k] += v[k] * dt;
                         // most grains stay inside the cell: the full wrap only for the others
+                        // (non-short-circuit `|`: one test per grain instead of a branch per bound)
                         let mut out = image.sheared;
                         for c in 0..D::D {
-                            out |= x[k].get(c) >= hi.get(c) || x[k].get(c) < lo.get(c);
+                            out |= (x[k].get(c) >= hi.get(c)) | (x[k].get(c) < lo.get(c));
                         }
                         if out {
                             dom.wrap_in(&image, &mut x[k], &mut v[k], &mut im[k]);
