@@ -1,6 +1,9 @@
 //! E2 (SPEC §6): strain regression, strip method, paired replays (exact zero, thread
 //! independence), pulse speed in a perfect lattice, and a small end-to-end run.
 
+mod common;
+use common::Interrupter;
+
 use glam::DVec2;
 use grainwave_core::prelude::*;
 use grainwave_experiments::config::ConfigSource;
@@ -10,9 +13,9 @@ use grainwave_experiments::e2::model::{self, Drive, PistonLoad, Units};
 use grainwave_experiments::e2::outputs::load_checkpoint;
 use grainwave_experiments::e2::replay::{arrivals, central_grain, paired_replay, Perturbation};
 use grainwave_experiments::e2::strain::{strain_between, StrainTracker};
-use grainwave_experiments::protocol::{Reporter, RunContext, SilentReporter};
+use grainwave_experiments::protocol::{RunContext, SilentReporter};
 use grainwave_experiments::registry;
-use grainwave_experiments::{ExperimentError, Progress};
+use grainwave_experiments::ExperimentError;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::path::{Path, PathBuf};
@@ -421,25 +424,6 @@ fn bad_e2_configs_name_the_key_the_value_and_what_is_allowed() {
     check("[loading]\ndirection = \"sideways\"", "direction", "compression");
 }
 
-/// Raises the interrupt flag at the `after`-th progress report.
-struct Interrupter {
-    flag: Arc<AtomicBool>,
-    after: usize,
-    seen: usize,
-}
-
-impl Reporter for Interrupter {
-    fn stage(&mut self, _: &str, _: Option<u64>) {}
-    fn progress(&mut self, _: &Progress) {
-        self.seen += 1;
-        if self.seen == self.after {
-            self.flag.store(true, std::sync::atomic::Ordering::Relaxed);
-        }
-    }
-    fn samples(&mut self, _: usize, _: usize) {}
-    fn message(&mut self, _: &str) {}
-}
-
 #[test]
 fn interrupted_e2_runs_resume_to_the_same_bits() {
     let text = r#"
@@ -474,19 +458,19 @@ duration = 0.5
     // the preparation reports every 20 checks; the loading every 20 steps here
     let reports = {
         let flag = Arc::new(AtomicBool::new(false));
-        let mut rep = Interrupter { flag: flag.clone(), after: usize::MAX, seen: 0 };
+        let mut rep = Interrupter::new(flag.clone(), usize::MAX);
         let d = tmp("count");
         let mut ctx = RunContext::new(&d, &mut rep, flag).unwrap();
         ctx.report_every = 20;
         registry::run(&ConfigSource::from_text("resume.toml", text), &mut ctx).unwrap();
         drop(ctx);
-        rep.seen
+        rep.reports()
     };
     assert!(reports >= 4, "{reports} reports");
     for after in [1, reports - 2] {
         let split = tmp(&format!("split-{after}"));
         let flag = Arc::new(AtomicBool::new(false));
-        let mut rep = Interrupter { flag: flag.clone(), after, seen: 0 };
+        let mut rep = Interrupter::new(flag.clone(), after);
         {
             let mut ctx = RunContext::new(&split, &mut rep, flag.clone()).unwrap();
             ctx.report_every = 20;

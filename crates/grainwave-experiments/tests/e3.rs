@@ -2,14 +2,17 @@
 //! superposition, lattice elasticity, interrupt + resume, thread-count independence, and config
 //! errors. Slabs are small (tens of grains) so that relaxations to tight tolerances stay fast.
 
+mod common;
+use common::Interrupter;
+
 use grainwave_analysis::coarse_grain::smooth_1d;
 use grainwave_experiments::config::ConfigSource;
 use grainwave_experiments::e3::{self, units::StoredRun};
-use grainwave_experiments::protocol::{Reporter, RunContext, SilentReporter};
-use grainwave_experiments::{registry, ExperimentError, Progress};
+use grainwave_experiments::protocol::{RunContext, SilentReporter};
+use grainwave_experiments::{registry, ExperimentError};
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
 fn out_dir(name: &str) -> PathBuf {
@@ -234,25 +237,6 @@ fn an_ordered_slab_network_has_the_moduli_of_its_lattice() {
     assert!(m["r"].as_f64().unwrap() > 0.0);
 }
 
-/// Interrupts after `after` progress reports.
-struct Interrupter {
-    flag: Arc<AtomicBool>,
-    after: usize,
-    seen: usize,
-}
-
-impl Reporter for Interrupter {
-    fn stage(&mut self, _: &str, _: Option<u64>) {}
-    fn progress(&mut self, _: &Progress) {
-        self.seen += 1;
-        if self.seen == self.after {
-            self.flag.store(true, Ordering::SeqCst);
-        }
-    }
-    fn samples(&mut self, _: usize, _: usize) {}
-    fn message(&mut self, _: &str) {}
-}
-
 const RESUMABLE: &str = r#"
 experiment = "e3"
 mode = "slab"
@@ -293,7 +277,7 @@ fn interrupted_runs_resume_to_the_same_bits() {
         let split = out_dir(&format!("split-{after}"));
         let src = ConfigSource::from_text("e3-test.toml", RESUMABLE);
         let flag = Arc::new(AtomicBool::new(false));
-        let mut rep = Interrupter { flag: flag.clone(), after, seen: 0 };
+        let mut rep = Interrupter::new(flag.clone(), after);
         {
             let mut ctx = RunContext::new(&split, &mut rep, flag.clone()).unwrap();
             ctx.report_every = 37;

@@ -1,12 +1,15 @@
 //! The `simulation` protocol end to end: config errors with positions, the generated reference,
 //! a small settling run, interrupt + resume bit for bit, and the resolved config.
 
+mod common;
+use common::Interrupter;
+
 use grainwave_experiments::config::ConfigSource;
-use grainwave_experiments::protocol::{Reporter, RunContext, SilentReporter};
+use grainwave_experiments::protocol::{RunContext, SilentReporter};
 use grainwave_experiments::registry;
-use grainwave_experiments::{ExperimentError, Progress};
+use grainwave_experiments::ExperimentError;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 use std::sync::Arc;
 
 /// 60 disks settling under gravity (a small version of the demo).
@@ -158,25 +161,6 @@ fn config_reference_is_up_to_date() {
     }
 }
 
-/// Interrupts after `after` progress reports.
-struct Interrupter {
-    flag: Arc<AtomicBool>,
-    after: usize,
-    seen: usize,
-}
-
-impl Reporter for Interrupter {
-    fn stage(&mut self, _: &str, _: Option<u64>) {}
-    fn progress(&mut self, _: &Progress) {
-        self.seen += 1;
-        if self.seen == self.after {
-            self.flag.store(true, Ordering::SeqCst);
-        }
-    }
-    fn samples(&mut self, _: usize, _: usize) {}
-    fn message(&mut self, _: &str) {}
-}
-
 fn results(out: &Path) -> Vec<(String, Vec<u8>)> {
     let mut files: Vec<String> = ["summary.json", "series.csv", "series.npz", "grains.csv", "config.resolved.toml", "grains.pvd", "contacts.pvd"]
         .iter()
@@ -197,7 +181,7 @@ fn interrupted_run_resumes_to_the_same_bits() {
     let split = out_dir("split");
     let src = ConfigSource::from_text("small.toml", SMALL);
     let flag = Arc::new(AtomicBool::new(false));
-    let mut rep = Interrupter { flag: flag.clone(), after: 7, seen: 0 };
+    let mut rep = Interrupter::new(flag.clone(), 7);
     {
         let mut ctx = RunContext::new(&split, &mut rep, flag.clone()).unwrap();
         ctx.report_every = 37; // reports (and so the interruption) at an odd step
