@@ -315,7 +315,8 @@ pub fn run_replay(ctx: &mut RunContext<'_>, cfg: &E2Config, k: usize, source: &P
             files.push(rel(&out_root, &p));
             let diff: Vec<f64> = r.sliding.iter().zip(&r.sliding_reference).map(|(a, b)| *a as f64 - *b as f64).collect();
             sliding_curves.push((format!("a = {a:e}"), times_ta.clone(), diff.clone()));
-            let speed = arr.fit.as_ref().map(|f| f.speed / u.acoustic_velocity);
+            let in_v_a = |fit: &Option<super::arrival::StripFit>| fit.as_ref().map(|f| f.speed / u.acoustic_velocity);
+            let (speed, by_max, by_lobe) = (in_v_a(&arr.fit), in_v_a(&arr.fit_maximum), in_v_a(&arr.fit_first_lobe));
             if let Some(f) = &arr.fit {
                 let p = dir.join(format!("{stem}_strips.csv"));
                 write_csv(&p, "distance,arrival", f.distance.iter().zip(&f.time).map(|(s, t)| format!("{:.9e},{:.9e}", s / u.length, t / u.acoustic_time)))?;
@@ -362,8 +363,8 @@ pub fn run_replay(ctx: &mut RunContext<'_>, cfg: &E2Config, k: usize, source: &P
             report.pairs.push(PairReport {
                 amplitude: a,
                 speed,
-                speed_maximum: arr.fit_maximum.as_ref().map(|f| f.speed / u.acoustic_velocity),
-                speed_first_lobe: arr.fit_first_lobe.as_ref().map(|f| f.speed / u.acoustic_velocity),
+                speed_maximum: by_max,
+                speed_first_lobe: by_lobe,
                 incident_amplitude: arr.incident / u.acoustic_velocity,
                 resolution_floor: arr.floor / u.acoustic_velocity,
                 strips_used: arr.fit.as_ref().map(|f| f.strips_used).unwrap_or(0),
@@ -375,7 +376,6 @@ pub fn run_replay(ctx: &mut RunContext<'_>, cfg: &E2Config, k: usize, source: &P
                 files,
             });
             let show = |s: Option<f64>| s.map(|s| format!("{s:.4}")).unwrap_or("—".into());
-            let (by_max, by_lobe) = (report.pairs.last().and_then(|p| p.speed_maximum), report.pairs.last().and_then(|p| p.speed_first_lobe));
             ctx.log(&format!(
                 "replay {name} a = {a:e}: speed {} v_a (maximum {}, first lobe {}), max |δv| = {:.3e} v_a",
                 show(speed),

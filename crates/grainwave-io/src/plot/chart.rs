@@ -319,18 +319,18 @@ impl Chart {
             let line = colour.stroke_width(LINE_WIDTH);
             let anno = match layer {
                 Layer::Line { x, y, dashed, .. } => {
-                    let dashed = &(*dashed != second_round);
+                    let dashed = *dashed != second_round;
                     let pieces = self.polylines(x.iter().copied().zip(y.iter().copied()), &rect);
                     let mut anno = None;
                     for piece in pieces {
-                        anno = Some(if *dashed {
+                        anno = Some(if dashed {
                             chart.draw_series(DashedLineSeries::new(piece, 9, 6, line)).map_err(e)?
                         } else {
                             chart.draw_series(LineSeries::new(piece, line)).map_err(e)?
                         });
                     }
                     anno.map(|a| {
-                        if *dashed {
+                        if dashed {
                             a.legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 8, y)], line).into_dyn())
                         } else {
                             a.legend(move |(x, y)| PathElement::new(vec![(x, y), (x + 22, y)], line).into_dyn())
