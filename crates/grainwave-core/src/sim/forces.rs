@@ -27,6 +27,9 @@ use crate::error::{CoreError, Result};
 use crate::neighbor::PairList;
 use rayon::prelude::*;
 
+#[cfg(target_arch = "x86_64")]
+mod simd;
+
 /// Per-evaluation statistics, merged associatively and commutatively (so deterministically).
 #[derive(Clone, Copy, Debug, Default)]
 pub(super) struct ForceStats {
@@ -449,30 +452,49 @@ fn push_pair<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &mut History<D>, v: Vel
 }
 
 /// Evaluates window `w` (contacts only) and stores the new histories and the statistics (as
-/// `eval_pair`).
+/// `eval_pair`). With `VEC` the window was filled by `simd::push_chunk` (partners' data still to
+/// gather from `v`) and the caller enables AVX-512.
 #[inline(always)]
-fn eval_window<D: Dim, L: WindowLaw>(law: &L, inp: &Inputs<D>, h: &mut History<D>, w: &mut Window, st: &mut ForceStats) {
-    lanes::compute::<D, L>(law, w, inp.dt);
+fn eval_window<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D>, h: &mut History<D>, v: Velocities<D>, w: &mut Window, st: &mut ForceStats) {
     let len = w.len.min(CAP);
     let (mut changes, mut sliding) = (0, 0);
-    for k in 0..len {
-        let q = w.pair[k] as usize - h.base;
-        debug_assert!(q < h.spring.len());
-        // SAFETY: the window only holds pairs of this history range (`push_pair`).
-        let was = unsafe { *h.overlap.get_unchecked(q) };
+    if VEC {
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: the window holds pairs of `h` whose partners lie in `v` (`push_chunk`).
         unsafe {
-            *h.spring.get_unchecked_mut(q) = lanes::get(&w.new_spring, k);
-            *h.overlap.get_unchecked_mut(q) = w.overlap[k];
-            *h.sliding.get_unchecked_mut(q) = w.sliding[k];
+            simd::fill(w, inp, h, v);
+            lanes::compute_inline::<D, L>(law, w, inp.dt);
+            changes = simd::store(w, h);
         }
-        changes += (was <= 0.0) as u64;
-        sliding += w.sliding[k] as u64;
+        for k in 0..len {
+            let q = w.pair[k] as usize - h.base;
+            debug_assert!(q < h.sliding.len());
+            // SAFETY: the window only holds pairs of this history range.
+            unsafe { *h.sliding.get_unchecked_mut(q) = w.sliding[k] };
+            sliding += w.sliding[k] as u64;
+        }
+    } else {
+        let _ = v;
+        lanes::compute::<D, L>(law, w, inp.dt);
+        for k in 0..len {
+            let q = w.pair[k] as usize - h.base;
+            debug_assert!(q < h.spring.len());
+            // SAFETY: the window only holds pairs of this history range (`push_pair`).
+            let was = unsafe { *h.overlap.get_unchecked(q) };
+            unsafe {
+                *h.spring.get_unchecked_mut(q) = lanes::get(&w.new_spring, k);
+                *h.overlap.get_unchecked_mut(q) = w.overlap[k];
+                *h.sliding.get_unchecked_mut(q) = w.sliding[k];
+            }
+            changes += (was <= 0.0) as u64;
+            sliding += w.sliding[k] as u64;
+        }
     }
     st.changes += changes;
     st.contacts += len as u64;
     st.sliding += sliding;
-    // Deepest contact: overlap / smaller radius over all lanes at once (stale lanes are finite
-    // and ignored), then the first contact reaching a new maximum (as `eval_pair`).
+    // Deepest contact: overlap / smaller radius over all lanes at once (stale lanes are
+    // ignored), then the first contact reaching a new maximum (as `eval_pair`).
     let mut ratio = [0.0; CAP];
     for k in 0..CAP {
         ratio[k] = w.overlap[k] / if w.rad_i[k] < w.rad_j[k] { w.rad_i[k] } else { w.rad_j[k] };
@@ -488,6 +510,62 @@ fn eval_window<D: Dim, L: WindowLaw>(law: &L, inp: &Inputs<D>, h: &mut History<D
     }
 }
 
+/// Pushes the pairs `s..e` of owner `i` (`a`) into window `w`, evaluating the window with
+/// `flush` whenever it is full — one pair at a time, or eight candidates at a time with `VEC`.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn push_owner<D: Dim, const VEC: bool>(
+    w: &mut Window,
+    inp: &Inputs<D>,
+    h: &mut History<D>,
+    v: Velocities<D>,
+    a: &Body<D>,
+    i: usize,
+    s: usize,
+    e: usize,
+    st: &mut ForceStats,
+    mut flush: impl FnMut(&mut Window, &mut History<D>, &mut ForceStats),
+) {
+    if VEC {
+        let mut p = s;
+        while p < e {
+            if w.len + 8 > CAP {
+                flush(w, h, st);
+            }
+            let q = (p + 8).min(e);
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: pairs s..e of owner i are pairs of `h`; w.len + 8 ≤ CAP; the caller uses
+            // `VEC` only for an unsheared cell with AVX-512 enabled.
+            unsafe {
+                simd::push_chunk(w, inp, h, a, i, p, q, st);
+            }
+            p = q;
+        }
+    } else {
+        for p in s..e {
+            push_pair(w, inp, h, v, a, p, i, inp.partner[p] as usize, st);
+            if w.len == CAP {
+                flush(w, h, st);
+            }
+        }
+    }
+}
+
+/// True when the AVX-512 path is used: an unsheared cell in 3D on a processor that has it. (In
+/// 2D, with three or four candidates per owner, it measured no faster on one thread and slower
+/// on two; see BENCHMARKS.md.)
+fn use_simd<D: Dim>(inp: &Inputs<D>, allowed: bool) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    {
+        allowed && D::D == 3 && !inp.image.sheared && simd::available()
+    }
+    #[cfg(not(target_arch = "x86_64"))]
+    {
+        let _ = (inp, allowed);
+        false
+    }
+}
+
 /// Phase A with a window kernel.
 #[allow(clippy::too_many_arguments)]
 fn cross_pairs_windowed<D: Dim, L: WindowLaw>(
@@ -497,9 +575,10 @@ fn cross_pairs_windowed<D: Dim, L: WindowLaw>(
     omega: &[D::AngVector],
     cross: &CrossIndex<D>,
     blocks: std::ops::Range<usize>,
-    mut h: History<D>,
+    h: History<D>,
     out: &mut [CrossForce<D>],
     slot_base: usize,
+    vec: bool,
 ) -> ForceStats {
     if blocks.len() > 1 {
         let mid = (blocks.start + blocks.end) / 2;
@@ -507,41 +586,93 @@ fn cross_pairs_windowed<D: Dim, L: WindowLaw>(
         let s = cross.block_slot_start[mid] as usize;
         let (o0, o1) = out.split_at_mut(s - slot_base);
         let (a, b) = rayon::join(
-            || cross_pairs_windowed(law, inp, vel, omega, cross, blocks.start..mid, h0, o0, slot_base),
-            || cross_pairs_windowed(law, inp, vel, omega, cross, mid..blocks.end, h1, o1, s),
+            || cross_pairs_windowed(law, inp, vel, omega, cross, blocks.start..mid, h0, o0, slot_base, vec),
+            || cross_pairs_windowed(law, inp, vel, omega, cross, mid..blocks.end, h1, o1, s, vec),
         );
         return ForceStats::merge(a, b);
     }
-    let mut st = ForceStats::new();
-    let b = blocks.start;
-    let v = Velocities { base: 0, vel, omega };
-    // buffer slot of pair p (owner i): its cross pairs use consecutive slots
-    let slot_of = |i: usize, p: usize| cross.cross_slot[i] as usize + (p - cross.cross_begin[i] as usize) - slot_base;
-    let flush = |w: &mut Window, h: &mut History<D>, st: &mut ForceStats, out: &mut [CrossForce<D>]| {
-        eval_window(law, inp, h, w, st);
-        for k in 0..w.len.min(CAP) {
-            out[slot_of(w.i[k] as usize, w.pair[k] as usize)] =
-                CrossForce { force: lanes::get(&w.force, k), torque_i: lanes::get(&w.torque_i, k), torque_j: lanes::get(&w.torque_j, k) };
-        }
-        w.len = 0;
-    };
     lanes::with_window(|w| {
-        for i in b * cross.block_len..((b + 1) * cross.block_len).min(cross.n) {
-            let a = Body { x: inp.pos[i], v: vel[i], w: omega[i], r: inp.radius[i], m: inp.mass[i] };
-            for p in cross.cross_begin[i] as usize..inp.owner_start[i + 1] as usize {
-                // pairs apart contribute zero
-                out[slot_of(i, p)] = CrossForce::default();
-                push_pair(w, inp, &mut h, v, &a, p, i, inp.partner[p] as usize, &mut st);
-                if w.len == CAP {
-                    flush(w, &mut h, &mut st, out);
-                }
-            }
+        #[cfg(target_arch = "x86_64")]
+        if vec {
+            // SAFETY: `vec` is set only when the processor has AVX-512 F and VL.
+            return unsafe { cross_block_avx512(law, inp, vel, omega, cross, blocks.start, h, out, slot_base, w) };
         }
-        if w.len > 0 {
-            flush(w, &mut h, &mut st, out);
-        }
-    });
+        let _ = vec;
+        cross_block::<D, L, false>(law, inp, vel, omega, cross, blocks.start, h, out, slot_base, w)
+    })
+}
+
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,popcnt")]
+#[allow(clippy::too_many_arguments)]
+fn cross_block_avx512<D: Dim, L: WindowLaw>(
+    law: &L,
+    inp: &Inputs<D>,
+    vel: &[D::Vector],
+    omega: &[D::AngVector],
+    cross: &CrossIndex<D>,
+    b: usize,
+    h: History<D>,
+    out: &mut [CrossForce<D>],
+    slot_base: usize,
+    w: &mut Window,
+) -> ForceStats {
+    cross_block::<D, L, true>(law, inp, vel, omega, cross, b, h, out, slot_base, w)
+}
+
+/// Phase A for block `b`.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn cross_block<D: Dim, L: WindowLaw, const VEC: bool>(
+    law: &L,
+    inp: &Inputs<D>,
+    vel: &[D::Vector],
+    omega: &[D::AngVector],
+    cross: &CrossIndex<D>,
+    b: usize,
+    mut h: History<D>,
+    out: &mut [CrossForce<D>],
+    slot_base: usize,
+    w: &mut Window,
+) -> ForceStats {
+    let mut st = ForceStats::new();
+    let v = Velocities { base: 0, vel, omega };
+    for i in b * cross.block_len..((b + 1) * cross.block_len).min(cross.n) {
+        let a = Body { x: inp.pos[i], v: vel[i], w: omega[i], r: inp.radius[i], m: inp.mass[i] };
+        let (s, e) = (cross.cross_begin[i] as usize, inp.owner_start[i + 1] as usize);
+        // pairs apart contribute zero
+        let slot = cross.cross_slot[i] as usize - slot_base;
+        out[slot..slot + (e - s)].fill(CrossForce::default());
+        push_owner::<D, VEC>(w, inp, &mut h, v, &a, i, s, e, &mut st, |w, h, st| flush_cross::<D, L, VEC>(law, inp, cross, v, h, w, st, out, slot_base));
+    }
+    if w.len > 0 {
+        flush_cross::<D, L, VEC>(law, inp, cross, v, &mut h, w, &mut st, out, slot_base);
+    }
     st
+}
+
+/// Evaluates the window of phase A and stores its forces in their buffer slots.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn flush_cross<D: Dim, L: WindowLaw, const VEC: bool>(
+    law: &L,
+    inp: &Inputs<D>,
+    cross: &CrossIndex<D>,
+    v: Velocities<D>,
+    h: &mut History<D>,
+    w: &mut Window,
+    st: &mut ForceStats,
+    out: &mut [CrossForce<D>],
+    slot_base: usize,
+) {
+    eval_window::<D, L, VEC>(law, inp, h, v, w, st);
+    for k in 0..w.len.min(CAP) {
+        // buffer slot of pair p (owner i): its cross pairs use consecutive slots
+        let (i, p) = (w.i[k] as usize, w.pair[k] as usize);
+        let slot = cross.cross_slot[i] as usize + (p - cross.cross_begin[i] as usize) - slot_base;
+        out[slot] = CrossForce { force: lanes::get(&w.force, k), torque_i: lanes::get(&w.torque_i, k), torque_j: lanes::get(&w.torque_j, k) };
+    }
+    w.len = 0;
 }
 
 /// Phase B with a window kernel: intra-block pairs are evaluated a window at a time, then added
@@ -555,6 +686,7 @@ fn blocks_pass_windowed<D: Dim, L: WindowLaw>(
     blocks: std::ops::Range<usize>,
     h: History<D>,
     g: Grain<D>,
+    vec: bool,
 ) -> ForceStats {
     if blocks.len() > 1 {
         let mid = (blocks.start + blocks.end) / 2;
@@ -562,15 +694,73 @@ fn blocks_pass_windowed<D: Dim, L: WindowLaw>(
         let (h0, h1) = h.split(inp.owner_start[at] as usize);
         let (g0, g1) = g.split(at);
         let (a, b) = rayon::join(
-            || blocks_pass_windowed(law, inp, cross, fin, blocks.start..mid, h0, g0),
-            || blocks_pass_windowed(law, inp, cross, fin, mid..blocks.end, h1, g1),
+            || blocks_pass_windowed(law, inp, cross, fin, blocks.start..mid, h0, g0, vec),
+            || blocks_pass_windowed(law, inp, cross, fin, mid..blocks.end, h1, g1, vec),
         );
         return ForceStats::merge(a, b);
     }
-    block_windowed(law, inp, cross, fin, blocks.start, h, g)
+    lanes::with_window(|w| {
+        #[cfg(target_arch = "x86_64")]
+        if vec {
+            // SAFETY: `vec` is set only when the processor has AVX-512 F and VL.
+            return unsafe { block_windowed_avx512(law, inp, cross, fin, blocks.start, h, g, w) };
+        }
+        let _ = vec;
+        block_windowed::<D, L, false>(law, inp, cross, fin, blocks.start, h, g, w)
+    })
 }
 
-fn block_windowed<D: Dim, L: WindowLaw>(law: &L, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, mut h: History<D>, g: Grain<D>) -> ForceStats {
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx512f,avx512vl,popcnt")]
+#[allow(clippy::too_many_arguments)]
+fn block_windowed_avx512<D: Dim, L: WindowLaw>(law: &L, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, h: History<D>, g: Grain<D>, w: &mut Window) -> ForceStats {
+    block_windowed::<D, L, true>(law, inp, cross, fin, b, h, g, w)
+}
+
+/// Evaluates the window of phase B and adds its forces to the block's grains in list order.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn flush_block<D: Dim, L: WindowLaw, const VEC: bool>(
+    law: &L,
+    inp: &Inputs<D>,
+    g0: usize,
+    v: Velocities<D>,
+    h: &mut History<D>,
+    w: &mut Window,
+    st: &mut ForceStats,
+    force: &mut [D::Vector],
+    torque: &mut [D::AngVector],
+) {
+    eval_window::<D, L, VEC>(law, inp, h, v, w, st);
+    // In list order; consecutive pairs of one grain are summed in registers (same order).
+    let len = w.len.min(CAP);
+    let mut k = 0;
+    while k < len {
+        let li = w.i[k] as usize - g0;
+        let (mut fi, mut ti) = (force[li], torque[li]);
+        while k < len && w.i[k] as usize - g0 == li {
+            let lj = w.j[k] as usize - g0;
+            debug_assert!(lj < force.len() && lj != li);
+            let f: D::Vector = lanes::get(&w.force, k);
+            fi += f;
+            ti += lanes::get::<D::AngVector>(&w.torque_i, k);
+            // SAFETY: intra-block partners lie in the block (cross index).
+            unsafe {
+                *force.get_unchecked_mut(lj) -= f;
+                *torque.get_unchecked_mut(lj) += lanes::get::<D::AngVector>(&w.torque_j, k);
+            }
+            k += 1;
+        }
+        force[li] = fi;
+        torque[li] = ti;
+    }
+    w.len = 0;
+}
+
+/// Phase B for block `b`.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn block_windowed<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, mut h: History<D>, g: Grain<D>, w: &mut Window) -> ForceStats {
     let mut st = ForceStats::new();
     let (g0, g1) = (b * cross.block_len, ((b + 1) * cross.block_len).min(cross.n));
     let Grain { force, torque, vel, omega, .. } = g;
@@ -589,57 +779,34 @@ fn block_windowed<D: Dim, L: WindowLaw>(law: &L, inp: &Inputs<D>, cross: &CrossI
     // grains < `pushed` have all their intra-block pairs in the window or added; grains < `done`
     // are complete
     let (mut pushed, mut done) = (g0, g0);
-    let flush = |w: &mut Window, h: &mut History<D>, force: &mut [D::Vector], torque: &mut [D::AngVector], st: &mut ForceStats| {
-        eval_window(law, inp, h, w, st);
-        // In list order; consecutive pairs of one grain are summed in registers (same order).
-        let len = w.len.min(CAP);
-        let mut k = 0;
-        while k < len {
-            let li = w.i[k] as usize - g0;
-            let (mut fi, mut ti) = (force[li], torque[li]);
-            while k < len && w.i[k] as usize - g0 == li {
-                let lj = w.j[k] as usize - g0;
-                debug_assert!(lj < force.len() && lj != li);
-                let f: D::Vector = lanes::get(&w.force, k);
-                fi += f;
-                ti += lanes::get::<D::AngVector>(&w.torque_i, k);
-                // SAFETY: intra-block partners lie in the block (cross index).
-                unsafe {
-                    *force.get_unchecked_mut(lj) -= f;
-                    *torque.get_unchecked_mut(lj) += lanes::get::<D::AngVector>(&w.torque_j, k);
-                }
-                k += 1;
-            }
-            force[li] = fi;
-            torque[li] = ti;
+    for i in g0..g1 {
+        let a = Body { x: inp.pos[i], v: vel[i - g0], w: omega[i - g0], r: inp.radius[i], m: inp.mass[i] };
+        let (s, e) = (inp.owner_start[i] as usize, cross.cross_begin[i] as usize);
+        let mut flushed = false;
+        {
+            let v = Velocities { base: g0, vel: &*vel, omega: &*omega };
+            push_owner::<D, VEC>(w, inp, &mut h, v, &a, i, s, e, &mut st, |w, h, st| {
+                flush_block::<D, L, VEC>(law, inp, g0, v, h, w, st, force, torque);
+                flushed = true;
+            });
         }
-        w.len = 0;
-    };
-    lanes::with_window(|w| {
-        for i in g0..g1 {
-            let a = Body { x: inp.pos[i], v: vel[i - g0], w: omega[i - g0], r: inp.radius[i], m: inp.mass[i] };
-            for p in inp.owner_start[i] as usize..cross.cross_begin[i] as usize {
-                push_pair(w, inp, &mut h, Velocities { base: g0, vel, omega }, &a, p, i, inp.partner[p] as usize, &mut st);
-                if w.len == CAP {
-                    flush(w, &mut h, force, torque, &mut st);
-                    while done < pushed {
-                        finish_grain(inp, cross, fin, done, g0, force, torque, vel, omega, &mut load, &mut st);
-                        done += 1;
-                    }
-                }
-            }
-            pushed = i + 1;
-            if w.len == 0 {
-                while done < pushed {
-                    finish_grain(inp, cross, fin, done, g0, force, torque, vel, omega, &mut load, &mut st);
-                    done += 1;
-                }
+        if flushed {
+            while done < pushed {
+                finish_grain(inp, cross, fin, done, g0, force, torque, vel, omega, &mut load, &mut st);
+                done += 1;
             }
         }
-        if w.len > 0 {
-            flush(w, &mut h, force, torque, &mut st);
+        pushed = i + 1;
+        if w.len == 0 {
+            while done < pushed {
+                finish_grain(inp, cross, fin, done, g0, force, torque, vel, omega, &mut load, &mut st);
+                done += 1;
+            }
         }
-    });
+    }
+    if w.len > 0 {
+        flush_block::<D, L, VEC>(law, inp, g0, Velocities { base: g0, vel: &*vel, omega: &*omega }, &mut h, w, &mut st, force, torque);
+    }
     while done < g1 {
         finish_grain(inp, cross, fin, done, g0, force, torque, vel, omega, &mut load, &mut st);
         done += 1;
@@ -763,6 +930,7 @@ impl<D: Dim> Simulation<D> {
         let mut forces = std::mem::take(&mut cross.forces);
         let inp = Inputs { image: domain.image(), dt: dt_hist, pos, radius, mass, owner_start: &list.owner_start, partner: &list.partner };
         let blocks = n.div_ceil(cross.block_len);
+        let vec = use_simd(&inp, work.simd);
 
         // Phase A: cross-block pairs.
         let cross_stats = if forces.is_empty() {
@@ -770,8 +938,8 @@ impl<D: Dim> Simulation<D> {
         } else {
             let h = History::of_parts(&mut list.spring, &mut list.overlap, &mut list.sliding, &mut list.rolling, &mut list.twist);
             match specialized {
-                Specialized::HertzMindlin(law) => cross_pairs_windowed(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0),
-                Specialized::HookeCundallStrack(law) => cross_pairs_windowed(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0),
+                Specialized::HertzMindlin(law) => cross_pairs_windowed(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0, vec),
+                Specialized::HookeCundallStrack(law) => cross_pairs_windowed(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0, vec),
                 Specialized::General(law) => cross_pairs::<D, ContactLaw>(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0),
             }
         };
@@ -794,8 +962,8 @@ impl<D: Dim> Simulation<D> {
             ForceStats::new()
         } else {
             match specialized {
-                Specialized::HertzMindlin(law) => blocks_pass_windowed(&law, &inp, cross, &fin, 0..blocks, h, g),
-                Specialized::HookeCundallStrack(law) => blocks_pass_windowed(&law, &inp, cross, &fin, 0..blocks, h, g),
+                Specialized::HertzMindlin(law) => blocks_pass_windowed(&law, &inp, cross, &fin, 0..blocks, h, g, vec),
+                Specialized::HookeCundallStrack(law) => blocks_pass_windowed(&law, &inp, cross, &fin, 0..blocks, h, g, vec),
                 Specialized::General(law) => blocks_pass::<D, ContactLaw>(&law, &inp, cross, &fin, 0..blocks, h, g),
             }
         };

@@ -42,6 +42,8 @@ pub(super) struct Window {
     pub mass_j: Lane,
     /// Stored tangential history.
     pub spring: [Lane; 3],
+    /// Overlap at the last evaluation (filled by the AVX-512 path only).
+    pub was: Lane,
     // outputs
     pub overlap: Lane,
     pub sliding: [bool; CAP],
@@ -68,6 +70,7 @@ impl Window {
             mass_i: [1.0; CAP],
             mass_j: [1.0; CAP],
             spring: [ZERO; 3],
+            was: ZERO,
             overlap: ZERO,
             sliding: [false; CAP],
             new_spring: [ZERO; 3],
@@ -270,6 +273,20 @@ pub(super) fn compute<D: Dim, L: WindowLaw>(law: &L, w: &mut Window, dt: f64) {
         (N::CriticalFraction { zeta }, T::FractionOfNormal { ratio }) => dispatch::<D, L, _>(law, CriticalFraction(zeta, ratio), w, dt),
         (N::CriticalFraction { zeta }, T::CriticalFraction { zeta: zt }) => dispatch::<D, L, _>(law, CriticalBoth(zeta, zt), w, dt),
         (n, t) => dispatch::<D, L, _>(law, (n, t), w, dt),
+    }
+}
+
+/// [`compute`] compiled into the caller (which enables the vector extensions it wants).
+#[inline(always)]
+pub(super) fn compute_inline<D: Dim, L: WindowLaw>(law: &L, w: &mut Window, dt: f64) {
+    use NormalDamping as N;
+    use TangentialDamping as T;
+    match (law.damping(), law.tangential_damping()) {
+        (N::Tsuji { alpha }, T::FractionOfNormal { ratio }) => compute_impl::<D, L, _>(law, TsujiFraction(alpha, ratio), w, dt),
+        (N::MassProportional { rate }, T::FractionOfNormal { ratio }) => compute_impl::<D, L, _>(law, RateFraction(rate, ratio), w, dt),
+        (N::CriticalFraction { zeta }, T::FractionOfNormal { ratio }) => compute_impl::<D, L, _>(law, CriticalFraction(zeta, ratio), w, dt),
+        (N::CriticalFraction { zeta }, T::CriticalFraction { zeta: zt }) => compute_impl::<D, L, _>(law, CriticalBoth(zeta, zt), w, dt),
+        (n, t) => compute_impl::<D, L, _>(law, (n, t), w, dt),
     }
 }
 

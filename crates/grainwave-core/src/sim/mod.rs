@@ -133,6 +133,8 @@ struct Workspace<D: Dim> {
     block_len: Option<usize>,
     /// Evaluate every law with the general kernel (tests).
     general_kernel: bool,
+    /// Let the windowed kernels use AVX-512 when the processor has it (tests turn it off).
+    simd: bool,
     /// External loads of the current evaluation: (grain index, force, torque).
     loads: Vec<(usize, D::Vector, D::AngVector)>,
     wall_force: Vec<WallForce<D>>,
@@ -154,6 +156,7 @@ impl<D: Dim> Default for Workspace<D> {
             cross: CrossIndex::default(),
             block_len: None,
             general_kernel: false,
+            simd: true,
             loads: Vec::new(),
             wall_force: Vec::new(),
             wall_index: WallIndex::default(),
@@ -320,6 +323,13 @@ impl<D: Dim> Simulation<D> {
     #[doc(hidden)]
     pub fn set_general_kernel(&mut self, on: bool) {
         self.work.general_kernel = on;
+    }
+
+    /// Lets the specialised kernels use AVX-512 when the processor has it (default), or keeps
+    /// them on the portable path. Results do not depend on it — this exists to test exactly that.
+    #[doc(hidden)]
+    pub fn set_simd(&mut self, on: bool) {
+        self.work.simd = on;
     }
 
     /// Adds a warning once. A warning starting like an earlier one (same first four words, e.g.
