@@ -78,8 +78,44 @@ pub(super) unsafe fn push_chunk<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &mut
         let js = offsets(j, dd, 0);
         // nearest-image vector, component by component (`PeriodicImage::displacement_velocity`)
         let mut d = [_mm512_setzero_pd(); 3];
+        let mut xs = [_mm512_setzero_pd(); 3];
+        let rj;
+        if dd == 3 {
+            // rows (x, y, z, 0) of the partners (lane 0's partner in the unused lanes), then a
+            // transposition: loads and shuffles are cheaper than gathers here
+            let pp = inp.partner.as_ptr().add(p0);
+            let n = p1 - p0;
+            let mut jl = [0usize; 8];
+            for (l, x) in jl.iter_mut().enumerate() {
+                *x = *pp.add(if l < n { l } else { 0 }) as usize;
+            }
+            let row = |l: usize| _mm256_maskz_loadu_pd(0b0111, pos.add(3 * jl[l]));
+            let a0 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(0)), row(4));
+            let a1 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(1)), row(5));
+            let a2 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(2)), row(6));
+            let a3 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(3)), row(7));
+            let t0 = _mm512_unpacklo_pd(a0, a1);
+            let t1 = _mm512_unpackhi_pd(a0, a1);
+            let t2 = _mm512_unpacklo_pd(a2, a3);
+            let t3 = _mm512_unpackhi_pd(a2, a3);
+            let lo = _mm512_setr_epi64(0, 1, 8, 9, 4, 5, 12, 13);
+            let hi = _mm512_setr_epi64(2, 3, 10, 11, 6, 7, 14, 15);
+            xs[0] = _mm512_permutex2var_pd(t0, lo, t2);
+            xs[1] = _mm512_permutex2var_pd(t1, lo, t3);
+            xs[2] = _mm512_permutex2var_pd(t0, hi, t2);
+            let r = inp.radius.as_ptr();
+            rj = _mm512_maskz_mov_pd(
+                m,
+                _mm512_setr_pd(*r.add(jl[0]), *r.add(jl[1]), *r.add(jl[2]), *r.add(jl[3]), *r.add(jl[4]), *r.add(jl[5]), *r.add(jl[6]), *r.add(jl[7])),
+            );
+        } else {
+            for (c, x) in xs.iter_mut().enumerate().take(dd) {
+                *x = gather(m, _mm256_add_epi32(js, _mm256_set1_epi32(c as i32)), pos);
+            }
+            rj = gather(m, j, inp.radius.as_ptr());
+        }
         for c in 0..dd {
-            let xj = gather(m, _mm256_add_epi32(js, _mm256_set1_epi32(c as i32)), pos);
+            let xj = xs[c];
             let dk = _mm512_sub_pd(xj, _mm512_set1_pd(a.x.get(c)));
             let t = _mm512_mul_pd(dk, _mm512_set1_pd(inp.image.inverse.get(c)));
             let t = _mm512_min_pd(_mm512_max_pd(t, _mm512_set1_pd(-LIMIT)), _mm512_set1_pd(LIMIT));
@@ -91,7 +127,6 @@ pub(super) unsafe fn push_chunk<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &mut
         if dd == 3 {
             dist2 = _mm512_add_pd(dist2, _mm512_mul_pd(d[2], d[2]));
         }
-        let rj = gather(m, j, inp.radius.as_ptr());
         let sum = _mm512_add_pd(_mm512_set1_pd(a.r), rj);
         // touching: !(d² ≥ sum²), true for NaN as in the scalar test
         let touch = _mm512_mask_cmp_pd_mask::<_CMP_NGE_UQ>(m, dist2, _mm512_mul_pd(sum, sum));
