@@ -551,13 +551,11 @@ fn push_owner<D: Dim, const VEC: bool>(
     }
 }
 
-/// True when the AVX-512 path is used: an unsheared cell in 3D on a processor that has it. (In
-/// 2D, with three or four candidates per owner, it measured no faster on one thread and slower
-/// on two; see BENCHMARKS.md.)
+/// True when the AVX-512 path is used: an unsheared cell on a processor that has it.
 fn use_simd<D: Dim>(inp: &Inputs<D>, allowed: bool) -> bool {
     #[cfg(target_arch = "x86_64")]
     {
-        allowed && D::D == 3 && !inp.image.sheared && simd::available()
+        allowed && !inp.image.sheared && simd::available()
     }
     #[cfg(not(target_arch = "x86_64"))]
     {

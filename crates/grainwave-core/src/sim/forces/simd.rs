@@ -1,5 +1,5 @@
 //! AVX-512 parts of the windowed force pass: finding the touching pairs of an owner eight
-//! candidates at a time, gathering the inputs of a window, scattering its histories back.
+//! candidates at a time, then loading the partners' data of a window and storing its histories.
 //!
 //! Every lane performs exactly the floating-point operations of the scalar path
 //! ([`super::push_pair`], [`super::eval_window`]) in the same order — the nearest-image shift by
@@ -33,27 +33,6 @@ fn first(n: usize) -> __mmask8 {
     (0xffu32 >> (8 - n.min(8))) as __mmask8
 }
 
-/// `j · stride + c`, lane by lane (stride 1, 2 or 3: the f64 per vector of the dimension).
-#[inline]
-#[target_feature(enable = "avx512f,avx512vl,popcnt")]
-fn offsets(j: __m256i, stride: usize, c: usize) -> __m256i {
-    let mut x = j;
-    for _ in 1..stride {
-        x = _mm256_add_epi32(x, j);
-    }
-    _mm256_add_epi32(x, _mm256_set1_epi32(c as i32))
-}
-
-/// Gathers `base[idx]` for the lanes of `m` (0 elsewhere).
-///
-/// # Safety
-/// Every selected offset must index the allocation behind `base`.
-#[inline]
-#[target_feature(enable = "avx512f,avx512vl,popcnt")]
-unsafe fn gather(m: __mmask8, idx: __m256i, base: *const f64) -> __m512d {
-    unsafe { _mm512_mask_i32gather_pd::<8>(_mm512_setzero_pd(), m, idx, base) }
-}
-
 /// Looks at candidate pairs `p0..p1` (at most 8) of owner `i` (`a`), as [`super::push_pair`]
 /// does one by one: the touching ones are appended to the window in pair order (geometry, indices
 /// and the owner's data; the partner's data comes with [`fill`]), the others forget a history
@@ -75,20 +54,30 @@ pub(super) unsafe fn push_chunk<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &mut
     unsafe {
         let j = _mm256_maskz_loadu_epi32(m, inp.partner.as_ptr().add(p0) as *const i32);
         let pos = inp.pos.as_ptr() as *const f64;
-        let js = offsets(j, dd, 0);
         // nearest-image vector, component by component (`PeriodicImage::displacement_velocity`)
         let mut d = [_mm512_setzero_pd(); 3];
         let mut xs = [_mm512_setzero_pd(); 3];
-        let rj;
-        if dd == 3 {
-            // rows (x, y, z, 0) of the partners (lane 0's partner in the unused lanes), then a
-            // transposition: loads and shuffles are cheaper than gathers here
-            let pp = inp.partner.as_ptr().add(p0);
-            let n = p1 - p0;
-            let mut jl = [0usize; 8];
-            for (l, x) in jl.iter_mut().enumerate() {
-                *x = *pp.add(if l < n { l } else { 0 }) as usize;
-            }
+        // partner of each lane (lane 0's partner in the unused lanes)
+        let pp = inp.partner.as_ptr().add(p0);
+        let n = p1 - p0;
+        let mut jl = [0usize; 8];
+        for (l, x) in jl.iter_mut().enumerate() {
+            *x = *pp.add(if l < n { l } else { 0 }) as usize;
+        }
+        let r = inp.radius.as_ptr();
+        let rj = _mm512_maskz_mov_pd(
+            m,
+            _mm512_setr_pd(*r.add(jl[0]), *r.add(jl[1]), *r.add(jl[2]), *r.add(jl[3]), *r.add(jl[4]), *r.add(jl[5]), *r.add(jl[6]), *r.add(jl[7])),
+        );
+        // positions as rows, then a transposition: loads and shuffles are cheaper than gathers
+        if dd == 2 {
+            let row = |l: usize| _mm_loadu_pd(pos.add(2 * jl[l]));
+            let quad = |l: usize| _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(row(l)), row(l + 1));
+            let a = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(quad(0)), quad(2));
+            let b = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(quad(4)), quad(6));
+            xs[0] = _mm512_permutex2var_pd(a, _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14), b);
+            xs[1] = _mm512_permutex2var_pd(a, _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15), b);
+        } else {
             let row = |l: usize| _mm256_maskz_loadu_pd(0b0111, pos.add(3 * jl[l]));
             let a0 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(0)), row(4));
             let a1 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(1)), row(5));
@@ -103,16 +92,6 @@ pub(super) unsafe fn push_chunk<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &mut
             xs[0] = _mm512_permutex2var_pd(t0, lo, t2);
             xs[1] = _mm512_permutex2var_pd(t1, lo, t3);
             xs[2] = _mm512_permutex2var_pd(t0, hi, t2);
-            let r = inp.radius.as_ptr();
-            rj = _mm512_maskz_mov_pd(
-                m,
-                _mm512_setr_pd(*r.add(jl[0]), *r.add(jl[1]), *r.add(jl[2]), *r.add(jl[3]), *r.add(jl[4]), *r.add(jl[5]), *r.add(jl[6]), *r.add(jl[7])),
-            );
-        } else {
-            for (c, x) in xs.iter_mut().enumerate().take(dd) {
-                *x = gather(m, _mm256_add_epi32(js, _mm256_set1_epi32(c as i32)), pos);
-            }
-            rj = gather(m, j, inp.radius.as_ptr());
         }
         for c in 0..dd {
             let xj = xs[c];
@@ -169,7 +148,7 @@ pub(super) unsafe fn push_chunk<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &mut
 
 /// Completes the inputs of the window's contacts with their partners' data and the stored
 /// history: v_j − v_i, ω_j, m_j, the tangential spring and the overlap at the last evaluation
-/// (`was`). Scalar loads (gathers are slower than loads on the processors measured).
+/// (`was`). Scalar loads: gather instructions measured slower on the processor used.
 ///
 /// # Safety
 /// The window was filled by [`push_chunk`] with pairs of `h` whose partners lie in `v` (from
