@@ -97,6 +97,17 @@ struct History<'a, D: Dim> {
 }
 
 impl<D: Dim> History<'_, D> {
+    /// The contact of pair `base + q` opened: forgets its history and counts the change.
+    #[inline(always)]
+    fn forget(&mut self, q: usize, st: &mut ForceStats) {
+        self.spring[q] = D::Vector::ZERO;
+        self.overlap[q] = 0.0;
+        self.sliding[q] = false;
+        self.rolling[q] = D::AngVector::ZERO;
+        self.twist[q] = 0.0;
+        st.changes += 1;
+    }
+
     /// Splits at absolute pair index `at`.
     fn split(self, at: usize) -> (Self, Self) {
         let k = at - self.base;
@@ -141,13 +152,7 @@ fn eval_pair<D: Dim, P: LawParts>(law: &P, inp: &Inputs<D>, h: &mut History<D>, 
     match pair_kinematics::<D>(r, a.r, b.r, a.m, b.m, a.v, vj, a.w, b.w) {
         None => {
             if was > 0.0 {
-                // the contact opened: forget its history
-                h.spring[q] = D::Vector::ZERO;
-                h.overlap[q] = 0.0;
-                h.sliding[q] = false;
-                h.rolling[q] = D::AngVector::ZERO;
-                h.twist[q] = 0.0;
-                st.changes += 1;
+                h.forget(q, st);
             }
             None
         }
@@ -423,12 +428,7 @@ fn push_pair<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &mut History<D>, v: Vel
         let sum = ri + rj;
         if dist2 >= sum * sum {
             if *h.overlap.get_unchecked(q) > 0.0 {
-                h.spring[q] = D::Vector::ZERO;
-                h.overlap[q] = 0.0;
-                h.sliding[q] = false;
-                h.rolling[q] = D::AngVector::ZERO;
-                h.twist[q] = 0.0;
-                st.changes += 1;
+                h.forget(q, st);
             }
             return;
         }

@@ -113,14 +113,7 @@ pub(super) unsafe fn push_chunk<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &mut
         let old = _mm512_maskz_loadu_pd(m, h.overlap.as_ptr().add(q0));
         let mut opened = _mm512_mask_cmp_pd_mask::<_CMP_GT_OQ>(m & !touch, old, _mm512_setzero_pd());
         while opened != 0 {
-            // the contact opened: forget its history
-            let q = q0 + opened.trailing_zeros() as usize;
-            h.spring[q] = D::Vector::ZERO;
-            h.overlap[q] = 0.0;
-            h.sliding[q] = false;
-            h.rolling[q] = D::AngVector::ZERO;
-            h.twist[q] = 0.0;
-            st.changes += 1;
+            h.forget(q0 + opened.trailing_zeros() as usize, st);
             opened &= opened - 1;
         }
         let iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
