@@ -265,28 +265,35 @@ impl Dampers for CriticalBoth {
 /// Evaluates the window (lanes `len..CAP` hold stale but finite data and are ignored). Uses AVX2
 /// when the processor has it (same bits either way).
 pub(super) fn compute<D: Dim, L: WindowLaw>(law: &L, w: &mut Window, dt: f64) {
-    use NormalDamping as N;
-    use TangentialDamping as T;
-    match (law.damping(), law.tangential_damping()) {
-        (N::Tsuji { alpha }, T::FractionOfNormal { ratio }) => dispatch::<D, L, _>(law, TsujiFraction(alpha, ratio), w, dt),
-        (N::MassProportional { rate }, T::FractionOfNormal { ratio }) => dispatch::<D, L, _>(law, RateFraction(rate, ratio), w, dt),
-        (N::CriticalFraction { zeta }, T::FractionOfNormal { ratio }) => dispatch::<D, L, _>(law, CriticalFraction(zeta, ratio), w, dt),
-        (N::CriticalFraction { zeta }, T::CriticalFraction { zeta: zt }) => dispatch::<D, L, _>(law, CriticalBoth(zeta, zt), w, dt),
-        (n, t) => dispatch::<D, L, _>(law, (n, t), w, dt),
-    }
+    select::<D, L, false>(law, w, dt);
 }
 
 /// [`compute`] compiled into the caller (which enables the vector extensions it wants).
 #[inline(always)]
 pub(super) fn compute_inline<D: Dim, L: WindowLaw>(law: &L, w: &mut Window, dt: f64) {
+    select::<D, L, true>(law, w, dt);
+}
+
+/// Picks the dampers of the law, then runs the kernel inline (`INLINE`) or through the run-time
+/// AVX2 dispatch.
+#[inline(always)]
+fn select<D: Dim, L: WindowLaw, const INLINE: bool>(law: &L, w: &mut Window, dt: f64) {
     use NormalDamping as N;
     use TangentialDamping as T;
+    #[inline(always)]
+    fn run<D: Dim, L: WindowLaw, P: Dampers, const INLINE: bool>(law: &L, damp: P, w: &mut Window, dt: f64) {
+        if INLINE {
+            compute_impl::<D, L, P>(law, damp, w, dt)
+        } else {
+            dispatch::<D, L, P>(law, damp, w, dt)
+        }
+    }
     match (law.damping(), law.tangential_damping()) {
-        (N::Tsuji { alpha }, T::FractionOfNormal { ratio }) => compute_impl::<D, L, _>(law, TsujiFraction(alpha, ratio), w, dt),
-        (N::MassProportional { rate }, T::FractionOfNormal { ratio }) => compute_impl::<D, L, _>(law, RateFraction(rate, ratio), w, dt),
-        (N::CriticalFraction { zeta }, T::FractionOfNormal { ratio }) => compute_impl::<D, L, _>(law, CriticalFraction(zeta, ratio), w, dt),
-        (N::CriticalFraction { zeta }, T::CriticalFraction { zeta: zt }) => compute_impl::<D, L, _>(law, CriticalBoth(zeta, zt), w, dt),
-        (n, t) => compute_impl::<D, L, _>(law, (n, t), w, dt),
+        (N::Tsuji { alpha }, T::FractionOfNormal { ratio }) => run::<D, L, _, INLINE>(law, TsujiFraction(alpha, ratio), w, dt),
+        (N::MassProportional { rate }, T::FractionOfNormal { ratio }) => run::<D, L, _, INLINE>(law, RateFraction(rate, ratio), w, dt),
+        (N::CriticalFraction { zeta }, T::FractionOfNormal { ratio }) => run::<D, L, _, INLINE>(law, CriticalFraction(zeta, ratio), w, dt),
+        (N::CriticalFraction { zeta }, T::CriticalFraction { zeta: zt }) => run::<D, L, _, INLINE>(law, CriticalBoth(zeta, zt), w, dt),
+        (n, t) => run::<D, L, _, INLINE>(law, (n, t), w, dt),
     }
 }
 
