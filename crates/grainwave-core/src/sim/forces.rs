@@ -452,17 +452,16 @@ fn push_pair<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &mut History<D>, v: Vel
 }
 
 /// Evaluates window `w` (contacts only) and stores the new histories and the statistics (as
-/// `eval_pair`). With `VEC` the window was filled by `simd::push_chunk` (partners' data still to
-/// gather from `v`) and the caller enables AVX-512.
+/// `eval_pair`). With `VEC` the window was filled by `simd::push_pairs` and the caller enables
+/// AVX-512.
 #[inline(always)]
-fn eval_window<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D>, h: &mut History<D>, v: Velocities<D>, w: &mut Window, st: &mut ForceStats) {
+fn eval_window<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D>, h: &mut History<D>, w: &mut Window, st: &mut ForceStats) {
     let len = w.len.min(CAP);
     let (mut changes, mut sliding) = (0, 0);
     if VEC {
         #[cfg(target_arch = "x86_64")]
-        // SAFETY: the window holds pairs of `h` whose partners lie in `v` (`push_chunk`).
+        // SAFETY: the window holds pairs of `h` (`push_pairs`).
         unsafe {
-            simd::fill(w, inp, h, v);
             lanes::compute_inline::<D, L>(law, w, inp.dt);
             changes = simd::store(w, h);
         }
@@ -474,7 +473,6 @@ fn eval_window<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D>, 
             sliding += w.sliding[k] as u64;
         }
     } else {
-        let _ = v;
         lanes::compute::<D, L>(law, w, inp.dt);
         for k in 0..len {
             let q = w.pair[k] as usize - h.base;
@@ -510,11 +508,11 @@ fn eval_window<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D>, 
     }
 }
 
-/// Pushes the pairs `s..e` of owner `i` (`a`) into window `w`, evaluating the window with
-/// `flush` whenever it is full — one pair at a time, or eight candidates at a time with `VEC`.
+/// Pushes the pairs `s..e` of owner `i` (`a`) into window `w` one at a time, evaluating the
+/// window with `flush` whenever it is full.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn push_owner<D: Dim, const VEC: bool>(
+fn push_owner<D: Dim>(
     w: &mut Window,
     inp: &Inputs<D>,
     h: &mut History<D>,
@@ -526,28 +524,46 @@ fn push_owner<D: Dim, const VEC: bool>(
     st: &mut ForceStats,
     mut flush: impl FnMut(&mut Window, &mut History<D>, &mut ForceStats),
 ) {
-    if VEC {
-        let mut p = s;
-        while p < e {
-            if w.len + 8 > CAP {
-                flush(w, h, st);
-            }
-            let q = (p + 8).min(e);
-            #[cfg(target_arch = "x86_64")]
-            // SAFETY: pairs s..e of owner i are pairs of `h`; w.len + 8 ≤ CAP; the caller uses
-            // `VEC` only for an unsheared cell with AVX-512 enabled.
-            unsafe {
-                simd::push_chunk(w, inp, h, a, i, p, q, st);
-            }
-            p = q;
+    for p in s..e {
+        push_pair(w, inp, h, v, a, p, i, inp.partner[p] as usize, st);
+        if w.len == CAP {
+            flush(w, h, st);
         }
-    } else {
-        for p in s..e {
-            push_pair(w, inp, h, v, a, p, i, inp.partner[p] as usize, st);
-            if w.len == CAP {
-                flush(w, h, st);
-            }
+    }
+}
+
+/// Pushes the cross-block pairs `s..e` of one owner eight at a time with `simd::push_pairs`,
+/// evaluating the window with `flush` whenever it might overflow.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+fn push_cross<D: Dim>(
+    w: &mut Window,
+    inp: &Inputs<D>,
+    h: &mut History<D>,
+    v: Velocities<D>,
+    owner: &[u32],
+    g1: usize,
+    s: usize,
+    e: usize,
+    st: &mut ForceStats,
+    mut flush: impl FnMut(&mut Window, &mut History<D>, &mut ForceStats),
+) {
+    let intra = false;
+    let mut p = s;
+    while p < e {
+        if w.len + 8 > CAP {
+            flush(w, h, st);
         }
+        let q = (p + 8).min(e);
+        #[cfg(target_arch = "x86_64")]
+        // SAFETY: pairs s..e are pairs of `h` with owners in `v`; w.len + 8 ≤ CAP; the caller
+        // uses this only for an unsheared cell with AVX-512 enabled.
+        unsafe {
+            simd::push_pairs(w, inp, h, v, owner, g1, intra, p, q, st);
+        }
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = (v, owner, g1, intra, st);
+        p = q;
     }
 }
 
@@ -635,16 +651,21 @@ fn cross_block<D: Dim, L: WindowLaw, const VEC: bool>(
 ) -> ForceStats {
     let mut st = ForceStats::new();
     let v = Velocities { base: 0, vel, omega };
-    for i in b * cross.block_len..((b + 1) * cross.block_len).min(cross.n) {
-        let a = Body { x: inp.pos[i], v: vel[i], w: omega[i], r: inp.radius[i], m: inp.mass[i] };
+    let g1 = ((b + 1) * cross.block_len).min(cross.n);
+    for i in b * cross.block_len..g1 {
         let (s, e) = (cross.cross_begin[i] as usize, inp.owner_start[i + 1] as usize);
         // pairs apart contribute zero
         let slot = cross.cross_slot[i] as usize - slot_base;
         out[slot..slot + (e - s)].fill(CrossForce::default());
-        push_owner::<D, VEC>(w, inp, &mut h, v, &a, i, s, e, &mut st, |w, h, st| flush_cross::<D, L, VEC>(law, inp, cross, v, h, w, st, out, slot_base));
+        if VEC {
+            push_cross(w, inp, &mut h, v, &cross.owner, g1, s, e, &mut st, |w, h, st| flush_cross::<D, L, VEC>(law, inp, cross, h, w, st, out, slot_base));
+        } else {
+            let a = Body { x: inp.pos[i], v: vel[i], w: omega[i], r: inp.radius[i], m: inp.mass[i] };
+            push_owner(w, inp, &mut h, v, &a, i, s, e, &mut st, |w, h, st| flush_cross::<D, L, VEC>(law, inp, cross, h, w, st, out, slot_base));
+        }
     }
     if w.len > 0 {
-        flush_cross::<D, L, VEC>(law, inp, cross, v, &mut h, w, &mut st, out, slot_base);
+        flush_cross::<D, L, VEC>(law, inp, cross, &mut h, w, &mut st, out, slot_base);
     }
     st
 }
@@ -656,14 +677,13 @@ fn flush_cross<D: Dim, L: WindowLaw, const VEC: bool>(
     law: &L,
     inp: &Inputs<D>,
     cross: &CrossIndex<D>,
-    v: Velocities<D>,
     h: &mut History<D>,
     w: &mut Window,
     st: &mut ForceStats,
     out: &mut [CrossForce<D>],
     slot_base: usize,
 ) {
-    eval_window::<D, L, VEC>(law, inp, h, v, w, st);
+    eval_window::<D, L, VEC>(law, inp, h, w, st);
     for k in 0..w.len.min(CAP) {
         // buffer slot of pair p (owner i): its cross pairs use consecutive slots
         let (i, p) = (w.i[k] as usize, w.pair[k] as usize);
@@ -722,14 +742,13 @@ fn flush_block<D: Dim, L: WindowLaw, const VEC: bool>(
     law: &L,
     inp: &Inputs<D>,
     g0: usize,
-    v: Velocities<D>,
     h: &mut History<D>,
     w: &mut Window,
     st: &mut ForceStats,
     force: &mut [D::Vector],
     torque: &mut [D::AngVector],
 ) {
-    eval_window::<D, L, VEC>(law, inp, h, v, w, st);
+    eval_window::<D, L, VEC>(law, inp, h, w, st);
     // In list order; consecutive pairs of one grain are summed in registers (same order).
     let len = w.len.min(CAP);
     let mut k = 0;
@@ -774,6 +793,39 @@ fn block_windowed<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D
         torque[j - g0] = t;
     }
     let mut load = fin.loads.partition_point(|l| l.0 < g0);
+    if VEC {
+        // The block's pairs eight at a time across owners (its cross-block pairs left out);
+        // after each flush, the grains whose intra-block pairs were all pushed are complete
+        // (pairs where they are the partner come earlier in the list).
+        let mut done = g0;
+        let (mut p, e) = (inp.owner_start[g0] as usize, inp.owner_start[g1] as usize);
+        while p < e {
+            if w.len + 8 > CAP {
+                flush_block::<D, L, VEC>(law, inp, g0, &mut h, w, &mut st, force, torque);
+                while done < g1 && cross.cross_begin[done] as usize <= p {
+                    finish_grain(inp, cross, fin, done, g0, force, torque, vel, omega, &mut load, &mut st);
+                    done += 1;
+                }
+            }
+            let q = (p + 8).min(e);
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: the block's pairs are pairs of `h` with owners in the block; intra-block
+            // partners lie in the block; w.len + 8 ≤ CAP; `VEC` only for an unsheared cell with
+            // AVX-512 enabled.
+            unsafe {
+                simd::push_pairs(w, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &cross.owner, g1, true, p, q, &mut st);
+            }
+            p = q;
+        }
+        if w.len > 0 {
+            flush_block::<D, L, VEC>(law, inp, g0, &mut h, w, &mut st, force, torque);
+        }
+        while done < g1 {
+            finish_grain(inp, cross, fin, done, g0, force, torque, vel, omega, &mut load, &mut st);
+            done += 1;
+        }
+        return st;
+    }
     // grains < `pushed` have all their intra-block pairs in the window or added; grains < `done`
     // are complete
     let (mut pushed, mut done) = (g0, g0);
@@ -783,8 +835,8 @@ fn block_windowed<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D
         let mut flushed = false;
         {
             let v = Velocities { base: g0, vel: &*vel, omega: &*omega };
-            push_owner::<D, VEC>(w, inp, &mut h, v, &a, i, s, e, &mut st, |w, h, st| {
-                flush_block::<D, L, VEC>(law, inp, g0, v, h, w, st, force, torque);
+            push_owner(w, inp, &mut h, v, &a, i, s, e, &mut st, |w, h, st| {
+                flush_block::<D, L, VEC>(law, inp, g0, h, w, st, force, torque);
                 flushed = true;
             });
         }
@@ -803,7 +855,7 @@ fn block_windowed<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D
         }
     }
     if w.len > 0 {
-        flush_block::<D, L, VEC>(law, inp, g0, Velocities { base: g0, vel: &*vel, omega: &*omega }, &mut h, w, &mut st, force, torque);
+        flush_block::<D, L, VEC>(law, inp, g0, &mut h, w, &mut st, force, torque);
     }
     while done < g1 {
         finish_grain(inp, cross, fin, done, g0, force, torque, vel, omega, &mut load, &mut st);
@@ -1034,6 +1086,11 @@ impl<D: Dim> CrossIndex<D> {
         self.builds = builds;
         self.block_len = block_len;
         self.n = n;
+        self.owner.clear();
+        self.owner.resize(list.partner.len(), 0);
+        for i in 0..n {
+            self.owner[list.owner_start[i] as usize..list.owner_start[i + 1] as usize].fill(i as u32);
+        }
         self.cross_begin.resize(n, 0);
         self.cross_slot.resize(n, 0);
         self.block_slot_start.clear();

@@ -188,6 +188,8 @@ struct CrossIndex<D: Dim> {
     block_len: usize,
     /// Number of grains.
     n: usize,
+    /// Per pair: its first grain (the owner).
+    owner: Vec<u32>,
     /// Per grain: its first pair whose partner lies in a later block.
     cross_begin: Vec<u32>,
     /// Per grain: buffer slot of that pair (its cross pairs use consecutive slots).
@@ -207,6 +209,7 @@ impl<D: Dim> Default for CrossIndex<D> {
             builds: u64::MAX,
             block_len: 0,
             n: 0,
+            owner: Vec::new(),
             cross_begin: Vec::new(),
             cross_slot: Vec::new(),
             block_slot_start: Vec::new(),

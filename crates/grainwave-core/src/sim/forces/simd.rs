@@ -1,5 +1,6 @@
-//! AVX-512 parts of the windowed force pass: finding the touching pairs of an owner eight
-//! candidates at a time, then loading the partners' data of a window and storing its histories.
+//! AVX-512 parts of the windowed force pass: finding the touching pairs eight candidates at a
+//! time (consecutive pairs of the list, across owners) with all the kernel's inputs, and storing
+//! the window's histories.
 //!
 //! Every lane performs exactly the floating-point operations of the scalar path
 //! ([`super::push_pair`], [`super::eval_window`]) in the same order — the nearest-image shift by
@@ -10,10 +11,10 @@
 //! scalar path handles it).
 //!
 //! Lane arrays are written eight lanes at a time from `len`: the caller keeps `len + 8 ≤ CAP`
-//! before [`push_chunk`]. Lanes at and past `len` hold stale values that the kernel computes and
+//! before [`push_pairs`]. Lanes at and past `len` hold stale values that the kernel computes and
 //! every consumer ignores.
 
-use super::{Body, ForceStats, History, Inputs, Velocities};
+use super::{ForceStats, History, Inputs, Velocities};
 use crate::dim::{Dim, VectorOps};
 use crate::sim::lanes::{Window, CAP};
 use std::arch::x86_64::*;
@@ -33,69 +34,147 @@ fn first(n: usize) -> __mmask8 {
     (0xffu32 >> (8 - n.min(8))) as __mmask8
 }
 
-/// Looks at candidate pairs `p0..p1` (at most 8) of owner `i` (`a`), as [`super::push_pair`]
-/// does one by one: the touching ones are appended to the window in pair order (geometry, indices
-/// and the owner's data; the partner's data comes with [`fill`]), the others forget a history
-/// they may still hold.
+/// Mask of the first `n` lanes, `n` clamped to 0..=8.
+#[inline(always)]
+fn first_clamped(n: isize) -> __mmask8 {
+    first(n.clamp(0, 8) as usize)
+}
+
+/// The eight lanes of `v` as indices.
+#[inline(always)]
+fn indices(v: __m256i) -> [usize; 8] {
+    let mut a = [0u32; 8];
+    // SAFETY: `a` holds eight u32; the store is unaligned.
+    unsafe { _mm256_storeu_si256(a.as_mut_ptr() as *mut __m256i, v) };
+    a.map(|x| x as usize)
+}
+
+/// Rows of `n` (1, 2 or 3) consecutive f64 at `base + n·idx[l]`, as `n` vectors of eight lanes
+/// (lane l from row `idx[l]`): row loads and a transposition, cheaper than gathers here.
 ///
 /// # Safety
-/// `p0 < p1 ≤ p0 + 8`, `w.len + 8 ≤ CAP`, the pairs belong to `h`, their partners index
-/// `inp.pos`, and the cell is not sheared.
+/// Every row lies in one allocation starting at `base`.
+#[inline]
+#[target_feature(enable = "avx512f,avx512vl")]
+unsafe fn rows(base: *const f64, n: usize, idx: &[usize; 8]) -> [__m512d; 3] {
+    let mut out = [_mm512_setzero_pd(); 3];
+    // SAFETY: the caller's contract.
+    unsafe {
+        match n {
+            1 => {
+                let g = |l: usize| *base.add(idx[l]);
+                out[0] = _mm512_setr_pd(g(0), g(1), g(2), g(3), g(4), g(5), g(6), g(7));
+            }
+            2 => {
+                let row = |l: usize| _mm_loadu_pd(base.add(2 * idx[l]));
+                let quad = |l: usize| _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(row(l)), row(l + 1));
+                let a = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(quad(0)), quad(2));
+                let b = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(quad(4)), quad(6));
+                out[0] = _mm512_permutex2var_pd(a, _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14), b);
+                out[1] = _mm512_permutex2var_pd(a, _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15), b);
+            }
+            _ => {
+                let row = |l: usize| _mm256_maskz_loadu_pd(0b0111, base.add(3 * idx[l]));
+                let a0 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(0)), row(4));
+                let a1 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(1)), row(5));
+                let a2 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(2)), row(6));
+                let a3 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(3)), row(7));
+                let t0 = _mm512_unpacklo_pd(a0, a1);
+                let t1 = _mm512_unpackhi_pd(a0, a1);
+                let t2 = _mm512_unpacklo_pd(a2, a3);
+                let t3 = _mm512_unpackhi_pd(a2, a3);
+                let lo = _mm512_setr_epi64(0, 1, 8, 9, 4, 5, 12, 13);
+                let hi = _mm512_setr_epi64(2, 3, 10, 11, 6, 7, 14, 15);
+                out[0] = _mm512_permutex2var_pd(t0, lo, t2);
+                out[1] = _mm512_permutex2var_pd(t1, lo, t3);
+                out[2] = _mm512_permutex2var_pd(t0, hi, t2);
+            }
+        }
+    }
+    out
+}
+
+/// The first `count` (≤ 8) of the consecutive rows of `n` (2 or 3) f64 at `base`, as `n` vectors
+/// (lanes from `count` on are zero): contiguous loads and a de-interleave.
+///
+/// # Safety
+/// The `count` rows lie in one allocation.
+#[inline]
+#[target_feature(enable = "avx512f,avx512vl")]
+unsafe fn contiguous(base: *const f64, n: usize, count: usize) -> [__m512d; 3] {
+    let mut out = [_mm512_setzero_pd(); 3];
+    let total = (n * count) as isize;
+    // SAFETY: the caller's contract; masked-off elements are not read.
+    unsafe {
+        let a = _mm512_maskz_loadu_pd(first_clamped(total), base);
+        let b = _mm512_maskz_loadu_pd(first_clamped(total - 8), base.add(8));
+        if n == 2 {
+            out[0] = _mm512_permutex2var_pd(a, _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14), b);
+            out[1] = _mm512_permutex2var_pd(a, _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15), b);
+        } else {
+            let c = _mm512_maskz_loadu_pd(first_clamped(total - 16), base.add(16));
+            let x = _mm512_permutex2var_pd(a, _mm512_setr_epi64(0, 3, 6, 9, 12, 15, 0, 0), b);
+            let y = _mm512_permutex2var_pd(a, _mm512_setr_epi64(1, 4, 7, 10, 13, 0, 0, 0), b);
+            let z = _mm512_permutex2var_pd(a, _mm512_setr_epi64(2, 5, 8, 11, 14, 0, 0, 0), b);
+            out[0] = _mm512_permutex2var_pd(x, _mm512_setr_epi64(0, 1, 2, 3, 4, 5, 10, 13), c);
+            out[1] = _mm512_permutex2var_pd(y, _mm512_setr_epi64(0, 1, 2, 3, 4, 8, 11, 14), c);
+            out[2] = _mm512_permutex2var_pd(z, _mm512_setr_epi64(0, 1, 2, 3, 4, 9, 12, 15), c);
+        }
+    }
+    out
+}
+
+/// Looks at the candidate pairs `p0..p1` (at most 8, consecutive in the list, of one owner or
+/// several) as [`super::push_pair`] does one by one, keeping the pairs whose partner lies before
+/// grain `g1` (`intra`, phase B: the block ends at `g1`) or from `g1` on (`!intra`, phase A).
+/// The touching ones are appended to the window in pair order with all the kernel's inputs
+/// (geometry, both grains' velocities, spins, radii and masses, the stored history); the others
+/// forget a history they may still hold. `owner[p]` is the first grain of pair `p`.
+///
+/// # Safety
+/// `p0 < p1 ≤ p0 + 8`, `w.len + 8 ≤ CAP`, the pairs belong to `h`, their grains index
+/// `inp.pos`, the owners and the kept partners lie in `v` (from `v.base`), and the cell is not
+/// sheared.
 #[inline]
 #[target_feature(enable = "avx512f,avx512vl,popcnt")]
 #[allow(clippy::too_many_arguments)]
-pub(super) unsafe fn push_chunk<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &mut History<D>, a: &Body<D>, i: usize, p0: usize, p1: usize, st: &mut ForceStats) {
+pub(super) unsafe fn push_pairs<D: Dim>(
+    w: &mut Window,
+    inp: &Inputs<D>,
+    h: &mut History<D>,
+    v: Velocities<D>,
+    owner: &[u32],
+    g1: usize,
+    intra: bool,
+    p0: usize,
+    p1: usize,
+    st: &mut ForceStats,
+) {
     debug_assert!(p0 < p1 && p1 - p0 <= 8 && w.len + 8 <= CAP && !inp.image.sheared);
-    debug_assert!(p1 <= inp.partner.len() && p0 >= h.base && p1 - h.base <= h.overlap.len());
-    let dd = D::D;
-    let m = first(p1 - p0);
+    debug_assert!(p1 <= inp.partner.len() && p1 <= owner.len() && p0 >= h.base && p1 - h.base <= h.overlap.len());
+    let (dd, rot) = (D::D, <D::AngVector as VectorOps>::LEN);
+    let n = p1 - p0;
     let k = w.len;
     // SAFETY: the caller's contract; the window stores write lanes k..k + 8 ≤ CAP.
     unsafe {
-        let j = _mm256_maskz_loadu_epi32(m, inp.partner.as_ptr().add(p0) as *const i32);
+        let all = first(n);
+        let j = _mm256_maskz_loadu_epi32(all, inp.partner.as_ptr().add(p0) as *const i32);
+        // lanes past n: the first owner (valid in the block)
+        let i = _mm256_mask_loadu_epi32(_mm256_set1_epi32(*owner.get_unchecked(p0) as i32), all, owner.as_ptr().add(p0) as *const i32);
+        let bound = _mm256_set1_epi32(g1 as i32);
+        let side = if intra { _mm256_cmplt_epu32_mask(j, bound) } else { _mm256_cmpge_epu32_mask(j, bound) };
+        let m = all & side;
+        // the lanes not looked at read their owner's data (valid in the block)
+        let jm = _mm256_mask_blend_epi32(m, i, j);
+        let (il, jl) = (indices(i), indices(jm));
+        let (ib, jb) = (il.map(|x| x - v.base), jl.map(|x| x - v.base));
         let pos = inp.pos.as_ptr() as *const f64;
+        let (xi, xj) = (rows(pos, dd, &il), rows(pos, dd, &jl));
+        let (ri, rj) = (rows(inp.radius.as_ptr(), 1, &il)[0], rows(inp.radius.as_ptr(), 1, &jl)[0]);
         // nearest-image vector, component by component (`PeriodicImage::displacement_velocity`)
         let mut d = [_mm512_setzero_pd(); 3];
-        let mut xs = [_mm512_setzero_pd(); 3];
-        // partner of each lane (lane 0's partner in the unused lanes)
-        let pp = inp.partner.as_ptr().add(p0);
-        let n = p1 - p0;
-        let mut jl = [0usize; 8];
-        for (l, x) in jl.iter_mut().enumerate() {
-            *x = *pp.add(if l < n { l } else { 0 }) as usize;
-        }
-        let r = inp.radius.as_ptr();
-        let rj = _mm512_maskz_mov_pd(
-            m,
-            _mm512_setr_pd(*r.add(jl[0]), *r.add(jl[1]), *r.add(jl[2]), *r.add(jl[3]), *r.add(jl[4]), *r.add(jl[5]), *r.add(jl[6]), *r.add(jl[7])),
-        );
-        // positions as rows, then a transposition: loads and shuffles are cheaper than gathers
-        if dd == 2 {
-            let row = |l: usize| _mm_loadu_pd(pos.add(2 * jl[l]));
-            let quad = |l: usize| _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(row(l)), row(l + 1));
-            let a = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(quad(0)), quad(2));
-            let b = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(quad(4)), quad(6));
-            xs[0] = _mm512_permutex2var_pd(a, _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14), b);
-            xs[1] = _mm512_permutex2var_pd(a, _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15), b);
-        } else {
-            let row = |l: usize| _mm256_maskz_loadu_pd(0b0111, pos.add(3 * jl[l]));
-            let a0 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(0)), row(4));
-            let a1 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(1)), row(5));
-            let a2 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(2)), row(6));
-            let a3 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(3)), row(7));
-            let t0 = _mm512_unpacklo_pd(a0, a1);
-            let t1 = _mm512_unpackhi_pd(a0, a1);
-            let t2 = _mm512_unpacklo_pd(a2, a3);
-            let t3 = _mm512_unpackhi_pd(a2, a3);
-            let lo = _mm512_setr_epi64(0, 1, 8, 9, 4, 5, 12, 13);
-            let hi = _mm512_setr_epi64(2, 3, 10, 11, 6, 7, 14, 15);
-            xs[0] = _mm512_permutex2var_pd(t0, lo, t2);
-            xs[1] = _mm512_permutex2var_pd(t1, lo, t3);
-            xs[2] = _mm512_permutex2var_pd(t0, hi, t2);
-        }
         for c in 0..dd {
-            let xj = xs[c];
-            let dk = _mm512_sub_pd(xj, _mm512_set1_pd(a.x.get(c)));
+            let dk = _mm512_sub_pd(xj[c], xi[c]);
             let t = _mm512_mul_pd(dk, _mm512_set1_pd(inp.image.inverse.get(c)));
             let t = _mm512_min_pd(_mm512_max_pd(t, _mm512_set1_pd(-LIMIT)), _mm512_set1_pd(LIMIT));
             let t = _mm512_sub_pd(_mm512_add_pd(t, _mm512_set1_pd(SHIFT)), _mm512_set1_pd(SHIFT));
@@ -106,7 +185,7 @@ pub(super) unsafe fn push_chunk<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &mut
         if dd == 3 {
             dist2 = _mm512_add_pd(dist2, _mm512_mul_pd(d[2], d[2]));
         }
-        let sum = _mm512_add_pd(_mm512_set1_pd(a.r), rj);
+        let sum = _mm512_add_pd(ri, rj);
         // touching: !(d² ≥ sum²), true for NaN as in the scalar test
         let touch = _mm512_mask_cmp_pd_mask::<_CMP_NGE_UQ>(m, dist2, _mm512_mul_pd(sum, sum));
         let q0 = p0 - h.base;
@@ -116,52 +195,38 @@ pub(super) unsafe fn push_chunk<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &mut
             h.forget(q0 + opened.trailing_zeros() as usize, st);
             opened &= opened - 1;
         }
-        let iota = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-        let pair = _mm256_add_epi32(_mm256_set1_epi32(p0 as i32), iota);
-        _mm256_storeu_si256(w.pair.as_mut_ptr().add(k) as *mut __m256i, _mm256_maskz_compress_epi32(touch, pair));
-        _mm256_storeu_si256(w.i.as_mut_ptr().add(k) as *mut __m256i, _mm256_set1_epi32(i as i32));
-        _mm256_storeu_si256(w.j.as_mut_ptr().add(k) as *mut __m256i, _mm256_maskz_compress_epi32(touch, j));
+        if touch == 0 {
+            return;
+        }
+        let put = |dst: &mut [f64; CAP], x: __m512d| _mm512_storeu_pd(dst.as_mut_ptr().add(k), _mm512_maskz_compress_pd(touch, x));
+        let put_i = |dst: &mut [u32; CAP], x: __m256i| _mm256_storeu_si256(dst.as_mut_ptr().add(k) as *mut __m256i, _mm256_maskz_compress_epi32(touch, x));
+        let pair = _mm256_add_epi32(_mm256_set1_epi32(p0 as i32), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
+        put_i(&mut w.pair, pair);
+        put_i(&mut w.i, i);
+        put_i(&mut w.j, j);
         for c in 0..dd {
-            _mm512_storeu_pd(w.r[c].as_mut_ptr().add(k), _mm512_maskz_compress_pd(touch, d[c]));
+            put(&mut w.r[c], d[c]);
         }
-        _mm512_storeu_pd(w.dist2.as_mut_ptr().add(k), _mm512_maskz_compress_pd(touch, dist2));
-        _mm512_storeu_pd(w.rad_j.as_mut_ptr().add(k), _mm512_maskz_compress_pd(touch, rj));
-        _mm512_storeu_pd(w.rad_i.as_mut_ptr().add(k), _mm512_set1_pd(a.r));
-        _mm512_storeu_pd(w.mass_i.as_mut_ptr().add(k), _mm512_set1_pd(a.m));
-        // v_i for now: `fill` turns it into v_j − v_i
+        put(&mut w.dist2, dist2);
+        put(&mut w.rad_i, ri);
+        put(&mut w.rad_j, rj);
+        put(&mut w.mass_i, rows(inp.mass.as_ptr(), 1, &il)[0]);
+        put(&mut w.mass_j, rows(inp.mass.as_ptr(), 1, &jl)[0]);
+        let (vi, vj) = (rows(v.vel.as_ptr() as *const f64, dd, &ib), rows(v.vel.as_ptr() as *const f64, dd, &jb));
         for c in 0..dd {
-            _mm512_storeu_pd(w.v_rel[c].as_mut_ptr().add(k), _mm512_set1_pd(a.v.get(c)));
+            put(&mut w.v_rel[c], _mm512_sub_pd(vj[c], vi[c]));
         }
-        for c in 0..<D::AngVector as VectorOps>::LEN {
-            _mm512_storeu_pd(w.w_i[c].as_mut_ptr().add(k), _mm512_set1_pd(a.w.get(c)));
+        let (wi, wj) = (rows(v.omega.as_ptr() as *const f64, rot, &ib), rows(v.omega.as_ptr() as *const f64, rot, &jb));
+        for c in 0..rot {
+            put(&mut w.w_i[c], wi[c]);
+            put(&mut w.w_j[c], wj[c]);
         }
+        let spring = contiguous(h.spring.as_ptr().add(q0) as *const f64, dd, n);
+        for c in 0..dd {
+            put(&mut w.spring[c], spring[c]);
+        }
+        put(&mut w.was, old);
         w.len = k + touch.count_ones() as usize;
-    }
-}
-
-/// Completes the inputs of the window's contacts with their partners' data and the stored
-/// history: v_j − v_i, ω_j, m_j, the tangential spring and the overlap at the last evaluation
-/// (`was`). Scalar loads: gather instructions measured slower on the processor used.
-///
-/// # Safety
-/// The window was filled by [`push_chunk`] with pairs of `h` whose partners lie in `v` (from
-/// `v.base`) and index `inp.mass`.
-#[inline]
-#[target_feature(enable = "avx512f,avx512vl,popcnt")]
-pub(super) unsafe fn fill<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &History<D>, v: Velocities<D>) {
-    for k in 0..w.len {
-        let (j, q) = (w.j[k] as usize, w.pair[k] as usize - h.base);
-        // SAFETY: the caller's contract.
-        unsafe {
-            let vj = *v.vel.get_unchecked(j - v.base);
-            for c in 0..D::D {
-                w.v_rel[c][k] = vj.get(c) - w.v_rel[c][k];
-            }
-            crate::sim::lanes::put(&mut w.w_j, k, *v.omega.get_unchecked(j - v.base));
-            w.mass_j[k] = *inp.mass.get_unchecked(j);
-            crate::sim::lanes::put(&mut w.spring, k, *h.spring.get_unchecked(q));
-            w.was[k] = *h.overlap.get_unchecked(q);
-        }
     }
 }
 
@@ -170,7 +235,7 @@ pub(super) unsafe fn fill<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &History<D
 /// [`super::eval_window`].
 ///
 /// # Safety
-/// As [`fill`].
+/// The window was filled by [`push_pairs`] with pairs of `h`.
 #[inline]
 #[target_feature(enable = "avx512f,avx512vl,popcnt")]
 pub(super) unsafe fn store<D: Dim>(w: &Window, h: &mut History<D>) -> u64 {
