@@ -532,41 +532,6 @@ fn push_owner<D: Dim>(
     }
 }
 
-/// Pushes the cross-block pairs `s..e` of one owner eight at a time with `simd::push_pairs`,
-/// evaluating the window with `flush` whenever it might overflow.
-#[inline(always)]
-#[allow(clippy::too_many_arguments)]
-fn push_cross<D: Dim>(
-    w: &mut Window,
-    inp: &Inputs<D>,
-    h: &mut History<D>,
-    v: Velocities<D>,
-    owner: &[u32],
-    g1: usize,
-    s: usize,
-    e: usize,
-    st: &mut ForceStats,
-    mut flush: impl FnMut(&mut Window, &mut History<D>, &mut ForceStats),
-) {
-    let intra = false;
-    let mut p = s;
-    while p < e {
-        if w.len + 8 > CAP {
-            flush(w, h, st);
-        }
-        let q = (p + 8).min(e);
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: pairs s..e are pairs of `h` with owners in `v`; w.len + 8 ≤ CAP; the caller
-        // uses this only for an unsheared cell with AVX-512 enabled.
-        unsafe {
-            simd::push_pairs(w, inp, h, v, owner, g1, intra, p, q, st);
-        }
-        #[cfg(not(target_arch = "x86_64"))]
-        let _ = (v, owner, g1, intra, st);
-        p = q;
-    }
-}
-
 /// True when the AVX-512 path is used: an unsheared cell on a processor that has it.
 fn use_simd<D: Dim>(inp: &Inputs<D>, allowed: bool) -> bool {
     #[cfg(target_arch = "x86_64")]
@@ -652,14 +617,30 @@ fn cross_block<D: Dim, L: WindowLaw, const VEC: bool>(
     let mut st = ForceStats::new();
     let v = Velocities { base: 0, vel, omega };
     let g1 = ((b + 1) * cross.block_len).min(cross.n);
-    for i in b * cross.block_len..g1 {
-        let (s, e) = (cross.cross_begin[i] as usize, inp.owner_start[i + 1] as usize);
+    if VEC {
+        // the block's cross-block pairs eight at a time across owners, through their slots
+        let (mut s, e) = (cross.block_slot_start[b] as usize, cross.block_slot_start[b + 1] as usize);
         // pairs apart contribute zero
-        let slot = cross.cross_slot[i] as usize - slot_base;
-        out[slot..slot + (e - s)].fill(CrossForce::default());
-        if VEC {
-            push_cross(w, inp, &mut h, v, &cross.owner, g1, s, e, &mut st, |w, h, st| flush_cross::<D, L, VEC>(law, inp, cross, h, w, st, out, slot_base));
-        } else {
+        out[s - slot_base..e - slot_base].fill(CrossForce::default());
+        while s < e {
+            if w.len + 8 > CAP {
+                flush_cross::<D, L, VEC>(law, inp, cross, &mut h, w, &mut st, out, slot_base);
+            }
+            let q = (s + 8).min(e);
+            #[cfg(target_arch = "x86_64")]
+            // SAFETY: the slots of block b hold pairs of `h` (cross index); w.len + 8 ≤ CAP;
+            // `VEC` only for an unsheared cell with AVX-512 enabled.
+            unsafe {
+                simd::push_pairs::<D, true>(w, inp, &mut h, v, &cross.owner, &cross.slot_pair, g1, false, s, q, &mut st);
+            }
+            s = q;
+        }
+    } else {
+        for i in b * cross.block_len..g1 {
+            let (s, e) = (cross.cross_begin[i] as usize, inp.owner_start[i + 1] as usize);
+            // pairs apart contribute zero
+            let slot = cross.cross_slot[i] as usize - slot_base;
+            out[slot..slot + (e - s)].fill(CrossForce::default());
             let a = Body { x: inp.pos[i], v: vel[i], w: omega[i], r: inp.radius[i], m: inp.mass[i] };
             push_owner(w, inp, &mut h, v, &a, i, s, e, &mut st, |w, h, st| flush_cross::<D, L, VEC>(law, inp, cross, h, w, st, out, slot_base));
         }
@@ -813,7 +794,7 @@ fn block_windowed<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D
             // partners lie in the block; w.len + 8 ≤ CAP; `VEC` only for an unsheared cell with
             // AVX-512 enabled.
             unsafe {
-                simd::push_pairs(w, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &cross.owner, g1, true, p, q, &mut st);
+                simd::push_pairs::<D, false>(w, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &cross.owner, &[], g1, true, p, q, &mut st);
             }
             p = q;
         }
@@ -1117,6 +1098,10 @@ impl<D: Dim> CrossIndex<D> {
         }
         for j in 0..n {
             self.in_start[j + 1] += self.in_start[j];
+        }
+        self.slot_pair.clear();
+        for i in 0..n {
+            self.slot_pair.extend(self.cross_begin[i]..list.owner_start[i + 1]);
         }
         self.in_slot.resize(slots as usize, 0);
         let mut fill = self.in_start.clone();

@@ -196,6 +196,8 @@ struct CrossIndex<D: Dim> {
     cross_slot: Vec<u32>,
     /// First slot of each block.
     block_slot_start: Vec<u32>,
+    /// Pair of each slot.
+    slot_pair: Vec<u32>,
     /// Slots whose partner is grain j: `in_slot[in_start[j]..in_start[j + 1]]`, by owner.
     in_start: Vec<u32>,
     in_slot: Vec<u32>,
@@ -213,6 +215,7 @@ impl<D: Dim> Default for CrossIndex<D> {
             cross_begin: Vec::new(),
             cross_slot: Vec::new(),
             block_slot_start: Vec::new(),
+            slot_pair: Vec::new(),
             in_start: Vec::new(),
             in_slot: Vec::new(),
             forces: Vec::new(),

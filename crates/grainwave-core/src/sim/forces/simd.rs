@@ -124,12 +124,13 @@ unsafe fn contiguous(base: *const f64, n: usize, count: usize) -> [__m512d; 3] {
     out
 }
 
-/// Looks at the candidate pairs `p0..p1` (at most 8, consecutive in the list, of one owner or
-/// several) as [`super::push_pair`] does one by one, keeping the pairs whose partner lies before
-/// grain `g1` (`intra`, phase B: the block ends at `g1`) or from `g1` on (`!intra`, phase A).
-/// The touching ones are appended to the window in pair order with all the kernel's inputs
-/// (geometry, both grains' velocities, spins, radii and masses, the stored history); the others
-/// forget a history they may still hold. `owner[p]` is the first grain of pair `p`.
+/// Looks at candidate pairs (at most 8) as [`super::push_pair`] does one by one, keeping the pairs
+/// whose partner lies before grain `g1` (`intra`, phase B: the block ends at `g1`) or from `g1`
+/// on (`!intra`, phase A). The candidates are the pairs `p0..p1` (consecutive in the list, of one
+/// owner or several), or with `LIST` the pairs `list[p0..p1]` (increasing). The touching ones are
+/// appended to the window in pair order with all the kernel's inputs (geometry, both grains'
+/// velocities, spins, radii and masses, the stored history); the others forget a history they
+/// may still hold. `owner[p]` is the first grain of pair `p`.
 ///
 /// # Safety
 /// `p0 < p1 ≤ p0 + 8`, `w.len + 8 ≤ CAP`, the pairs belong to `h`, their grains index
@@ -138,12 +139,13 @@ unsafe fn contiguous(base: *const f64, n: usize, count: usize) -> [__m512d; 3] {
 #[inline]
 #[target_feature(enable = "avx512f,avx512vl,popcnt")]
 #[allow(clippy::too_many_arguments)]
-pub(super) unsafe fn push_pairs<D: Dim>(
+pub(super) unsafe fn push_pairs<D: Dim, const LIST: bool>(
     w: &mut Window,
     inp: &Inputs<D>,
     h: &mut History<D>,
     v: Velocities<D>,
     owner: &[u32],
+    list: &[u32],
     g1: usize,
     intra: bool,
     p0: usize,
@@ -151,16 +153,33 @@ pub(super) unsafe fn push_pairs<D: Dim>(
     st: &mut ForceStats,
 ) {
     debug_assert!(p0 < p1 && p1 - p0 <= 8 && w.len + 8 <= CAP && !inp.image.sheared);
-    debug_assert!(p1 <= inp.partner.len() && p1 <= owner.len() && p0 >= h.base && p1 - h.base <= h.overlap.len());
+    debug_assert!(LIST || (p1 <= inp.partner.len() && p1 <= owner.len() && p0 >= h.base && p1 - h.base <= h.overlap.len()));
+    debug_assert!(!LIST || (p1 <= list.len() && list[p0..p1].iter().all(|&p| p as usize >= h.base && (p as usize) - h.base < h.overlap.len())));
     let (dd, rot) = (D::D, <D::AngVector as VectorOps>::LEN);
     let n = p1 - p0;
     let k = w.len;
     // SAFETY: the caller's contract; the window stores write lanes k..k + 8 ≤ CAP.
     unsafe {
         let all = first(n);
-        let j = _mm256_maskz_loadu_epi32(all, inp.partner.as_ptr().add(p0) as *const i32);
-        // lanes past n: the first owner (valid in the block)
-        let i = _mm256_mask_loadu_epi32(_mm256_set1_epi32(*owner.get_unchecked(p0) as i32), all, owner.as_ptr().add(p0) as *const i32);
+        // pair of each lane (lanes past n: the first pair)
+        let pair = if LIST {
+            _mm256_mask_loadu_epi32(_mm256_set1_epi32(*list.get_unchecked(p0) as i32), all, list.as_ptr().add(p0) as *const i32)
+        } else {
+            _mm256_add_epi32(_mm256_set1_epi32(p0 as i32), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7))
+        };
+        let pl = indices(pair);
+        let ql = pl.map(|p| p - h.base);
+        let (i, j) = if LIST {
+            let g = |a: &[u32]| {
+                let x = |l: usize| *a.get_unchecked(pl[l]) as i32;
+                _mm256_setr_epi32(x(0), x(1), x(2), x(3), x(4), x(5), x(6), x(7))
+            };
+            (g(owner), g(inp.partner))
+        } else {
+            // lanes past n: the first owner (valid in the block)
+            let i = _mm256_mask_loadu_epi32(_mm256_set1_epi32(*owner.get_unchecked(p0) as i32), all, owner.as_ptr().add(p0) as *const i32);
+            (i, _mm256_maskz_loadu_epi32(all, inp.partner.as_ptr().add(p0) as *const i32))
+        };
         let bound = _mm256_set1_epi32(g1 as i32);
         let side = if intra { _mm256_cmplt_epu32_mask(j, bound) } else { _mm256_cmpge_epu32_mask(j, bound) };
         let m = all & side;
@@ -188,11 +207,14 @@ pub(super) unsafe fn push_pairs<D: Dim>(
         let sum = _mm512_add_pd(ri, rj);
         // touching: !(d² ≥ sum²), true for NaN as in the scalar test
         let touch = _mm512_mask_cmp_pd_mask::<_CMP_NGE_UQ>(m, dist2, _mm512_mul_pd(sum, sum));
-        let q0 = p0 - h.base;
-        let old = _mm512_maskz_loadu_pd(m, h.overlap.as_ptr().add(q0));
+        let old = if LIST {
+            _mm512_maskz_mov_pd(m, rows(h.overlap.as_ptr(), 1, &ql)[0])
+        } else {
+            _mm512_maskz_loadu_pd(m, h.overlap.as_ptr().add(ql[0]))
+        };
         let mut opened = _mm512_mask_cmp_pd_mask::<_CMP_GT_OQ>(m & !touch, old, _mm512_setzero_pd());
         while opened != 0 {
-            h.forget(q0 + opened.trailing_zeros() as usize, st);
+            h.forget(ql[opened.trailing_zeros() as usize], st);
             opened &= opened - 1;
         }
         if touch == 0 {
@@ -200,7 +222,6 @@ pub(super) unsafe fn push_pairs<D: Dim>(
         }
         let put = |dst: &mut [f64; CAP], x: __m512d| _mm512_storeu_pd(dst.as_mut_ptr().add(k), _mm512_maskz_compress_pd(touch, x));
         let put_i = |dst: &mut [u32; CAP], x: __m256i| _mm256_storeu_si256(dst.as_mut_ptr().add(k) as *mut __m256i, _mm256_maskz_compress_epi32(touch, x));
-        let pair = _mm256_add_epi32(_mm256_set1_epi32(p0 as i32), _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7));
         put_i(&mut w.pair, pair);
         put_i(&mut w.i, i);
         put_i(&mut w.j, j);
@@ -221,7 +242,7 @@ pub(super) unsafe fn push_pairs<D: Dim>(
             put(&mut w.w_i[c], wi[c]);
             put(&mut w.w_j[c], wj[c]);
         }
-        let spring = contiguous(h.spring.as_ptr().add(q0) as *const f64, dd, n);
+        let spring = if LIST { rows(h.spring.as_ptr() as *const f64, dd, &ql) } else { contiguous(h.spring.as_ptr().add(ql[0]) as *const f64, dd, n) };
         for c in 0..dd {
             put(&mut w.spring[c], spring[c]);
         }
