@@ -65,10 +65,12 @@ fn block_length_and_thread_count_do_not_change_a_bit_3d_with_walls_and_gravity()
 #[test]
 fn specialised_window_kernels_give_the_bits_of_the_general_kernel() {
     // Hertz–Mindlin (Tsuji and critical damping) and Hooke–Cundall–Strack (mass-proportional
-    // and restitution damping), 2D and 3D, 1 and 2 threads with several blocks.
-    // (general, simd): the general kernel, or a specialised one with or without AVX-512 (when
-    // the processor has it; the portable path otherwise)
-    let run = |mode: (bool, bool), threads: usize, make: &(dyn Fn() -> Box<dyn FnMut((bool, bool)) -> u64> + Sync)| {
+    // and restitution damping), 2D and 3D, still and shearing cells, 1 and 2 threads with
+    // several blocks, and one block.
+    // (general, simd, one block): the general kernel, or a specialised one with or without
+    // AVX-512 (when the processor has it; the portable path otherwise)
+    type Make = dyn Fn() -> Box<dyn FnMut((bool, bool, bool)) -> u64> + Sync;
+    let run = |mode: (bool, bool, bool), threads: usize, make: &Make| {
         pool(threads).install(|| (make())(mode))
     };
     let laws = {
@@ -81,33 +83,45 @@ fn specialised_window_kernels_give_the_bits_of_the_general_kernel() {
     for p in laws {
         let law = p.build(Partner::Grain, "contact").unwrap();
         assert!(!matches!(law.specialize(), grainwave_core::contact::Specialized::General(_)));
-        let make2 = move || -> Box<dyn FnMut((bool, bool)) -> u64> {
-            Box::new(move |(general, simd)| {
-                let mut sim = dense_2d(30, 40, law, 0.5, 21).expected_overlap(0.05).build().unwrap();
-                sim.set_general_kernel(general);
-                sim.set_simd(simd);
-                sim.set_force_block_len(Some(300));
-                sim.steps(300).unwrap();
-                assert!(sim.counters.contacts > 0 && sim.nlist.builds > 1);
-                sim.state_hash()
-            })
-        };
-        let make3 = move || -> Box<dyn FnMut((bool, bool)) -> u64> {
-            Box::new(move |(general, simd)| {
-                let mut sim = dense_3d(4, law, 0.3, 22).expected_overlap(0.05).build().unwrap();
-                sim.set_general_kernel(general);
-                sim.set_simd(simd);
-                sim.set_force_block_len(Some(50));
-                sim.steps(300).unwrap();
-                assert!(sim.counters.contacts > 0);
-                sim.state_hash()
-            })
-        };
-        for make in [&make2 as &(dyn Fn() -> Box<dyn FnMut((bool, bool)) -> u64> + Sync), &make3] {
-            let reference = run((true, false), 1, make);
-            for threads in [1, 2] {
+        // a shearing cell too: the tilt of the images and their velocity
+        for shear in [0.0, 0.02] {
+            let make2 = move || -> Box<dyn FnMut((bool, bool, bool)) -> u64> {
+                Box::new(move |(general, simd, one)| {
+                    let mut sim = dense_2d(30, 40, law, 0.5, 21).expected_overlap(0.05).build().unwrap();
+                    sim.set_general_kernel(general);
+                    sim.set_simd(simd);
+                    if shear != 0.0 {
+                        sim.domain.set_shear_rate(shear).unwrap();
+                    }
+                    sim.set_force_block_len(if one { None } else { Some(300) });
+                    sim.steps(300).unwrap();
+                    assert!(sim.counters.contacts > 0 && sim.nlist.builds > 1);
+                    sim.state_hash()
+                })
+            };
+            let make3 = move || -> Box<dyn FnMut((bool, bool, bool)) -> u64> {
+                Box::new(move |(general, simd, one)| {
+                    let mut sim = dense_3d(4, law, 0.3, 22).expected_overlap(0.05).build().unwrap();
+                    sim.set_general_kernel(general);
+                    sim.set_simd(simd);
+                    if shear != 0.0 {
+                        sim.domain.set_shear_rate(shear).unwrap();
+                    }
+                    sim.set_force_block_len(if one { None } else { Some(50) });
+                    sim.steps(300).unwrap();
+                    assert!(sim.counters.contacts > 0);
+                    sim.state_hash()
+                })
+            };
+            for make in [&make2 as &Make, &make3] {
+                let reference = run((true, false, false), 1, make);
+                for threads in [1, 2] {
+                    for simd in [false, true] {
+                        assert_eq!(run((false, simd, false), threads, make), reference, "{law:?}, shear {shear}, {threads} threads, simd {simd}");
+                    }
+                }
                 for simd in [false, true] {
-                    assert_eq!(run((false, simd), threads, make), reference, "{law:?}, {threads} threads, simd {simd}");
+                    assert_eq!(run((false, simd, true), 1, make), reference, "{law:?}, shear {shear}, one block, simd {simd}");
                 }
             }
         }

@@ -532,11 +532,12 @@ fn push_owner<D: Dim>(
     }
 }
 
-/// True when the AVX-512 path is used: an unsheared cell on a processor that has it.
+/// True when the AVX-512 path is used: allowed, on a processor that has it.
 fn use_simd<D: Dim>(inp: &Inputs<D>, allowed: bool) -> bool {
     #[cfg(target_arch = "x86_64")]
     {
-        allowed && !inp.image.sheared && simd::available()
+        let _ = inp;
+        allowed && simd::available()
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
@@ -629,7 +630,7 @@ fn cross_block<D: Dim, L: WindowLaw, const VEC: bool>(
             let q = (s + 8).min(e);
             #[cfg(target_arch = "x86_64")]
             // SAFETY: the slots of block b hold pairs of `h` (cross index); w.len + 8 ≤ CAP;
-            // `VEC` only for an unsheared cell with AVX-512 enabled.
+            // `VEC` only with AVX-512 enabled.
             unsafe {
                 simd::push_pairs::<D, true>(w, inp, &mut h, v, &cross.owner, &cross.slot_pair, g1, false, s, q, &mut st);
             }
@@ -791,8 +792,7 @@ fn block_windowed<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D
             let q = (p + 8).min(e);
             #[cfg(target_arch = "x86_64")]
             // SAFETY: the block's pairs are pairs of `h` with owners in the block; intra-block
-            // partners lie in the block; w.len + 8 ≤ CAP; `VEC` only for an unsheared cell with
-            // AVX-512 enabled.
+            // partners lie in the block; w.len + 8 ≤ CAP; `VEC` only with AVX-512 enabled.
             unsafe {
                 simd::push_pairs::<D, false>(w, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &cross.owner, &[], g1, true, p, q, &mut st);
             }

@@ -4,11 +4,11 @@
 //!
 //! Every lane performs exactly the floating-point operations of the scalar path
 //! ([`super::push_pair`], [`super::eval_window`]) in the same order — the nearest-image shift by
-//! the same 1.5·2⁵² rounding, the squared distance summed x, y, z, the test `!(d² ≥ (rᵢ+rⱼ)²)` —
-//! so the window receives the same pairs with the same bits and the run is bitwise that of the
-//! scalar path (tested on whole runs, `tests/force_blocks.rs`). Used when the processor has
-//! AVX-512 F and VL and the cell is not sheared (the sheared image also shifts velocities; the
-//! scalar path handles it).
+//! the same 1.5·2⁵² rounding (with the tilt and image velocity of a shearing cell), the squared
+//! distance summed x, y, z, the test `!(d² ≥ (rᵢ+rⱼ)²)` — so the window receives the same pairs
+//! with the same bits and the run is bitwise that of the scalar path (tested on whole runs,
+//! `tests/force_blocks.rs`, sheared cells included). Used when the processor has AVX-512 F and
+//! VL.
 //!
 //! Lane arrays are written eight lanes at a time from `len`: the caller keeps `len + 8 ≤ CAP`
 //! before [`push_pairs`]. Lanes at and past `len` hold stale values that the kernel computes and
@@ -16,6 +16,7 @@
 
 use super::{ForceStats, History, Inputs, Velocities};
 use crate::dim::{Dim, VectorOps};
+use crate::domain::TILT_AXES;
 use crate::sim::lanes::{Window, CAP};
 use std::arch::x86_64::*;
 
@@ -134,8 +135,7 @@ unsafe fn contiguous(base: *const f64, n: usize, count: usize) -> [__m512d; 3] {
 ///
 /// # Safety
 /// `p0 < p1 ≤ p0 + 8`, `w.len + 8 ≤ CAP`, the pairs belong to `h`, their grains index
-/// `inp.pos`, the owners and the kept partners lie in `v` (from `v.base`), and the cell is not
-/// sheared.
+/// `inp.pos`, and the owners and the kept partners lie in `v` (from `v.base`).
 #[inline]
 #[target_feature(enable = "avx512f,avx512vl,popcnt")]
 #[allow(clippy::too_many_arguments)]
@@ -152,7 +152,7 @@ pub(super) unsafe fn push_pairs<D: Dim, const LIST: bool>(
     p1: usize,
     st: &mut ForceStats,
 ) {
-    debug_assert!(p0 < p1 && p1 - p0 <= 8 && w.len + 8 <= CAP && !inp.image.sheared);
+    debug_assert!(p0 < p1 && p1 - p0 <= 8 && w.len + 8 <= CAP);
     debug_assert!(LIST || (p1 <= inp.partner.len() && p1 <= owner.len() && p0 >= h.base && p1 - h.base <= h.overlap.len()));
     debug_assert!(!LIST || (p1 <= list.len() && list[p0..p1].iter().all(|&p| p as usize >= h.base && (p as usize) - h.base < h.overlap.len())));
     let (dd, rot) = (D::D, <D::AngVector as VectorOps>::LEN);
@@ -190,14 +190,31 @@ pub(super) unsafe fn push_pairs<D: Dim, const LIST: bool>(
         let pos = inp.pos.as_ptr() as *const f64;
         let (xi, xj) = (rows(pos, dd, &il), rows(pos, dd, &jl));
         let (ri, rj) = (rows(inp.radius.as_ptr(), 1, &il)[0], rows(inp.radius.as_ptr(), 1, &jl)[0]);
-        // nearest-image vector, component by component (`PeriodicImage::displacement_velocity`)
+        // nearest-image vector and, in a shearing cell, the velocity of the image
+        // (`PeriodicImage::displacement_velocity`: from the last axis down, the tilt terms of
+        // each edge after its own component)
+        let image = &inp.image;
         let mut d = [_mm512_setzero_pd(); 3];
+        let mut dv = [_mm512_setzero_pd(); 3];
         for c in 0..dd {
-            let dk = _mm512_sub_pd(xj[c], xi[c]);
-            let t = _mm512_mul_pd(dk, _mm512_set1_pd(inp.image.inverse.get(c)));
+            d[c] = _mm512_sub_pd(xj[c], xi[c]);
+        }
+        for c in (0..dd).rev() {
+            let dk = d[c];
+            let t = _mm512_mul_pd(dk, _mm512_set1_pd(image.inverse.get(c)));
             let t = _mm512_min_pd(_mm512_max_pd(t, _mm512_set1_pd(-LIMIT)), _mm512_set1_pd(LIMIT));
             let t = _mm512_sub_pd(_mm512_add_pd(t, _mm512_set1_pd(SHIFT)), _mm512_set1_pd(SHIFT));
-            d[c] = _mm512_sub_pd(dk, _mm512_mul_pd(_mm512_set1_pd(inp.image.length.get(c)), t));
+            d[c] = _mm512_sub_pd(dk, _mm512_mul_pd(_mm512_set1_pd(image.length.get(c)), t));
+            if image.sheared {
+                for (a, &(edge, along)) in TILT_AXES.iter().enumerate() {
+                    if edge == c && image.tilt[a] != 0.0 {
+                        d[along] = _mm512_sub_pd(d[along], _mm512_mul_pd(t, _mm512_set1_pd(image.tilt[a])));
+                    }
+                    if edge == c && image.rate[a] != 0.0 {
+                        dv[along] = _mm512_sub_pd(dv[along], _mm512_mul_pd(t, _mm512_set1_pd(image.rate[a])));
+                    }
+                }
+            }
         }
         // |r|² in the order of `VectorOps::dot`
         let mut dist2 = _mm512_add_pd(_mm512_mul_pd(d[0], d[0]), _mm512_mul_pd(d[1], d[1]));
@@ -235,7 +252,9 @@ pub(super) unsafe fn push_pairs<D: Dim, const LIST: bool>(
         put(&mut w.mass_j, rows(inp.mass.as_ptr(), 1, &jl)[0]);
         let (vi, vj) = (rows(v.vel.as_ptr() as *const f64, dd, &ib), rows(v.vel.as_ptr() as *const f64, dd, &jb));
         for c in 0..dd {
-            put(&mut w.v_rel[c], _mm512_sub_pd(vj[c], vi[c]));
+            // the image of j moves with the cell in a shearing cell
+            let vj = if image.sheared { _mm512_add_pd(vj[c], dv[c]) } else { vj[c] };
+            put(&mut w.v_rel[c], _mm512_sub_pd(vj, vi[c]));
         }
         let (wi, wj) = (rows(v.omega.as_ptr() as *const f64, rot, &ib), rows(v.omega.as_ptr() as *const f64, rot, &jb));
         for c in 0..rot {
