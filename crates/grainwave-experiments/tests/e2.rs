@@ -314,7 +314,9 @@ fn lattice_with_walls(columns: usize, per_column: usize, delta: f64, absorbing: 
     let n = columns * per_column;
     let left = if absorbing { model::absorbing_wall_law(&material, n, std::f64::consts::FRAC_PI_4) } else { wall };
     let left_overlap = if absorbing { wall_overlap * (n as f64).sqrt() } else { wall_overlap };
-    let x_left = 0.5 - 0.5 + left_overlap;
+    // first column's centres at x = 0.5, radius 0.5
+    let (x_first, radius) = (0.5, 0.5);
+    let x_left = x_first - radius + left_overlap;
     let x_right = 0.5 + (columns - 1) as f64 * dx + 0.5 - wall_overlap;
     let height = per_column as f64 * a;
     let force = 3f64.sqrt() * k * delta * per_column as f64;

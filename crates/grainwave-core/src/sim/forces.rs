@@ -341,6 +341,7 @@ fn finish_grain<D: Dim>(
 /// branch per component: x − x is +0 for a finite x and NaN for ±∞ or NaN, and a sum of +0s is
 /// +0 while a NaN term makes it NaN.
 #[inline(always)]
+#[allow(clippy::eq_op)] // x − x is the point: +0 or NaN
 fn all_finite<D: Dim>(f: D::Vector, t: D::AngVector) -> bool {
     let mut s = 0.0;
     for c in 0..<D::Vector as VectorOps>::LEN {
