@@ -427,12 +427,14 @@ fn push_pair<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &mut History<D>, v: Vel
         let dist2 = r.norm2();
         let (ri, rj) = (a.r, *inp.radius.get_unchecked(j));
         let sum = ri + rj;
+        let was = *h.overlap.get_unchecked(q);
         if dist2 >= sum * sum {
-            if *h.overlap.get_unchecked(q) > 0.0 {
+            if was > 0.0 {
                 h.forget(q, st);
             }
             return;
         }
+        w.was[k] = was;
         w.pair[k] = p as u32;
         w.i[k] = i as u32;
         w.j[k] = j as u32;
@@ -458,36 +460,24 @@ fn push_pair<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &mut History<D>, v: Vel
 #[inline(always)]
 fn eval_window<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D>, h: &mut History<D>, w: &mut Window, st: &mut ForceStats) {
     let len = w.len.min(CAP);
-    let (mut changes, mut sliding) = (0, 0);
     if VEC {
-        #[cfg(target_arch = "x86_64")]
-        // SAFETY: the window holds pairs of `h` (`push_pairs`).
-        unsafe {
-            lanes::compute_inline::<D, L>(law, w, inp.dt);
-            changes = simd::store(w, h);
-        }
-        for k in 0..len {
-            let q = w.pair[k] as usize - h.base;
-            debug_assert!(q < h.sliding.len());
-            // SAFETY: the window only holds pairs of this history range.
-            unsafe { *h.sliding.get_unchecked_mut(q) = w.sliding[k] };
-            sliding += w.sliding[k] as u64;
-        }
+        // compiled into the caller, which enables AVX-512
+        lanes::compute_inline::<D, L>(law, w, inp.dt);
     } else {
         lanes::compute::<D, L>(law, w, inp.dt);
-        for k in 0..len {
-            let q = w.pair[k] as usize - h.base;
-            debug_assert!(q < h.spring.len());
-            // SAFETY: the window only holds pairs of this history range (`push_pair`).
-            let was = unsafe { *h.overlap.get_unchecked(q) };
-            unsafe {
-                *h.spring.get_unchecked_mut(q) = lanes::get(&w.new_spring, k);
-                *h.overlap.get_unchecked_mut(q) = w.overlap[k];
-                *h.sliding.get_unchecked_mut(q) = w.sliding[k];
-            }
-            changes += (was <= 0.0) as u64;
-            sliding += w.sliding[k] as u64;
+    }
+    let (mut changes, mut sliding) = (0, 0);
+    for k in 0..len {
+        let q = w.pair[k] as usize - h.base;
+        debug_assert!(q < h.spring.len());
+        // SAFETY: the window only holds pairs of this history range (`push_pair`, `push_pairs`).
+        unsafe {
+            *h.spring.get_unchecked_mut(q) = lanes::get(&w.new_spring, k);
+            *h.overlap.get_unchecked_mut(q) = w.overlap[k];
+            *h.sliding.get_unchecked_mut(q) = w.sliding[k];
         }
+        changes += (w.was[k] <= 0.0) as u64;
+        sliding += w.sliding[k] as u64;
     }
     st.changes += changes;
     st.contacts += len as u64;
@@ -534,15 +524,14 @@ fn push_owner<D: Dim>(
 }
 
 /// True when the AVX-512 path is used: allowed, on a processor that has it.
-fn use_simd<D: Dim>(inp: &Inputs<D>, allowed: bool) -> bool {
+fn use_simd(allowed: bool) -> bool {
     #[cfg(target_arch = "x86_64")]
     {
-        let _ = inp;
         allowed && simd::available()
     }
     #[cfg(not(target_arch = "x86_64"))]
     {
-        let _ = (inp, allowed);
+        let _ = allowed;
         false
     }
 }
@@ -619,11 +608,11 @@ fn cross_block<D: Dim, L: WindowLaw, const VEC: bool>(
     let mut st = ForceStats::new();
     let v = Velocities { base: 0, vel, omega };
     let g1 = ((b + 1) * cross.block_len).min(cross.n);
+    let (mut s, e) = (cross.block_slot_start[b] as usize, cross.block_slot_start[b + 1] as usize);
+    // pairs apart contribute zero
+    out[s - slot_base..e - slot_base].fill(CrossForce::default());
     if VEC {
         // the block's cross-block pairs eight at a time across owners, through their slots
-        let (mut s, e) = (cross.block_slot_start[b] as usize, cross.block_slot_start[b + 1] as usize);
-        // pairs apart contribute zero
-        out[s - slot_base..e - slot_base].fill(CrossForce::default());
         while s < e {
             if w.len + 8 > CAP {
                 flush_cross::<D, L, VEC>(law, inp, cross, &mut h, w, &mut st, out, slot_base);
@@ -640,9 +629,6 @@ fn cross_block<D: Dim, L: WindowLaw, const VEC: bool>(
     } else {
         for i in b * cross.block_len..g1 {
             let (s, e) = (cross.cross_begin[i] as usize, inp.owner_start[i + 1] as usize);
-            // pairs apart contribute zero
-            let slot = cross.cross_slot[i] as usize - slot_base;
-            out[slot..slot + (e - s)].fill(CrossForce::default());
             let a = Body { x: inp.pos[i], v: vel[i], w: omega[i], r: inp.radius[i], m: inp.mass[i] };
             push_owner(w, inp, &mut h, v, &a, i, s, e, &mut st, |w, h, st| flush_cross::<D, L, VEC>(law, inp, cross, h, w, st, out, slot_base));
         }
@@ -962,7 +948,7 @@ impl<D: Dim> Simulation<D> {
         let mut forces = std::mem::take(&mut cross.forces);
         let inp = Inputs { image: domain.image(), dt: dt_hist, pos, radius, mass, owner_start: &list.owner_start, partner: &list.partner };
         let blocks = n.div_ceil(cross.block_len);
-        let vec = use_simd(&inp, work.simd);
+        let vec = use_simd(work.simd);
 
         // Phase A: cross-block pairs.
         let cross_stats = if forces.is_empty() {
@@ -1076,6 +1062,7 @@ impl<D: Dim> CrossIndex<D> {
         self.cross_begin.resize(n, 0);
         self.cross_slot.resize(n, 0);
         self.block_slot_start.clear();
+        self.slot_pair.clear();
         let mut slots = 0u32;
         for b in 0..blocks {
             self.block_slot_start.push(slots);
@@ -1085,6 +1072,7 @@ impl<D: Dim> CrossIndex<D> {
                 let cb = s + list.partner[s..e].partition_point(|&j| (j as usize) < end);
                 self.cross_begin[i] = cb as u32;
                 self.cross_slot[i] = slots;
+                self.slot_pair.extend(cb as u32..e as u32);
                 slots += (e - cb) as u32;
             }
         }
@@ -1099,10 +1087,6 @@ impl<D: Dim> CrossIndex<D> {
         }
         for j in 0..n {
             self.in_start[j + 1] += self.in_start[j];
-        }
-        self.slot_pair.clear();
-        for i in 0..n {
-            self.slot_pair.extend(self.cross_begin[i]..list.owner_start[i + 1]);
         }
         self.in_slot.resize(slots as usize, 0);
         let mut fill = self.in_start.clone();

@@ -42,7 +42,7 @@ pub(super) struct Window {
     pub mass_j: Lane,
     /// Stored tangential history.
     pub spring: [Lane; 3],
-    /// Overlap at the last evaluation (filled by the AVX-512 path only).
+    /// Overlap at the last evaluation (the stored one).
     pub was: Lane,
     // outputs
     pub overlap: Lane,

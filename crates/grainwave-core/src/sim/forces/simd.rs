@@ -1,6 +1,5 @@
 //! AVX-512 parts of the windowed force pass: finding the touching pairs eight candidates at a
-//! time (consecutive pairs of the list, across owners) with all the kernel's inputs, and storing
-//! the window's histories.
+//! time (consecutive pairs of the list, across owners) with all the kernel's inputs.
 //!
 //! Every lane performs exactly the floating-point operations of the scalar path
 //! ([`super::push_pair`], [`super::eval_window`]) in the same order — the nearest-image shift by
@@ -268,26 +267,4 @@ pub(super) unsafe fn push_pairs<D: Dim, const LIST: bool>(
         put(&mut w.was, old);
         w.len = k + touch.count_ones() as usize;
     }
-}
-
-/// Stores the new springs and overlaps of the window's contacts into their histories, and counts
-/// the contacts that formed (overlap ≤ 0 at the last evaluation), as the scalar loop of
-/// [`super::eval_window`].
-///
-/// # Safety
-/// The window was filled by [`push_pairs`] with pairs of `h`.
-#[inline]
-#[target_feature(enable = "avx512f,avx512vl,popcnt")]
-pub(super) unsafe fn store<D: Dim>(w: &Window, h: &mut History<D>) -> u64 {
-    let mut formed = 0;
-    for k in 0..w.len {
-        let q = w.pair[k] as usize - h.base;
-        // SAFETY: the caller's contract.
-        unsafe {
-            *h.spring.get_unchecked_mut(q) = crate::sim::lanes::get(&w.new_spring, k);
-            *h.overlap.get_unchecked_mut(q) = w.overlap[k];
-        }
-        formed += (w.was[k] <= 0.0) as u64;
-    }
-    formed
 }
