@@ -67,10 +67,11 @@ fn specialised_window_kernels_give_the_bits_of_the_general_kernel() {
     // Hertz–Mindlin (Tsuji and critical damping) and Hooke–Cundall–Strack (mass-proportional
     // and restitution damping), 2D and 3D, still and shearing cells, 1 and 2 threads with
     // several blocks, and one block.
-    // (general, simd, one block): the general kernel, or a specialised one with or without
-    // AVX-512 (when the processor has it; the portable path otherwise)
-    type Make = dyn Fn() -> Box<dyn FnMut((bool, bool, bool)) -> u64> + Sync;
-    let run = |mode: (bool, bool, bool), threads: usize, make: &Make| {
+    // (general, simd, one block): the general kernel, or a specialised one on the portable path
+    // (simd 0), the fused AVX2 pass (1) or the AVX-512 windows (2) — each when the processor has
+    // it, the next slower path otherwise)
+    type Make = dyn Fn() -> Box<dyn FnMut((bool, u8, bool)) -> u64> + Sync;
+    let run = |mode: (bool, u8, bool), threads: usize, make: &Make| {
         pool(threads).install(|| (make())(mode))
     };
     let laws = {
@@ -85,11 +86,11 @@ fn specialised_window_kernels_give_the_bits_of_the_general_kernel() {
         assert!(!matches!(law.specialize(), grainwave_core::contact::Specialized::General(_)));
         // a shearing cell too: the tilt of the images and their velocity
         for shear in [0.0, 0.02] {
-            let make2 = move || -> Box<dyn FnMut((bool, bool, bool)) -> u64> {
+            let make2 = move || -> Box<dyn FnMut((bool, u8, bool)) -> u64> {
                 Box::new(move |(general, simd, one)| {
                     let mut sim = dense_2d(30, 40, law, 0.5, 21).expected_overlap(0.05).build().unwrap();
                     sim.set_general_kernel(general);
-                    sim.set_simd(simd);
+                    sim.set_simd_level(simd);
                     if shear != 0.0 {
                         sim.domain.set_shear_rate(shear).unwrap();
                     }
@@ -99,11 +100,11 @@ fn specialised_window_kernels_give_the_bits_of_the_general_kernel() {
                     sim.state_hash()
                 })
             };
-            let make3 = move || -> Box<dyn FnMut((bool, bool, bool)) -> u64> {
+            let make3 = move || -> Box<dyn FnMut((bool, u8, bool)) -> u64> {
                 Box::new(move |(general, simd, one)| {
                     let mut sim = dense_3d(4, law, 0.3, 22).expected_overlap(0.05).build().unwrap();
                     sim.set_general_kernel(general);
-                    sim.set_simd(simd);
+                    sim.set_simd_level(simd);
                     if shear != 0.0 {
                         sim.domain.set_shear_rate(shear).unwrap();
                     }
@@ -114,13 +115,13 @@ fn specialised_window_kernels_give_the_bits_of_the_general_kernel() {
                 })
             };
             for make in [&make2 as &Make, &make3] {
-                let reference = run((true, false, false), 1, make);
+                let reference = run((true, 0, false), 1, make);
                 for threads in [1, 2] {
-                    for simd in [false, true] {
+                    for simd in [0, 1, 2] {
                         assert_eq!(run((false, simd, false), threads, make), reference, "{law:?}, shear {shear}, {threads} threads, simd {simd}");
                     }
                 }
-                for simd in [false, true] {
+                for simd in [0, 1, 2] {
                     assert_eq!(run((false, simd, true), 1, make), reference, "{law:?}, shear {shear}, one block, simd {simd}");
                 }
             }

@@ -28,6 +28,8 @@ use crate::neighbor::PairList;
 use rayon::prelude::*;
 
 #[cfg(target_arch = "x86_64")]
+mod avx2;
+#[cfg(target_arch = "x86_64")]
 mod simd;
 
 /// Per-evaluation statistics, merged associatively and commutatively (so deterministically).
@@ -355,13 +357,10 @@ fn all_finite<D: Dim>(f: D::Vector, t: D::AngVector) -> bool {
     s == 0.0
 }
 
-/// Phase B for one block.
+/// Starts the sums of grains `g0..g1` (a block) from the contributions of their cross-block pairs
+/// with lower blocks (partners of smaller index), in order.
 #[inline(always)]
-fn block<D: Dim, P: LawParts>(law: &P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, mut h: History<D>, g: Grain<D>) -> ForceStats {
-    let mut st = ForceStats::new();
-    let (g0, g1) = (b * cross.block_len, ((b + 1) * cross.block_len).min(cross.n));
-    let Grain { force, torque, vel, omega, .. } = g;
-    // Contributions of cross-block pairs with lower blocks (partners of smaller index), in order.
+fn start_block<D: Dim>(cross: &CrossIndex<D>, g0: usize, g1: usize, force: &mut [D::Vector], torque: &mut [D::AngVector]) {
     for j in g0..g1 {
         let mut f = D::Vector::ZERO;
         let mut t = D::AngVector::ZERO;
@@ -373,6 +372,15 @@ fn block<D: Dim, P: LawParts>(law: &P, inp: &Inputs<D>, cross: &CrossIndex<D>, f
         force[j - g0] = f;
         torque[j - g0] = t;
     }
+}
+
+/// Phase B for one block.
+#[inline(always)]
+fn block<D: Dim, P: LawParts>(law: &P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, mut h: History<D>, g: Grain<D>) -> ForceStats {
+    let mut st = ForceStats::new();
+    let (g0, g1) = (b * cross.block_len, ((b + 1) * cross.block_len).min(cross.n));
+    let Grain { force, torque, vel, omega, .. } = g;
+    start_block(cross, g0, g1, force, torque);
     let mut load = fin.loads.partition_point(|l| l.0 < g0);
     for i in g0..g1 {
         let li = i - g0;
@@ -523,17 +531,30 @@ fn push_owner<D: Dim>(
     }
 }
 
-/// True when the AVX-512 path is used: allowed, on a processor that has it.
-fn use_simd(allowed: bool) -> bool {
+/// How the specialised kernels run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Path {
+    /// Windows filled pair by pair, the law vectorized by the compiler.
+    Portable,
+    /// The fused AVX2 pass (`avx2`).
+    Avx2,
+    /// Windows filled eight candidates at a time with AVX-512 (`simd`).
+    Avx512,
+}
+
+/// The fastest path the processor has, at most `level` (0 portable, 1 AVX2, 2 AVX-512).
+fn path(level: u8) -> Path {
     #[cfg(target_arch = "x86_64")]
     {
-        allowed && simd::available()
+        if level >= 2 && simd::available() {
+            return Path::Avx512;
+        }
+        if level >= 1 && avx2::available() {
+            return Path::Avx2;
+        }
     }
-    #[cfg(not(target_arch = "x86_64"))]
-    {
-        let _ = allowed;
-        false
-    }
+    let _ = level;
+    Path::Portable
 }
 
 /// Phase A with a window kernel.
@@ -548,7 +569,7 @@ fn cross_pairs_windowed<D: Dim, L: WindowLaw>(
     h: History<D>,
     out: &mut [CrossForce<D>],
     slot_base: usize,
-    vec: bool,
+    path: Path,
 ) -> ForceStats {
     if blocks.len() > 1 {
         let mid = (blocks.start + blocks.end) / 2;
@@ -556,18 +577,23 @@ fn cross_pairs_windowed<D: Dim, L: WindowLaw>(
         let s = cross.block_slot_start[mid] as usize;
         let (o0, o1) = out.split_at_mut(s - slot_base);
         let (a, b) = rayon::join(
-            || cross_pairs_windowed(law, inp, vel, omega, cross, blocks.start..mid, h0, o0, slot_base, vec),
-            || cross_pairs_windowed(law, inp, vel, omega, cross, mid..blocks.end, h1, o1, s, vec),
+            || cross_pairs_windowed(law, inp, vel, omega, cross, blocks.start..mid, h0, o0, slot_base, path),
+            || cross_pairs_windowed(law, inp, vel, omega, cross, mid..blocks.end, h1, o1, s, path),
         );
         return ForceStats::merge(a, b);
     }
+    #[cfg(target_arch = "x86_64")]
+    if path == Path::Avx2 {
+        let b = blocks.start;
+        out[cross.block_slot_start[b] as usize - slot_base..cross.block_slot_start[b + 1] as usize - slot_base].fill(CrossForce::default());
+        return lanes::with_dampers(law, avx2::CrossPass { law, inp, vel, omega, cross, b, h, out, slot_base });
+    }
     lanes::with_window(|w| {
         #[cfg(target_arch = "x86_64")]
-        if vec {
-            // SAFETY: `vec` is set only when the processor has AVX-512 F and VL.
+        if path == Path::Avx512 {
+            // SAFETY: this path is chosen only when the processor has AVX-512 F and VL.
             return unsafe { cross_block_avx512(law, inp, vel, omega, cross, blocks.start, h, out, slot_base, w) };
         }
-        let _ = vec;
         cross_block::<D, L, false>(law, inp, vel, omega, cross, blocks.start, h, out, slot_base, w)
     })
 }
@@ -673,7 +699,7 @@ fn blocks_pass_windowed<D: Dim, L: WindowLaw>(
     blocks: std::ops::Range<usize>,
     h: History<D>,
     g: Grain<D>,
-    vec: bool,
+    path: Path,
 ) -> ForceStats {
     if blocks.len() > 1 {
         let mid = (blocks.start + blocks.end) / 2;
@@ -681,18 +707,21 @@ fn blocks_pass_windowed<D: Dim, L: WindowLaw>(
         let (h0, h1) = h.split(inp.owner_start[at] as usize);
         let (g0, g1) = g.split(at);
         let (a, b) = rayon::join(
-            || blocks_pass_windowed(law, inp, cross, fin, blocks.start..mid, h0, g0, vec),
-            || blocks_pass_windowed(law, inp, cross, fin, mid..blocks.end, h1, g1, vec),
+            || blocks_pass_windowed(law, inp, cross, fin, blocks.start..mid, h0, g0, path),
+            || blocks_pass_windowed(law, inp, cross, fin, mid..blocks.end, h1, g1, path),
         );
         return ForceStats::merge(a, b);
     }
+    #[cfg(target_arch = "x86_64")]
+    if path == Path::Avx2 {
+        return lanes::with_dampers(law, avx2::BlockPass { law, inp, cross, fin, b: blocks.start, h, g });
+    }
     lanes::with_window(|w| {
         #[cfg(target_arch = "x86_64")]
-        if vec {
-            // SAFETY: `vec` is set only when the processor has AVX-512 F and VL.
+        if path == Path::Avx512 {
+            // SAFETY: this path is chosen only when the processor has AVX-512 F and VL.
             return unsafe { block_windowed_avx512(law, inp, cross, fin, blocks.start, h, g, w) };
         }
-        let _ = vec;
         block_windowed::<D, L, false>(law, inp, cross, fin, blocks.start, h, g, w)
     })
 }
@@ -750,17 +779,7 @@ fn block_windowed<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D
     let mut st = ForceStats::new();
     let (g0, g1) = (b * cross.block_len, ((b + 1) * cross.block_len).min(cross.n));
     let Grain { force, torque, vel, omega, .. } = g;
-    for j in g0..g1 {
-        let mut f = D::Vector::ZERO;
-        let mut t = D::AngVector::ZERO;
-        for &s in &cross.in_slot[cross.in_start[j] as usize..cross.in_start[j + 1] as usize] {
-            let c = &cross.forces[s as usize];
-            f -= c.force;
-            t += c.torque_j;
-        }
-        force[j - g0] = f;
-        torque[j - g0] = t;
-    }
+    start_block(cross, g0, g1, force, torque);
     let mut load = fin.loads.partition_point(|l| l.0 < g0);
     if VEC {
         // The block's pairs eight at a time across owners (its cross-block pairs left out);
@@ -948,7 +967,7 @@ impl<D: Dim> Simulation<D> {
         let mut forces = std::mem::take(&mut cross.forces);
         let inp = Inputs { image: domain.image(), dt: dt_hist, pos, radius, mass, owner_start: &list.owner_start, partner: &list.partner };
         let blocks = n.div_ceil(cross.block_len);
-        let vec = use_simd(work.simd);
+        let vec = path(work.simd);
 
         // Phase A: cross-block pairs.
         let cross_stats = if forces.is_empty() {

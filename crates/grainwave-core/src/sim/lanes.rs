@@ -11,6 +11,7 @@
 
 use crate::contact::{HertzMindlin, HookeCundallStrack, NormalDamping, TangentialDamping};
 use crate::dim::{Dim, VectorOps};
+use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// Contacts per window.
 pub(super) const CAP: usize = 32;
@@ -95,16 +96,73 @@ pub(super) fn with_window<R>(f: impl FnOnce(&mut Window) -> R) -> R {
     })
 }
 
+/// The floating-point lanes the contact law is written for: `f64` (one contact; the window loop
+/// below, which the compiler vectorizes) or a vector of several contacts (`forces::avx2`). Every
+/// operation is the IEEE operation of `f64` lane by lane, so the law gives the same bits either
+/// way.
+pub(super) trait Real: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> + Neg<Output = Self> {
+    /// Per-lane truth value.
+    type Mask: Copy;
+    fn splat(x: f64) -> Self;
+    fn sqrt(self) -> Self;
+    /// `self.max(0.0)`: 0 for NaN.
+    fn max_zero(self) -> Self;
+    /// `self == o` (false for NaN).
+    fn eq(self, o: Self) -> Self::Mask;
+    /// `self > o` (false for NaN).
+    fn gt(self, o: Self) -> Self::Mask;
+    /// `if m { a } else { b }` lane by lane.
+    fn select(m: Self::Mask, a: Self, b: Self) -> Self;
+    /// `f` lane by lane (the general damping parts).
+    fn map3(a: Self, b: Self, c: Self, f: impl Fn(f64, f64, f64) -> f64) -> Self;
+}
+
+impl Real for f64 {
+    type Mask = bool;
+    #[inline(always)]
+    fn splat(x: f64) -> Self {
+        x
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        f64::sqrt(self)
+    }
+    #[inline(always)]
+    fn max_zero(self) -> Self {
+        self.max(0.0)
+    }
+    #[inline(always)]
+    fn eq(self, o: Self) -> bool {
+        self == o
+    }
+    #[inline(always)]
+    fn gt(self, o: Self) -> bool {
+        self > o
+    }
+    #[inline(always)]
+    fn select(m: bool, a: Self, b: Self) -> Self {
+        if m {
+            a
+        } else {
+            b
+        }
+    }
+    #[inline(always)]
+    fn map3(a: Self, b: Self, c: Self, f: impl Fn(f64, f64, f64) -> f64) -> Self {
+        f(a, b, c)
+    }
+}
+
 /// The normal and tangential elastic parts of a specialised law, per contact.
 pub(super) trait WindowLaw: Copy + Send + Sync {
     /// F_el, k_n, secant k̄ and the contact radius √(R*ξ) (0 when not used), as `NormalElastic::response`.
-    fn normal(&self, r_eff: f64, overlap: f64) -> (f64, f64, f64, f64);
+    fn normal<R: Real>(&self, r_eff: R, overlap: R) -> (R, R, R, R);
     /// k_t from the contact radius, as `Tangential::stiffness`.
-    fn tangential_stiffness(&self, contact_radius: f64) -> f64;
+    fn tangential_stiffness<R: Real>(&self, contact_radius: R) -> R;
     /// Trial force and the history kept when not sliding, from the rotated history.
-    fn trial<const DIM: usize>(&self, rotated: [f64; 3], v_t: [f64; 3], k_t: f64, gamma_t: f64, dt: f64) -> ([f64; 3], [f64; 3]);
+    fn trial<R: Real, const DIM: usize>(&self, rotated: [R; 3], v_t: [R; 3], k_t: R, gamma_t: R, dt: f64) -> ([R; 3], [R; 3]);
     /// The history kept when sliding with force `f`.
-    fn slid<const DIM: usize>(&self, f: [f64; 3]) -> [f64; 3];
+    fn slid<R: Real, const DIM: usize>(&self, f: [R; 3]) -> [R; 3];
     fn damping(&self) -> NormalDamping;
     fn tangential_damping(&self) -> TangentialDamping;
     fn friction(&self) -> f64;
@@ -112,27 +170,28 @@ pub(super) trait WindowLaw: Copy + Send + Sync {
 
 impl WindowLaw for HertzMindlin {
     #[inline(always)]
-    fn normal(&self, r_eff: f64, overlap: f64) -> (f64, f64, f64, f64) {
+    fn normal<R: Real>(&self, r_eff: R, overlap: R) -> (R, R, R, R) {
         let a = (r_eff * overlap).sqrt();
-        let secant = 4.0 / 3.0 * self.effective_modulus * a;
-        (secant * overlap, 2.0 * self.effective_modulus * a, secant, a)
+        let secant = R::splat(4.0 / 3.0 * self.effective_modulus) * a;
+        (secant * overlap, R::splat(2.0 * self.effective_modulus) * a, secant, a)
     }
     #[inline(always)]
-    fn tangential_stiffness(&self, a: f64) -> f64 {
-        8.0 * self.effective_shear_modulus * a
+    fn tangential_stiffness<R: Real>(&self, a: R) -> R {
+        R::splat(8.0 * self.effective_shear_modulus) * a
     }
     #[inline(always)]
-    fn trial<const DIM: usize>(&self, rotated: [f64; 3], v_t: [f64; 3], k_t: f64, gamma_t: f64, dt: f64) -> ([f64; 3], [f64; 3]) {
+    fn trial<R: Real, const DIM: usize>(&self, rotated: [R; 3], v_t: [R; 3], k_t: R, gamma_t: R, dt: f64) -> ([R; 3], [R; 3]) {
         // Mindlin: elastic = rotated + v_t k_t dt; trial = elastic + γ_t v_t
-        let (mut elastic, mut trial) = ([0.0; 3], [0.0; 3]);
+        let (mut elastic, mut trial) = ([R::splat(0.0); 3], [R::splat(0.0); 3]);
+        let kdt = k_t * R::splat(dt);
         for c in 0..DIM {
-            elastic[c] = rotated[c] + v_t[c] * (k_t * dt);
+            elastic[c] = rotated[c] + v_t[c] * kdt;
             trial[c] = elastic[c] + v_t[c] * gamma_t;
         }
         (trial, elastic)
     }
     #[inline(always)]
-    fn slid<const DIM: usize>(&self, f: [f64; 3]) -> [f64; 3] {
+    fn slid<R: Real, const DIM: usize>(&self, f: [R; 3]) -> [R; 3] {
         f
     }
     fn damping(&self) -> NormalDamping {
@@ -148,29 +207,29 @@ impl WindowLaw for HertzMindlin {
 
 impl WindowLaw for HookeCundallStrack {
     #[inline(always)]
-    fn normal(&self, _r_eff: f64, overlap: f64) -> (f64, f64, f64, f64) {
-        let k = self.normal_stiffness;
-        (k * overlap, k, k, 0.0)
+    fn normal<R: Real>(&self, _r_eff: R, overlap: R) -> (R, R, R, R) {
+        let k = R::splat(self.normal_stiffness);
+        (k * overlap, k, k, R::splat(0.0))
     }
     #[inline(always)]
-    fn tangential_stiffness(&self, _a: f64) -> f64 {
-        self.tangential_stiffness
+    fn tangential_stiffness<R: Real>(&self, _a: R) -> R {
+        R::splat(self.tangential_stiffness)
     }
     #[inline(always)]
-    fn trial<const DIM: usize>(&self, rotated: [f64; 3], v_t: [f64; 3], k_t: f64, gamma_t: f64, dt: f64) -> ([f64; 3], [f64; 3]) {
+    fn trial<R: Real, const DIM: usize>(&self, rotated: [R; 3], v_t: [R; 3], k_t: R, gamma_t: R, dt: f64) -> ([R; 3], [R; 3]) {
         // Cundall–Strack: s = rotated + v_t dt; trial = k_t s + γ_t v_t
-        let (mut s, mut trial) = ([0.0; 3], [0.0; 3]);
+        let (mut s, mut trial) = ([R::splat(0.0); 3], [R::splat(0.0); 3]);
         for c in 0..DIM {
-            s[c] = rotated[c] + v_t[c] * dt;
+            s[c] = rotated[c] + v_t[c] * R::splat(dt);
             trial[c] = s[c] * k_t + v_t[c] * gamma_t;
         }
         (trial, s)
     }
     #[inline(always)]
-    fn slid<const DIM: usize>(&self, f: [f64; 3]) -> [f64; 3] {
-        let mut s = [0.0; 3];
+    fn slid<R: Real, const DIM: usize>(&self, f: [R; 3]) -> [R; 3] {
+        let mut s = [R::splat(0.0); 3];
         for c in 0..DIM {
-            s[c] = f[c] / self.tangential_stiffness;
+            s[c] = f[c] / R::splat(self.tangential_stiffness);
         }
         s
     }
@@ -187,21 +246,21 @@ impl WindowLaw for HookeCundallStrack {
 
 /// Normal and tangential damping coefficients, resolved at compile time for the combinations of
 /// the presets (the general [`Dampers`] matches on the parts at every contact).
-trait Dampers: Copy {
+pub(super) trait Dampers: Copy {
     /// γ_n from m*, k_n and the secant stiffness (as `NormalDamping::coefficient`).
-    fn normal(&self, m_eff: f64, k_n: f64, secant: f64) -> f64;
+    fn normal<R: Real>(&self, m_eff: R, k_n: R, secant: R) -> R;
     /// γ_t (as `TangentialDamping::coefficient`).
-    fn tangential(&self, m_eff: f64, k_t: f64, gamma_n: f64) -> f64;
+    fn tangential<R: Real>(&self, m_eff: R, k_t: R, gamma_n: R) -> R;
 }
 
 impl Dampers for (NormalDamping, TangentialDamping) {
     #[inline(always)]
-    fn normal(&self, m_eff: f64, k_n: f64, secant: f64) -> f64 {
-        self.0.coefficient(m_eff, k_n, secant)
+    fn normal<R: Real>(&self, m_eff: R, k_n: R, secant: R) -> R {
+        R::map3(m_eff, k_n, secant, |m, k, s| self.0.coefficient(m, k, s))
     }
     #[inline(always)]
-    fn tangential(&self, m_eff: f64, k_t: f64, gamma_n: f64) -> f64 {
-        self.1.coefficient(m_eff, k_t, gamma_n)
+    fn tangential<R: Real>(&self, m_eff: R, k_t: R, gamma_n: R) -> R {
+        R::map3(m_eff, k_t, gamma_n, |m, k, g| self.1.coefficient(m, k, g))
     }
 }
 
@@ -210,12 +269,12 @@ impl Dampers for (NormalDamping, TangentialDamping) {
 struct TsujiFraction(f64, f64);
 impl Dampers for TsujiFraction {
     #[inline(always)]
-    fn normal(&self, m_eff: f64, _k_n: f64, secant: f64) -> f64 {
-        self.0 * (m_eff * secant).sqrt()
+    fn normal<R: Real>(&self, m_eff: R, _k_n: R, secant: R) -> R {
+        R::splat(self.0) * (m_eff * secant).sqrt()
     }
     #[inline(always)]
-    fn tangential(&self, _m_eff: f64, _k_t: f64, gamma_n: f64) -> f64 {
-        self.1 * gamma_n
+    fn tangential<R: Real>(&self, _m_eff: R, _k_t: R, gamma_n: R) -> R {
+        R::splat(self.1) * gamma_n
     }
 }
 
@@ -224,12 +283,12 @@ impl Dampers for TsujiFraction {
 struct RateFraction(f64, f64);
 impl Dampers for RateFraction {
     #[inline(always)]
-    fn normal(&self, m_eff: f64, _k_n: f64, _secant: f64) -> f64 {
-        self.0 * m_eff
+    fn normal<R: Real>(&self, m_eff: R, _k_n: R, _secant: R) -> R {
+        R::splat(self.0) * m_eff
     }
     #[inline(always)]
-    fn tangential(&self, _m_eff: f64, _k_t: f64, gamma_n: f64) -> f64 {
-        self.1 * gamma_n
+    fn tangential<R: Real>(&self, _m_eff: R, _k_t: R, gamma_n: R) -> R {
+        R::splat(self.1) * gamma_n
     }
 }
 
@@ -239,12 +298,12 @@ impl Dampers for RateFraction {
 struct CriticalFraction(f64, f64);
 impl Dampers for CriticalFraction {
     #[inline(always)]
-    fn normal(&self, m_eff: f64, k_n: f64, _secant: f64) -> f64 {
-        self.0 * 2.0 * (m_eff * k_n).sqrt()
+    fn normal<R: Real>(&self, m_eff: R, k_n: R, _secant: R) -> R {
+        R::splat(self.0 * 2.0) * (m_eff * k_n).sqrt()
     }
     #[inline(always)]
-    fn tangential(&self, _m_eff: f64, _k_t: f64, gamma_n: f64) -> f64 {
-        self.1 * gamma_n
+    fn tangential<R: Real>(&self, _m_eff: R, _k_t: R, gamma_n: R) -> R {
+        R::splat(self.1) * gamma_n
     }
 }
 
@@ -253,47 +312,65 @@ impl Dampers for CriticalFraction {
 struct CriticalBoth(f64, f64);
 impl Dampers for CriticalBoth {
     #[inline(always)]
-    fn normal(&self, m_eff: f64, k_n: f64, _secant: f64) -> f64 {
-        self.0 * 2.0 * (m_eff * k_n).sqrt()
+    fn normal<R: Real>(&self, m_eff: R, k_n: R, _secant: R) -> R {
+        R::splat(self.0 * 2.0) * (m_eff * k_n).sqrt()
     }
     #[inline(always)]
-    fn tangential(&self, m_eff: f64, k_t: f64, _gamma_n: f64) -> f64 {
-        self.1 * 2.0 * (m_eff * k_t).sqrt()
+    fn tangential<R: Real>(&self, m_eff: R, k_t: R, _gamma_n: R) -> R {
+        R::splat(self.1 * 2.0) * (m_eff * k_t).sqrt()
+    }
+}
+
+/// Something run with the dampers of a law as a type ([`with_dampers`]).
+pub(super) trait WithDampers {
+    type Out;
+    fn run<P: Dampers>(self, damp: P) -> Self::Out;
+}
+
+/// Runs `v` with the dampers of `law`, resolved for the presets' combinations.
+#[inline(always)]
+pub(super) fn with_dampers<L: WindowLaw, V: WithDampers>(law: &L, v: V) -> V::Out {
+    use NormalDamping as N;
+    use TangentialDamping as T;
+    match (law.damping(), law.tangential_damping()) {
+        (N::Tsuji { alpha }, T::FractionOfNormal { ratio }) => v.run(TsujiFraction(alpha, ratio)),
+        (N::MassProportional { rate }, T::FractionOfNormal { ratio }) => v.run(RateFraction(rate, ratio)),
+        (N::CriticalFraction { zeta }, T::FractionOfNormal { ratio }) => v.run(CriticalFraction(zeta, ratio)),
+        (N::CriticalFraction { zeta }, T::CriticalFraction { zeta: zt }) => v.run(CriticalBoth(zeta, zt)),
+        (n, t) => v.run((n, t)),
     }
 }
 
 /// Evaluates the window (lanes `len..CAP` hold stale but finite data and are ignored). Uses AVX2
 /// when the processor has it (same bits either way).
 pub(super) fn compute<D: Dim, L: WindowLaw>(law: &L, w: &mut Window, dt: f64) {
-    select::<D, L, false>(law, w, dt);
+    with_dampers(law, Run::<D, L, false> { law, w, dt, dim: std::marker::PhantomData });
 }
 
 /// [`compute`] compiled into the caller (which enables the vector extensions it wants).
 #[inline(always)]
 pub(super) fn compute_inline<D: Dim, L: WindowLaw>(law: &L, w: &mut Window, dt: f64) {
-    select::<D, L, true>(law, w, dt);
+    with_dampers(law, Run::<D, L, true> { law, w, dt, dim: std::marker::PhantomData });
 }
 
-/// Picks the dampers of the law, then runs the kernel inline (`INLINE`) or through the run-time
-/// AVX2 dispatch.
-#[inline(always)]
-fn select<D: Dim, L: WindowLaw, const INLINE: bool>(law: &L, w: &mut Window, dt: f64) {
-    use NormalDamping as N;
-    use TangentialDamping as T;
+/// The window kernel with the dampers resolved: inline (`INLINE`) or through the run-time AVX2
+/// dispatch.
+struct Run<'a, D, L, const INLINE: bool> {
+    law: &'a L,
+    w: &'a mut Window,
+    dt: f64,
+    dim: std::marker::PhantomData<D>,
+}
+
+impl<D: Dim, L: WindowLaw, const INLINE: bool> WithDampers for Run<'_, D, L, INLINE> {
+    type Out = ();
     #[inline(always)]
-    fn run<D: Dim, L: WindowLaw, P: Dampers, const INLINE: bool>(law: &L, damp: P, w: &mut Window, dt: f64) {
+    fn run<P: Dampers>(self, damp: P) {
         if INLINE {
-            compute_impl::<D, L, P>(law, damp, w, dt)
+            compute_impl::<D, L, P>(self.law, damp, self.w, self.dt)
         } else {
-            dispatch::<D, L, P>(law, damp, w, dt)
+            dispatch::<D, L, P>(self.law, damp, self.w, self.dt)
         }
-    }
-    match (law.damping(), law.tangential_damping()) {
-        (N::Tsuji { alpha }, T::FractionOfNormal { ratio }) => run::<D, L, _, INLINE>(law, TsujiFraction(alpha, ratio), w, dt),
-        (N::MassProportional { rate }, T::FractionOfNormal { ratio }) => run::<D, L, _, INLINE>(law, RateFraction(rate, ratio), w, dt),
-        (N::CriticalFraction { zeta }, T::FractionOfNormal { ratio }) => run::<D, L, _, INLINE>(law, CriticalFraction(zeta, ratio), w, dt),
-        (N::CriticalFraction { zeta }, T::CriticalFraction { zeta: zt }) => run::<D, L, _, INLINE>(law, CriticalBoth(zeta, zt), w, dt),
-        (n, t) => run::<D, L, _, INLINE>(law, (n, t), w, dt),
     }
 }
 
@@ -317,11 +394,11 @@ unsafe fn compute_avx2<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, w: &m
 }
 
 #[inline(always)]
-fn dot<const DIM: usize>(a: [f64; 3], b: [f64; 3]) -> f64 {
+fn dot<R: Real, const DIM: usize>(a: [R; 3], b: [R; 3]) -> R {
     // component order of `VectorOps::dot`
     let mut s = a[0] * b[0];
     for c in 1..DIM {
-        s += a[c] * b[c];
+        s = s + a[c] * b[c];
     }
     s
 }
@@ -334,108 +411,165 @@ fn compute_impl<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, w: &mut Wind
     }
 }
 
+/// The inputs of the contact law for one contact per lane (components past the dimension unused).
+#[derive(Clone, Copy)]
+pub(super) struct ContactIn<R> {
+    /// Centre-to-centre vector (nearest image) and its squared length.
+    pub r: [R; 3],
+    pub dist2: R,
+    /// v_j − v_i (v_j of the image of j).
+    pub v_rel: [R; 3],
+    /// ω_i, ω_j (one component in 2D).
+    pub w_i: [R; 3],
+    pub w_j: [R; 3],
+    pub rad_i: R,
+    pub rad_j: R,
+    pub mass_i: R,
+    pub mass_j: R,
+    /// Stored tangential history.
+    pub spring: [R; 3],
+}
+
+/// What the contact law gives for one contact per lane.
+#[derive(Clone, Copy)]
+pub(super) struct ContactOut<R: Real> {
+    pub overlap: R,
+    pub sliding: R::Mask,
+    pub new_spring: [R; 3],
+    /// Force on i, torques on i and j.
+    pub force: [R; 3],
+    pub torque_i: [R; 3],
+    pub torque_j: [R; 3],
+}
+
 #[inline(always)]
 fn lanes<const DIM: usize, const ROT: usize, L: WindowLaw, P: Dampers>(law: &L, damp: P, w: &mut Window, dt: f64) {
-    let mu = law.friction();
     for k in 0..CAP {
         let get = |a: &[Lane; 3]| [a[0][k], a[1][k], if DIM == 3 { a[2][k] } else { 0.0 }];
-        let (r, v_rel, w_i, w_j, spring) = (get(&w.r), get(&w.v_rel), get(&w.w_i), get(&w.w_j), get(&w.spring));
-        let (rad_i, rad_j, mass_i, mass_j) = (w.rad_i[k], w.rad_j[k], w.mass_i[k], w.mass_j[k]);
-
-        // kinematics (as `pair_kinematics`)
-        let sum = rad_i + rad_j;
-        let dist = w.dist2[k].sqrt();
-        let overlap = sum - dist;
-        let mut n = [0.0; 3];
+        let input = ContactIn {
+            r: get(&w.r),
+            dist2: w.dist2[k],
+            v_rel: get(&w.v_rel),
+            w_i: get(&w.w_i),
+            w_j: get(&w.w_j),
+            rad_i: w.rad_i[k],
+            rad_j: w.rad_j[k],
+            mass_i: w.mass_i[k],
+            mass_j: w.mass_j[k],
+            spring: get(&w.spring),
+        };
+        let o = contact::<f64, DIM, ROT, L, P>(law, damp, &input, dt);
+        w.overlap[k] = o.overlap;
+        w.sliding[k] = o.sliding;
         for c in 0..DIM {
-            n[c] = r[c] / dist;
-        }
-        let lever_i = rad_i - 0.5 * overlap;
-        let lever_j = rad_j - 0.5 * overlap;
-        let v_n = dot::<DIM>(v_rel, n);
-        let mut wsum = [0.0; 3];
-        for c in 0..ROT {
-            wsum[c] = w_i[c] * lever_i + w_j[c] * lever_j;
-        }
-        let mut v_c = [0.0; 3];
-        if DIM == 3 {
-            // glam's DVec3::cross(wsum, n)
-            v_c[0] = v_rel[0] - (wsum[1] * n[2] - n[1] * wsum[2]);
-            v_c[1] = v_rel[1] - (wsum[2] * n[0] - n[2] * wsum[0]);
-            v_c[2] = v_rel[2] - (wsum[0] * n[1] - n[0] * wsum[1]);
-        } else {
-            v_c[0] = v_rel[0] - -wsum[0] * n[1];
-            v_c[1] = v_rel[1] - wsum[0] * n[0];
-        }
-        let vcn = dot::<DIM>(v_c, n);
-        let mut v_t = [0.0; 3];
-        for c in 0..DIM {
-            v_t[c] = v_c[c] - n[c] * vcn;
-        }
-        let r_eff = rad_i * rad_j / sum;
-        let m_eff = mass_i * mass_j / (mass_i + mass_j);
-
-        // normal force (clamped) and stiffnesses
-        let (f_el, k_n, secant, a) = law.normal(r_eff, overlap);
-        let gamma_n = damp.normal(m_eff, k_n, secant);
-        let f_n = (f_el - gamma_n * v_n).max(0.0);
-        let k_t = law.tangential_stiffness(a);
-        let gamma_t = damp.tangential(m_eff, k_t, gamma_n);
-
-        // history into the tangent plane keeping its length (as `into_tangent_plane`)
-        let len2 = dot::<DIM>(spring, spring);
-        let sdn = dot::<DIM>(spring, n);
-        let mut p = [0.0; 3];
-        for c in 0..DIM {
-            p[c] = spring[c] - n[c] * sdn;
-        }
-        let p2 = dot::<DIM>(p, p);
-        let scale = (len2 / p2).sqrt();
-        let mut rotated = [0.0; 3];
-        for c in 0..DIM {
-            let v = if p2 == 0.0 {
-                0.0
-            } else if p2 == len2 {
-                p[c]
-            } else {
-                p[c] * scale
-            };
-            rotated[c] = if len2 == 0.0 { spring[c] } else { v };
-        }
-
-        // tangential force, Coulomb cap (as `coulomb_cap`), history
-        let (trial, kept) = law.trial::<DIM>(rotated, v_t, k_t, gamma_t, dt);
-        let t2 = dot::<DIM>(trial, trial);
-        let cap = mu * f_n;
-        let sliding = t2 > cap * cap;
-        let shrink = cap / t2.sqrt();
-        let mut f = [0.0; 3];
-        for c in 0..DIM {
-            let capped = if cap > 0.0 { trial[c] * shrink } else { 0.0 };
-            f[c] = if sliding { capped } else { trial[c] };
-        }
-        let slid = law.slid::<DIM>(f);
-
-        // forces and torques: F_i = F_t − F_n n̂, τ_i = a_i n̂ × F_t, τ_j = a_j n̂ × F_t
-        let mut t = [0.0; 3];
-        if DIM == 3 {
-            t[0] = n[1] * f[2] - f[1] * n[2];
-            t[1] = n[2] * f[0] - f[2] * n[0];
-            t[2] = n[0] * f[1] - f[0] * n[1];
-        } else {
-            t[0] = n[0] * f[1] - n[1] * f[0];
-        }
-        w.overlap[k] = overlap;
-        w.sliding[k] = sliding;
-        for c in 0..DIM {
-            w.new_spring[c][k] = if sliding { slid[c] } else { kept[c] };
-            w.force[c][k] = f[c] - n[c] * f_n;
+            w.new_spring[c][k] = o.new_spring[c];
+            w.force[c][k] = o.force[c];
         }
         for c in 0..ROT {
-            w.torque_i[c][k] = t[c] * lever_i + 0.0;
-            w.torque_j[c][k] = t[c] * lever_j - 0.0;
+            w.torque_i[c][k] = o.torque_i[c];
+            w.torque_j[c][k] = o.torque_j[c];
         }
     }
+}
+
+/// The specialised contact law on touching contacts, branch-free: exactly the floating-point
+/// operations of [`evaluate_parts`](crate::contact::evaluate_parts) in the same order.
+#[inline(always)]
+pub(super) fn contact<R: Real, const DIM: usize, const ROT: usize, L: WindowLaw, P: Dampers>(law: &L, damp: P, x: &ContactIn<R>, dt: f64) -> ContactOut<R> {
+    let zero = R::splat(0.0);
+    let (r, v_rel, w_i, w_j, spring) = (x.r, x.v_rel, x.w_i, x.w_j, x.spring);
+    let (rad_i, rad_j, mass_i, mass_j) = (x.rad_i, x.rad_j, x.mass_i, x.mass_j);
+
+    // kinematics (as `pair_kinematics`)
+    let sum = rad_i + rad_j;
+    let dist = x.dist2.sqrt();
+    let overlap = sum - dist;
+    let mut n = [zero; 3];
+    for c in 0..DIM {
+        n[c] = r[c] / dist;
+    }
+    let half = R::splat(0.5);
+    let lever_i = rad_i - half * overlap;
+    let lever_j = rad_j - half * overlap;
+    let v_n = dot::<R, DIM>(v_rel, n);
+    let mut wsum = [zero; 3];
+    for c in 0..ROT {
+        wsum[c] = w_i[c] * lever_i + w_j[c] * lever_j;
+    }
+    let mut v_c = [zero; 3];
+    if DIM == 3 {
+        // glam's DVec3::cross(wsum, n)
+        v_c[0] = v_rel[0] - (wsum[1] * n[2] - n[1] * wsum[2]);
+        v_c[1] = v_rel[1] - (wsum[2] * n[0] - n[2] * wsum[0]);
+        v_c[2] = v_rel[2] - (wsum[0] * n[1] - n[0] * wsum[1]);
+    } else {
+        v_c[0] = v_rel[0] - -wsum[0] * n[1];
+        v_c[1] = v_rel[1] - wsum[0] * n[0];
+    }
+    let vcn = dot::<R, DIM>(v_c, n);
+    let mut v_t = [zero; 3];
+    for c in 0..DIM {
+        v_t[c] = v_c[c] - n[c] * vcn;
+    }
+    let r_eff = rad_i * rad_j / sum;
+    let m_eff = mass_i * mass_j / (mass_i + mass_j);
+
+    // normal force (clamped) and stiffnesses
+    let (f_el, k_n, secant, a) = law.normal(r_eff, overlap);
+    let gamma_n = damp.normal(m_eff, k_n, secant);
+    let f_n = (f_el - gamma_n * v_n).max_zero();
+    let k_t = law.tangential_stiffness(a);
+    let gamma_t = damp.tangential(m_eff, k_t, gamma_n);
+
+    // history into the tangent plane keeping its length (as `into_tangent_plane`)
+    let len2 = dot::<R, DIM>(spring, spring);
+    let sdn = dot::<R, DIM>(spring, n);
+    let mut p = [zero; 3];
+    for c in 0..DIM {
+        p[c] = spring[c] - n[c] * sdn;
+    }
+    let p2 = dot::<R, DIM>(p, p);
+    let scale = (len2 / p2).sqrt();
+    let (p_zero, p_same, len_zero) = (p2.eq(zero), p2.eq(len2), len2.eq(zero));
+    let mut rotated = [zero; 3];
+    for c in 0..DIM {
+        let v = R::select(p_zero, zero, R::select(p_same, p[c], p[c] * scale));
+        rotated[c] = R::select(len_zero, spring[c], v);
+    }
+
+    // tangential force, Coulomb cap (as `coulomb_cap`), history
+    let (trial, kept) = law.trial::<R, DIM>(rotated, v_t, k_t, gamma_t, dt);
+    let t2 = dot::<R, DIM>(trial, trial);
+    let cap = R::splat(law.friction()) * f_n;
+    let sliding = t2.gt(cap * cap);
+    let shrink = cap / t2.sqrt();
+    let cap_pos = cap.gt(zero);
+    let mut f = [zero; 3];
+    for c in 0..DIM {
+        let capped = R::select(cap_pos, trial[c] * shrink, zero);
+        f[c] = R::select(sliding, capped, trial[c]);
+    }
+    let slid = law.slid::<R, DIM>(f);
+
+    // forces and torques: F_i = F_t − F_n n̂, τ_i = a_i n̂ × F_t, τ_j = a_j n̂ × F_t
+    let mut t = [zero; 3];
+    if DIM == 3 {
+        t[0] = n[1] * f[2] - f[1] * n[2];
+        t[1] = n[2] * f[0] - f[2] * n[0];
+        t[2] = n[0] * f[1] - f[0] * n[1];
+    } else {
+        t[0] = n[0] * f[1] - n[1] * f[0];
+    }
+    let mut out = ContactOut { overlap, sliding, new_spring: [zero; 3], force: [zero; 3], torque_i: [zero; 3], torque_j: [zero; 3] };
+    for c in 0..DIM {
+        out.new_spring[c] = R::select(sliding, slid[c], kept[c]);
+        out.force[c] = f[c] - n[c] * f_n;
+    }
+    for c in 0..ROT {
+        out.torque_i[c] = t[c] * lever_i + zero;
+        out.torque_j[c] = t[c] * lever_j - zero;
+    }
+    out
 }
 
 /// Copies a vector into lane `k`.

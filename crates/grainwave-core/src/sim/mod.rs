@@ -133,8 +133,9 @@ struct Workspace<D: Dim> {
     block_len: Option<usize>,
     /// Evaluate every law with the general kernel (tests).
     general_kernel: bool,
-    /// Let the windowed kernels use AVX-512 when the processor has it (tests turn it off).
-    simd: bool,
+    /// Vector extensions the specialised kernels may use when the processor has them: 0 none
+    /// (portable), 1 AVX2, 2 AVX-512 (tests lower it).
+    simd: u8,
     /// External loads of the current evaluation: (grain index, force, torque).
     loads: Vec<(usize, D::Vector, D::AngVector)>,
     wall_force: Vec<WallForce<D>>,
@@ -156,7 +157,7 @@ impl<D: Dim> Default for Workspace<D> {
             cross: CrossIndex::default(),
             block_len: None,
             general_kernel: false,
-            simd: true,
+            simd: 2,
             loads: Vec::new(),
             wall_force: Vec::new(),
             wall_index: WallIndex::default(),
@@ -331,11 +332,19 @@ impl<D: Dim> Simulation<D> {
         self.work.general_kernel = on;
     }
 
-    /// Lets the specialised kernels use AVX-512 when the processor has it (default), or keeps
+    /// Lets the specialised kernels use the processor's vector extensions (default), or keeps
     /// them on the portable path. Results do not depend on it — this exists to test exactly that.
     #[doc(hidden)]
     pub fn set_simd(&mut self, on: bool) {
-        self.work.simd = on;
+        self.work.simd = if on { 2 } else { 0 };
+    }
+
+    /// The vector extensions the specialised kernels may use, when the processor has them: 0 none
+    /// (the portable path), 1 up to AVX2 (the fused pass), 2 up to AVX-512 (the default). Results
+    /// do not depend on it — this exists to test exactly that.
+    #[doc(hidden)]
+    pub fn set_simd_level(&mut self, level: u8) {
+        self.work.simd = level;
     }
 
     /// Adds a warning once. A warning starting like an earlier one (same first four words, e.g.

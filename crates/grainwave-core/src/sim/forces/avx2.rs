@@ -1,0 +1,601 @@
+//! The fused AVX2 force pass: candidate pairs four at a time, straight from the pair list to the
+//! grains' sums, with no window in between.
+//!
+//! Each group of four consecutive pairs of the list (across owners) is looked at in registers:
+//! rows of positions and velocities are loaded and transposed into one vector per component, the
+//! nearest image, the distance test and — when a lane touches — the whole specialised contact law
+//! ([`lanes::contact`] on [`F64x4`]) run on four lanes at once, and the results go back to the
+//! history and to the force and torque sums of both grains in list order. Every lane performs
+//! exactly the floating-point operations of the scalar path ([`super::push_pair`],
+//! [`lanes::contact`] on `f64`, [`super::flush_block`]) in the same order, and every grain's sum
+//! receives its terms in the same order (list order), so the run is bitwise that of the other
+//! paths (tested on whole runs, `tests/force_blocks.rs`, sheared cells included).
+//!
+//! Used on x86-64 processors with AVX2 and without AVX-512 (where the AVX-512 windowed path is
+//! used).
+
+use super::{finish_grain, start_block, CrossForce, CrossIndex, Finish, ForceStats, Grain, History, Inputs, Velocities};
+use crate::dim::{Dim, VectorOps};
+use crate::domain::TILT_AXES;
+use crate::sim::lanes::{self, ContactIn, Dampers, Real, WindowLaw, WithDampers};
+use std::arch::x86_64::*;
+use std::ops::{Add, Div, Mul, Neg, Sub};
+
+/// True when the processor has AVX2.
+pub(super) fn available() -> bool {
+    std::arch::is_x86_feature_detected!("avx2")
+}
+
+/// Four f64 lanes. Only used inside functions compiled with AVX2 (the operations are inlined
+/// there).
+#[derive(Clone, Copy)]
+pub(super) struct F64x4(__m256d);
+
+macro_rules! binary {
+    ($trait:ident, $f:ident, $op:ident) => {
+        impl $trait for F64x4 {
+            type Output = Self;
+            #[inline(always)]
+            fn $f(self, o: Self) -> Self {
+                // SAFETY: only used in code compiled with AVX2, on processors that have it.
+                unsafe { F64x4($op(self.0, o.0)) }
+            }
+        }
+    };
+}
+binary!(Add, add, _mm256_add_pd);
+binary!(Sub, sub, _mm256_sub_pd);
+binary!(Mul, mul, _mm256_mul_pd);
+binary!(Div, div, _mm256_div_pd);
+
+impl Neg for F64x4 {
+    type Output = Self;
+    #[inline(always)]
+    fn neg(self) -> Self {
+        // SAFETY: as above. Flips the sign bit, as f64 negation.
+        unsafe { F64x4(_mm256_xor_pd(self.0, _mm256_set1_pd(-0.0))) }
+    }
+}
+
+impl Real for F64x4 {
+    type Mask = __m256d;
+    #[inline(always)]
+    fn splat(x: f64) -> Self {
+        // SAFETY: as above.
+        unsafe { F64x4(_mm256_set1_pd(x)) }
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        // SAFETY: as above.
+        unsafe { F64x4(_mm256_sqrt_pd(self.0)) }
+    }
+    #[inline(always)]
+    fn max_zero(self) -> Self {
+        // SAFETY: as above. `x > 0 ? x : 0`: 0 for NaN, as f64::max.
+        unsafe { F64x4(_mm256_max_pd(self.0, _mm256_setzero_pd())) }
+    }
+    #[inline(always)]
+    fn eq(self, o: Self) -> __m256d {
+        // SAFETY: as above.
+        unsafe { _mm256_cmp_pd::<_CMP_EQ_OQ>(self.0, o.0) }
+    }
+    #[inline(always)]
+    fn gt(self, o: Self) -> __m256d {
+        // SAFETY: as above.
+        unsafe { _mm256_cmp_pd::<_CMP_GT_OQ>(self.0, o.0) }
+    }
+    #[inline(always)]
+    fn select(m: __m256d, a: Self, b: Self) -> Self {
+        // SAFETY: as above.
+        unsafe { F64x4(_mm256_blendv_pd(b.0, a.0, m)) }
+    }
+    #[inline(always)]
+    fn map3(a: Self, b: Self, c: Self, f: impl Fn(f64, f64, f64) -> f64) -> Self {
+        let (a, b, c) = (lanes_of(a.0), lanes_of(b.0), lanes_of(c.0));
+        // SAFETY: as above.
+        unsafe { F64x4(_mm256_setr_pd(f(a[0], b[0], c[0]), f(a[1], b[1], c[1]), f(a[2], b[2], c[2]), f(a[3], b[3], c[3]))) }
+    }
+}
+
+#[inline(always)]
+fn lanes_of(x: __m256d) -> [f64; 4] {
+    let mut a = [0.0; 4];
+    // SAFETY: as above; unaligned store into four f64.
+    unsafe { _mm256_storeu_pd(a.as_mut_ptr(), x) };
+    a
+}
+
+/// Lanes of several contacts: what the fused pass needs beyond [`Real`].
+pub(super) trait Lanes: Real {
+    /// Number of lanes (at most [`MAX`]).
+    const N: usize;
+    /// Rows of `n` (1, 2 or 3) consecutive f64 at `base + n·idx[l]`, one vector per component.
+    ///
+    /// # Safety
+    /// Every row lies in one allocation starting at `base`; AVX2 is available.
+    unsafe fn rows(base: *const f64, n: usize, idx: &[usize; MAX]) -> [Self; 3];
+    /// The lanes (first `N` of the array).
+    fn array(self) -> [f64; MAX];
+    /// Bit l set when lane l of `m` is true.
+    fn bits(m: Self::Mask) -> u32;
+    /// `self < o ? self : o` (`o` when either is NaN).
+    fn min(self, o: Self) -> Self;
+    /// `self > o ? self : o` (`o` when either is NaN).
+    fn max(self, o: Self) -> Self;
+    /// `!(self ≥ o)`: true for NaN.
+    fn nge(self, o: Self) -> Self::Mask;
+}
+
+/// Most lanes of a group.
+pub(super) const MAX: usize = 8;
+
+impl Lanes for F64x4 {
+    const N: usize = 4;
+    #[inline(always)]
+    unsafe fn rows(base: *const f64, n: usize, idx: &[usize; MAX]) -> [Self; 3] {
+        // SAFETY: the caller's contract.
+        unsafe { rows(base, n, &[idx[0], idx[1], idx[2], idx[3]]).map(F64x4) }
+    }
+    #[inline(always)]
+    fn array(self) -> [f64; MAX] {
+        let a = lanes_of(self.0);
+        [a[0], a[1], a[2], a[3], 0.0, 0.0, 0.0, 0.0]
+    }
+    #[inline(always)]
+    fn bits(m: __m256d) -> u32 {
+        // SAFETY: only used in code compiled with AVX2.
+        unsafe { _mm256_movemask_pd(m) as u32 }
+    }
+    #[inline(always)]
+    fn min(self, o: Self) -> Self {
+        // SAFETY: as above.
+        unsafe { F64x4(_mm256_min_pd(self.0, o.0)) }
+    }
+    #[inline(always)]
+    fn max(self, o: Self) -> Self {
+        // SAFETY: as above.
+        unsafe { F64x4(_mm256_max_pd(self.0, o.0)) }
+    }
+    #[inline(always)]
+    fn nge(self, o: Self) -> __m256d {
+        // SAFETY: as above.
+        unsafe { _mm256_cmp_pd::<_CMP_NGE_UQ>(self.0, o.0) }
+    }
+}
+
+/// Eight f64 lanes as two [`F64x4`]: two groups of four contacts evaluated side by side, so that
+/// the long dependency chains of the law (square roots, divisions) overlap.
+#[derive(Clone, Copy)]
+pub(super) struct F64x8(F64x4, F64x4);
+
+macro_rules! binary8 {
+    ($trait:ident, $f:ident) => {
+        impl $trait for F64x8 {
+            type Output = Self;
+            #[inline(always)]
+            fn $f(self, o: Self) -> Self {
+                F64x8(self.0.$f(o.0), self.1.$f(o.1))
+            }
+        }
+    };
+}
+binary8!(Add, add);
+binary8!(Sub, sub);
+binary8!(Mul, mul);
+binary8!(Div, div);
+
+impl Neg for F64x8 {
+    type Output = Self;
+    #[inline(always)]
+    fn neg(self) -> Self {
+        F64x8(-self.0, -self.1)
+    }
+}
+
+impl Real for F64x8 {
+    type Mask = (__m256d, __m256d);
+    #[inline(always)]
+    fn splat(x: f64) -> Self {
+        F64x8(F64x4::splat(x), F64x4::splat(x))
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        F64x8(self.0.sqrt(), self.1.sqrt())
+    }
+    #[inline(always)]
+    fn max_zero(self) -> Self {
+        F64x8(self.0.max_zero(), self.1.max_zero())
+    }
+    #[inline(always)]
+    fn eq(self, o: Self) -> Self::Mask {
+        (self.0.eq(o.0), self.1.eq(o.1))
+    }
+    #[inline(always)]
+    fn gt(self, o: Self) -> Self::Mask {
+        (self.0.gt(o.0), self.1.gt(o.1))
+    }
+    #[inline(always)]
+    fn select(m: Self::Mask, a: Self, b: Self) -> Self {
+        F64x8(F64x4::select(m.0, a.0, b.0), F64x4::select(m.1, a.1, b.1))
+    }
+    #[inline(always)]
+    fn map3(a: Self, b: Self, c: Self, f: impl Fn(f64, f64, f64) -> f64) -> Self {
+        F64x8(F64x4::map3(a.0, b.0, c.0, &f), F64x4::map3(a.1, b.1, c.1, &f))
+    }
+}
+
+impl Lanes for F64x8 {
+    const N: usize = 8;
+    #[inline(always)]
+    unsafe fn rows(base: *const f64, n: usize, idx: &[usize; MAX]) -> [Self; 3] {
+        // SAFETY: the caller's contract.
+        unsafe {
+            let a = rows(base, n, &[idx[0], idx[1], idx[2], idx[3]]);
+            let b = rows(base, n, &[idx[4], idx[5], idx[6], idx[7]]);
+            [F64x8(F64x4(a[0]), F64x4(b[0])), F64x8(F64x4(a[1]), F64x4(b[1])), F64x8(F64x4(a[2]), F64x4(b[2]))]
+        }
+    }
+    #[inline(always)]
+    fn array(self) -> [f64; MAX] {
+        let (a, b) = (lanes_of(self.0 .0), lanes_of(self.1 .0));
+        [a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]]
+    }
+    #[inline(always)]
+    fn bits(m: Self::Mask) -> u32 {
+        F64x4::bits(m.0) | F64x4::bits(m.1) << 4
+    }
+    #[inline(always)]
+    fn min(self, o: Self) -> Self {
+        F64x8(self.0.min(o.0), self.1.min(o.1))
+    }
+    #[inline(always)]
+    fn max(self, o: Self) -> Self {
+        F64x8(self.0.max(o.0), self.1.max(o.1))
+    }
+    #[inline(always)]
+    fn nge(self, o: Self) -> Self::Mask {
+        (self.0.nge(o.0), self.1.nge(o.1))
+    }
+}
+
+/// The constants of [`crate::domain::nearest_integer`].
+const SHIFT: f64 = 6_755_399_441_055_744.0;
+const LIMIT: f64 = 2_251_799_813_685_248.0;
+
+/// Rows of `n` (1, 2 or 3) consecutive f64 at `base + n·idx[l]`, as `n` vectors of four lanes
+/// (lane l from row `idx[l]`): two-element row loads and an unpack, the third component (3D)
+/// element by element. Nothing outside the rows is read.
+///
+/// # Safety
+/// Every row lies in one allocation starting at `base`; AVX2 is available.
+#[inline(always)]
+unsafe fn rows(base: *const f64, n: usize, idx: &[usize; 4]) -> [__m256d; 3] {
+    // SAFETY: the caller's contract.
+    unsafe {
+        let z = _mm256_setzero_pd();
+        let at = |l: usize, c: usize| *base.add(n * idx[l] + c);
+        if n == 1 {
+            return [_mm256_setr_pd(at(0, 0), at(1, 0), at(2, 0), at(3, 0)), z, z];
+        }
+        let row = |l: usize| _mm_loadu_pd(base.add(n * idx[l]));
+        let a = _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(row(0)), row(2));
+        let b = _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(row(1)), row(3));
+        let third = if n == 3 { _mm256_setr_pd(at(0, 2), at(1, 2), at(2, 2), at(3, 2)) } else { z };
+        [_mm256_unpacklo_pd(a, b), _mm256_unpackhi_pd(a, b), third]
+    }
+}
+
+/// The lane type of the fused pass: eight contacts (two vectors of four) at a time.
+type V = F64x8;
+
+/// Candidate pairs of a group: pair index, first grain, second grain (lanes not looked at: a
+/// valid pair and its owner twice), and the lanes looked at (bit l for lane l).
+struct Group {
+    pair: [usize; MAX],
+    i: [usize; MAX],
+    j: [usize; MAX],
+    valid: u32,
+}
+
+/// Forces and torques of a group, lane by lane (meaningful on the touching lanes only).
+struct Out {
+    touch: u32,
+    force: [[f64; MAX]; 3],
+    torque_i: [[f64; MAX]; 3],
+    torque_j: [[f64; MAX]; 3],
+}
+
+impl Out {
+    fn new() -> Self {
+        Out { touch: 0, force: [[0.0; MAX]; 3], torque_i: [[0.0; MAX]; 3], torque_j: [[0.0; MAX]; 3] }
+    }
+
+    #[inline(always)]
+    fn get<T: VectorOps>(a: &[[f64; MAX]; 3], l: usize) -> T {
+        let mut v = T::ZERO;
+        for c in 0..T::LEN {
+            v.set(c, a[c][l]);
+        }
+        v
+    }
+}
+
+/// Looks at the pairs of `g` as [`super::push_pair`] does one by one, then evaluates and records
+/// the touching ones as [`super::eval_window`] does: histories stored, opened contacts
+/// forgotten, statistics counted in pair order. Returns false when no lane touches (`out` is
+/// then untouched).
+///
+/// # Safety
+/// The pairs belong to `h`; their grains index `inp.pos`; the grains looked at lie in `v` (from
+/// `v.base`); AVX2 is available.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs<D>, h: &mut History<D>, v: Velocities<D>, g: &Group, st: &mut ForceStats, out: &mut Out) -> bool {
+    let (dd, rot) = (D::D, <D::AngVector as VectorOps>::LEN);
+    // SAFETY: the caller's contract.
+    unsafe {
+        let q = g.pair.map(|p| p - h.base);
+        debug_assert!(q.iter().all(|&q| q < h.overlap.len()));
+        let pos = inp.pos.as_ptr() as *const f64;
+        let (xi, xj) = (V::rows(pos, dd, &g.i), V::rows(pos, dd, &g.j));
+        let (ri, rj) = (V::rows(inp.radius.as_ptr(), 1, &g.i)[0], V::rows(inp.radius.as_ptr(), 1, &g.j)[0]);
+        // nearest-image vector and, in a shearing cell, the velocity of the image
+        // (`PeriodicImage::displacement_velocity`)
+        let image = &inp.image;
+        let zero = V::splat(0.0);
+        let mut d = [zero; 3];
+        let mut dv = [zero; 3];
+        for c in 0..dd {
+            d[c] = xj[c] - xi[c];
+        }
+        let (limit, shift) = (V::splat(LIMIT), V::splat(SHIFT));
+        for c in (0..dd).rev() {
+            let dk = d[c];
+            let t = dk * V::splat(image.inverse.get(c));
+            // clamp to ±2⁵¹ keeping NaN (the constant first: NaN is the second operand)
+            let t = limit.min((-limit).max(t));
+            let t = (t + shift) - shift;
+            d[c] = dk - V::splat(image.length.get(c)) * t;
+            if image.sheared {
+                for (a, &(edge, along)) in TILT_AXES.iter().enumerate() {
+                    if edge == c && image.tilt[a] != 0.0 {
+                        d[along] = d[along] - t * V::splat(image.tilt[a]);
+                    }
+                    if edge == c && image.rate[a] != 0.0 {
+                        dv[along] = dv[along] - t * V::splat(image.rate[a]);
+                    }
+                }
+            }
+        }
+        // |r|² in the order of `VectorOps::dot`
+        let mut dist2 = d[0] * d[0] + d[1] * d[1];
+        if dd == 3 {
+            dist2 = dist2 + d[2] * d[2];
+        }
+        let sum = ri + rj;
+        // touching: !(d² ≥ sum²), true for NaN as in the scalar test
+        let touch = V::bits(dist2.nge(sum * sum)) & g.valid;
+        let old = V::rows(h.overlap.as_ptr(), 1, &q)[0];
+        let held = V::bits(old.gt(zero));
+        let mut opened = g.valid & !touch & held;
+        while opened != 0 {
+            h.forget(q[opened.trailing_zeros() as usize], st);
+            opened &= opened - 1;
+        }
+        if touch == 0 {
+            return false;
+        }
+        let (ib, jb) = (g.i.map(|x| x - v.base), g.j.map(|x| x - v.base));
+        let (vi, vj) = (V::rows(v.vel.as_ptr() as *const f64, dd, &ib), V::rows(v.vel.as_ptr() as *const f64, dd, &jb));
+        let mut v_rel = [zero; 3];
+        for c in 0..dd {
+            // the image of j moves with the cell in a shearing cell
+            let vj = if image.sheared { vj[c] + dv[c] } else { vj[c] };
+            v_rel[c] = vj - vi[c];
+        }
+        let input = ContactIn {
+            r: d,
+            dist2,
+            v_rel,
+            w_i: V::rows(v.omega.as_ptr() as *const f64, rot, &ib),
+            w_j: V::rows(v.omega.as_ptr() as *const f64, rot, &jb),
+            rad_i: ri,
+            rad_j: rj,
+            mass_i: V::rows(inp.mass.as_ptr(), 1, &g.i)[0],
+            mass_j: V::rows(inp.mass.as_ptr(), 1, &g.j)[0],
+            spring: V::rows(h.spring.as_ptr() as *const f64, dd, &q),
+        };
+        let o = match dd {
+            2 => lanes::contact::<V, 2, 1, L, P>(law, damp, &input, inp.dt),
+            _ => lanes::contact::<V, 3, 3, L, P>(law, damp, &input, inp.dt),
+        };
+        out.touch = touch;
+        for c in 0..dd {
+            out.force[c] = o.force[c].array();
+        }
+        for c in 0..rot {
+            out.torque_i[c] = o.torque_i[c].array();
+            out.torque_j[c] = o.torque_j[c].array();
+        }
+        // histories and statistics, in pair order (as `eval_window`, `eval_pair`)
+        let mut spring = [[0.0; MAX]; 3];
+        for c in 0..dd {
+            spring[c] = o.new_spring[c].array();
+        }
+        let overlap = o.overlap.array();
+        let sliding = V::bits(o.sliding);
+        let ratio = (o.overlap / ri.min(rj)).array();
+        let mut bits = touch;
+        while bits != 0 {
+            let l = bits.trailing_zeros() as usize;
+            bits &= bits - 1;
+            let k = q[l];
+            *h.spring.get_unchecked_mut(k) = Out::get(&spring, l);
+            *h.overlap.get_unchecked_mut(k) = overlap[l];
+            *h.sliding.get_unchecked_mut(k) = sliding >> l & 1 != 0;
+            if ratio[l] > st.deepest.0 {
+                st.deepest = (ratio[l], 0, g.pair[l]);
+            }
+        }
+        st.changes += (touch & !held).count_ones() as u64;
+        st.contacts += touch.count_ones() as u64;
+        st.sliding += (touch & sliding).count_ones() as u64;
+        true
+    }
+}
+
+/// Phase B for block `b` with the fused kernel: the block's pairs a group at a time across
+/// owners (its cross-block pairs left out), each group's forces added to both grains in list
+/// order; a grain is complete once all its intra-block pairs have been added (pairs where it is
+/// the partner come earlier in the list).
+///
+/// # Safety
+/// AVX2 is available.
+#[target_feature(enable = "avx2,popcnt")]
+#[allow(clippy::too_many_arguments)]
+unsafe fn block<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, mut h: History<D>, g: Grain<D>) -> ForceStats {
+    let mut st = ForceStats::new();
+    let (g0, g1) = (b * cross.block_len, ((b + 1) * cross.block_len).min(cross.n));
+    let Grain { force, torque, vel, omega, .. } = g;
+    start_block(cross, g0, g1, force, torque);
+    let mut load = fin.loads.partition_point(|l| l.0 < g0);
+    let mut done = g0;
+    let (mut p, e) = (inp.owner_start[g0] as usize, inp.owner_start[g1] as usize);
+    let mut out = Out::new();
+    while p < e {
+        let n = (e - p).min(V::N);
+        // lanes past n: the first pair; partners of the next blocks: not looked at
+        let i0 = cross.owner[p] as usize;
+        let mut gr = Group { pair: [p; MAX], i: [i0; MAX], j: [i0; MAX], valid: 0 };
+        for l in 0..n {
+            let (i, j) = (cross.owner[p + l] as usize, inp.partner[p + l] as usize);
+            let inside = j < g1;
+            gr.pair[l] = p + l;
+            gr.i[l] = i;
+            gr.j[l] = if inside { j } else { i };
+            gr.valid |= (inside as u32) << l;
+        }
+        // SAFETY: the block's pairs are pairs of `h` with owners in the block; intra-block
+        // partners lie in the block (cross index); AVX2 is enabled here.
+        let touching = unsafe { eval_group::<D, L, P>(law, damp, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &gr, &mut st, &mut out) };
+        if touching {
+            let mut bits = out.touch;
+            while bits != 0 {
+                let l = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let (li, lj) = (gr.i[l] - g0, gr.j[l] - g0);
+                debug_assert!(li < force.len() && lj < force.len() && li != lj);
+                let f: D::Vector = Out::get(&out.force, l);
+                // SAFETY: owners and intra-block partners lie in the block.
+                unsafe {
+                    *force.get_unchecked_mut(li) += f;
+                    *torque.get_unchecked_mut(li) += Out::get::<D::AngVector>(&out.torque_i, l);
+                    *force.get_unchecked_mut(lj) -= f;
+                    *torque.get_unchecked_mut(lj) += Out::get::<D::AngVector>(&out.torque_j, l);
+                }
+            }
+        }
+        p += n;
+        while done < g1 && cross.cross_begin[done] as usize <= p {
+            finish_grain(inp, cross, fin, done, g0, force, torque, vel, omega, &mut load, &mut st);
+            done += 1;
+        }
+    }
+    while done < g1 {
+        finish_grain(inp, cross, fin, done, g0, force, torque, vel, omega, &mut load, &mut st);
+        done += 1;
+    }
+    st
+}
+
+/// Phase A for block `b` with the fused kernel: the block's cross-block pairs a group at a time
+/// through their buffer slots (consecutive), each touching pair's force and torques into its
+/// slot (the others were zeroed).
+///
+/// # Safety
+/// AVX2 is available.
+#[target_feature(enable = "avx2,popcnt")]
+#[allow(clippy::too_many_arguments)]
+unsafe fn cross_block<D: Dim, L: WindowLaw, P: Dampers>(
+    law: &L,
+    damp: P,
+    inp: &Inputs<D>,
+    vel: &[D::Vector],
+    omega: &[D::AngVector],
+    cross: &CrossIndex<D>,
+    b: usize,
+    mut h: History<D>,
+    out: &mut [CrossForce<D>],
+    slot_base: usize,
+) -> ForceStats {
+    let mut st = ForceStats::new();
+    let (mut s, e) = (cross.block_slot_start[b] as usize, cross.block_slot_start[b + 1] as usize);
+    let mut lanes_out = Out::new();
+    while s < e {
+        let n = (e - s).min(V::N);
+        let p0 = cross.slot_pair[s] as usize;
+        let i0 = cross.owner[p0] as usize;
+        let mut gr = Group { pair: [p0; MAX], i: [i0; MAX], j: [i0; MAX], valid: (1 << n) - 1 };
+        for l in 0..n {
+            let p = cross.slot_pair[s + l] as usize;
+            gr.pair[l] = p;
+            gr.i[l] = cross.owner[p] as usize;
+            gr.j[l] = inp.partner[p] as usize;
+        }
+        // SAFETY: the slots of block b hold pairs of `h` (cross index); whole velocity arrays;
+        // AVX2 is enabled here.
+        let touching = unsafe { eval_group::<D, L, P>(law, damp, inp, &mut h, Velocities { base: 0, vel, omega }, &gr, &mut st, &mut lanes_out) };
+        if touching {
+            let mut bits = lanes_out.touch;
+            while bits != 0 {
+                let l = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                out[s + l - slot_base] = CrossForce { force: Out::get(&lanes_out.force, l), torque_i: Out::get(&lanes_out.torque_i, l), torque_j: Out::get(&lanes_out.torque_j, l) };
+            }
+        }
+        s += n;
+    }
+    st
+}
+
+/// Phase B of one block through the fused kernel, with the law's dampers resolved.
+pub(super) struct BlockPass<'a, 'b, D: Dim, L> {
+    pub law: &'a L,
+    pub inp: &'a Inputs<'b, D>,
+    pub cross: &'a CrossIndex<D>,
+    pub fin: &'a Finish<'b, D>,
+    pub b: usize,
+    pub h: History<'a, D>,
+    pub g: Grain<'a, D>,
+}
+
+impl<D: Dim, L: WindowLaw> WithDampers for BlockPass<'_, '_, D, L> {
+    type Out = ForceStats;
+    fn run<P: Dampers>(self, damp: P) -> ForceStats {
+        debug_assert!(available());
+        // SAFETY: this path is chosen only when the processor has AVX2 (`available`).
+        unsafe { block::<D, L, P>(self.law, damp, self.inp, self.cross, self.fin, self.b, self.h, self.g) }
+    }
+}
+
+/// Phase A of one block through the fused kernel, with the law's dampers resolved.
+pub(super) struct CrossPass<'a, 'b, D: Dim, L> {
+    pub law: &'a L,
+    pub inp: &'a Inputs<'b, D>,
+    pub vel: &'a [D::Vector],
+    pub omega: &'a [D::AngVector],
+    pub cross: &'a CrossIndex<D>,
+    pub b: usize,
+    pub h: History<'a, D>,
+    pub out: &'a mut [CrossForce<D>],
+    pub slot_base: usize,
+}
+
+impl<D: Dim, L: WindowLaw> WithDampers for CrossPass<'_, '_, D, L> {
+    type Out = ForceStats;
+    fn run<P: Dampers>(self, damp: P) -> ForceStats {
+        debug_assert!(available());
+        // SAFETY: this path is chosen only when the processor has AVX2 (`available`).
+        unsafe { cross_block::<D, L, P>(self.law, damp, self.inp, self.vel, self.omega, self.cross, self.b, self.h, self.out, self.slot_base) }
+    }
+}
