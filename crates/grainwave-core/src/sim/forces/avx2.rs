@@ -109,11 +109,11 @@ fn lanes_of(x: __m256d) -> [f64; 4] {
 pub(super) trait Lanes: Real {
     /// Number of lanes (at most [`MAX`]).
     const N: usize;
-    /// Rows of `n` (1, 2 or 3) consecutive f64 at `base + n·idx[l]`, one vector per component.
+    /// Rows of `n` (1, 2 or 3) consecutive f64 at `base + off[l]`, one vector per component.
     ///
     /// # Safety
-    /// Every row lies in one allocation starting at `base`; AVX2 is available.
-    unsafe fn rows(base: *const f64, n: usize, idx: &[usize; MAX]) -> [Self; 3];
+    /// Every row lies in one allocation (`base` itself may point outside it); AVX2 is available.
+    unsafe fn rows(base: *const f64, n: usize, off: &[u32; MAX]) -> [Self; 3];
     /// The lanes (first `N` of the array).
     fn array(self) -> [f64; MAX];
     /// Bit l set when lane l of `m` is true.
@@ -132,9 +132,9 @@ pub(super) const MAX: usize = 8;
 impl Lanes for F64x4 {
     const N: usize = 4;
     #[inline(always)]
-    unsafe fn rows(base: *const f64, n: usize, idx: &[usize; MAX]) -> [Self; 3] {
+    unsafe fn rows(base: *const f64, n: usize, off: &[u32; MAX]) -> [Self; 3] {
         // SAFETY: the caller's contract.
-        unsafe { rows(base, n, &[idx[0], idx[1], idx[2], idx[3]]).map(F64x4) }
+        unsafe { rows(base, n, [off[0], off[1], off[2], off[3]]).map(F64x4) }
     }
     #[inline(always)]
     fn array(self) -> [f64; MAX] {
@@ -227,11 +227,11 @@ impl Real for F64x8 {
 impl Lanes for F64x8 {
     const N: usize = 8;
     #[inline(always)]
-    unsafe fn rows(base: *const f64, n: usize, idx: &[usize; MAX]) -> [Self; 3] {
+    unsafe fn rows(base: *const f64, n: usize, off: &[u32; MAX]) -> [Self; 3] {
         // SAFETY: the caller's contract.
         unsafe {
-            let a = rows(base, n, &[idx[0], idx[1], idx[2], idx[3]]);
-            let b = rows(base, n, &[idx[4], idx[5], idx[6], idx[7]]);
+            let a = rows(base, n, [off[0], off[1], off[2], off[3]]);
+            let b = rows(base, n, [off[4], off[5], off[6], off[7]]);
             [F64x8(F64x4(a[0]), F64x4(b[0])), F64x8(F64x4(a[1]), F64x4(b[1])), F64x8(F64x4(a[2]), F64x4(b[2]))]
         }
     }
@@ -262,25 +262,25 @@ impl Lanes for F64x8 {
 const SHIFT: f64 = 6_755_399_441_055_744.0;
 const LIMIT: f64 = 2_251_799_813_685_248.0;
 
-/// Rows of `n` (1, 2 or 3) consecutive f64 at `base + n·idx[l]`, as `n` vectors of four lanes
-/// (lane l from row `idx[l]`): two-element row loads and an unpack, the third component (3D)
-/// element by element. Nothing outside the rows is read.
+/// Rows of `n` (1, 2 or 3) consecutive f64 at `base + off[l]`, as `n` vectors of four lanes
+/// (lane l from the row at `off[l]`): two-element row loads and an unpack, the third component
+/// (3D) element by element. Nothing outside the rows is read.
 ///
 /// # Safety
-/// Every row lies in one allocation starting at `base`; AVX2 is available.
+/// Every row lies in one allocation (`base` itself may point outside it); AVX2 is available.
 #[inline(always)]
-unsafe fn rows(base: *const f64, n: usize, idx: &[usize; 4]) -> [__m256d; 3] {
+unsafe fn rows(base: *const f64, n: usize, off: [u32; 4]) -> [__m256d; 3] {
     // SAFETY: the caller's contract.
     unsafe {
         let z = _mm256_setzero_pd();
-        let at = |l: usize, c: usize| *base.add(n * idx[l] + c);
+        let at = |l: usize| base.wrapping_add(off[l] as usize);
         if n == 1 {
-            return [_mm256_setr_pd(at(0, 0), at(1, 0), at(2, 0), at(3, 0)), z, z];
+            return [_mm256_setr_pd(*at(0), *at(1), *at(2), *at(3)), z, z];
         }
-        let row = |l: usize| _mm_loadu_pd(base.add(n * idx[l]));
+        let row = |l: usize| _mm_loadu_pd(at(l));
         let a = _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(row(0)), row(2));
         let b = _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(row(1)), row(3));
-        let third = if n == 3 { _mm256_setr_pd(at(0, 2), at(1, 2), at(2, 2), at(3, 2)) } else { z };
+        let third = if n == 3 { _mm256_setr_pd(*at(0).add(2), *at(1).add(2), *at(2).add(2), *at(3).add(2)) } else { z };
         [_mm256_unpacklo_pd(a, b), _mm256_unpackhi_pd(a, b), third]
     }
 }
@@ -291,10 +291,39 @@ type V = F64x8;
 /// Candidate pairs of a group: pair index, first grain, second grain (lanes not looked at: a
 /// valid pair and its owner twice), and the lanes looked at (bit l for lane l).
 struct Group {
-    pair: [usize; MAX],
-    i: [usize; MAX],
-    j: [usize; MAX],
+    pair: [u32; MAX],
+    i: [u32; MAX],
+    j: [u32; MAX],
     valid: u32,
+}
+
+/// `x` as eight u32 lanes.
+#[inline(always)]
+fn u32s(x: __m256i) -> [u32; MAX] {
+    let mut a = [0u32; MAX];
+    // SAFETY: only used in code compiled with AVX2; unaligned store into eight u32.
+    unsafe { _mm256_storeu_si256(a.as_mut_ptr() as *mut __m256i, x) };
+    a
+}
+
+/// Eight u32 lanes of `a`.
+#[inline(always)]
+fn load_u32s(a: &[u32; MAX]) -> __m256i {
+    // SAFETY: only used in code compiled with AVX2; unaligned load of eight u32.
+    unsafe { _mm256_loadu_si256(a.as_ptr() as *const __m256i) }
+}
+
+/// n·x lane by lane (n = 1, 2 or 3; indices are far below 2³² / 3).
+#[inline(always)]
+fn times(x: __m256i, n: usize) -> [u32; MAX] {
+    // SAFETY: only used in code compiled with AVX2.
+    unsafe {
+        u32s(match n {
+            1 => x,
+            2 => _mm256_add_epi32(x, x),
+            _ => _mm256_add_epi32(_mm256_add_epi32(x, x), x),
+        })
+    }
 }
 
 /// Forces and torques of a group, lane by lane (meaningful on the touching lanes only).
@@ -334,10 +363,14 @@ unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &I
     let (dd, rot) = (D::D, <D::AngVector as VectorOps>::LEN);
     // SAFETY: the caller's contract.
     unsafe {
-        let q = g.pair.map(|p| p - h.base);
-        debug_assert!(q.iter().all(|&q| q < h.overlap.len()));
+        debug_assert!(g.pair.iter().all(|&p| p as usize >= h.base && p as usize - h.base < h.overlap.len()));
+        let (gi, gj) = (load_u32s(&g.i), load_u32s(&g.j));
+        let qv = _mm256_sub_epi32(load_u32s(&g.pair), _mm256_set1_epi32(h.base as i32));
+        let q = u32s(qv);
+        // row offsets of vectors (f64 units)
+        let (oi, oj) = (times(gi, dd), times(gj, dd));
         let pos = inp.pos.as_ptr() as *const f64;
-        let (xi, xj) = (V::rows(pos, dd, &g.i), V::rows(pos, dd, &g.j));
+        let (xi, xj) = (V::rows(pos, dd, &oi), V::rows(pos, dd, &oj));
         let (ri, rj) = (V::rows(inp.radius.as_ptr(), 1, &g.i)[0], V::rows(inp.radius.as_ptr(), 1, &g.j)[0]);
         // nearest-image vector and, in a shearing cell, the velocity of the image
         // (`PeriodicImage::displacement_velocity`)
@@ -379,14 +412,16 @@ unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &I
         let held = V::bits(old.gt(zero));
         let mut opened = g.valid & !touch & held;
         while opened != 0 {
-            h.forget(q[opened.trailing_zeros() as usize], st);
+            h.forget(q[opened.trailing_zeros() as usize] as usize, st);
             opened &= opened - 1;
         }
         if touch == 0 {
             return false;
         }
-        let (ib, jb) = (g.i.map(|x| x - v.base), g.j.map(|x| x - v.base));
-        let (vi, vj) = (V::rows(v.vel.as_ptr() as *const f64, dd, &ib), V::rows(v.vel.as_ptr() as *const f64, dd, &jb));
+        // the velocity arrays start at grain v.base: index them by grain
+        let vel = (v.vel.as_ptr() as *const f64).wrapping_sub(v.base * dd);
+        let omega = (v.omega.as_ptr() as *const f64).wrapping_sub(v.base * rot);
+        let (vi, vj) = (V::rows(vel, dd, &oi), V::rows(vel, dd, &oj));
         let mut v_rel = [zero; 3];
         for c in 0..dd {
             // the image of j moves with the cell in a shearing cell
@@ -397,13 +432,13 @@ unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &I
             r: d,
             dist2,
             v_rel,
-            w_i: V::rows(v.omega.as_ptr() as *const f64, rot, &ib),
-            w_j: V::rows(v.omega.as_ptr() as *const f64, rot, &jb),
+            w_i: V::rows(omega, rot, if rot == dd { &oi } else { &g.i }),
+            w_j: V::rows(omega, rot, if rot == dd { &oj } else { &g.j }),
             rad_i: ri,
             rad_j: rj,
             mass_i: V::rows(inp.mass.as_ptr(), 1, &g.i)[0],
             mass_j: V::rows(inp.mass.as_ptr(), 1, &g.j)[0],
-            spring: V::rows(h.spring.as_ptr() as *const f64, dd, &q),
+            spring: V::rows(h.spring.as_ptr() as *const f64, dd, &times(qv, dd)),
         };
         let o = match dd {
             2 => lanes::contact::<V, 2, 1, L, P>(law, damp, &input, inp.dt),
@@ -429,12 +464,12 @@ unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &I
         while bits != 0 {
             let l = bits.trailing_zeros() as usize;
             bits &= bits - 1;
-            let k = q[l];
+            let k = q[l] as usize;
             *h.spring.get_unchecked_mut(k) = Out::get(&spring, l);
             *h.overlap.get_unchecked_mut(k) = overlap[l];
             *h.sliding.get_unchecked_mut(k) = sliding >> l & 1 != 0;
             if ratio[l] > st.deepest.0 {
-                st.deepest = (ratio[l], 0, g.pair[l]);
+                st.deepest = (ratio[l], 0, g.pair[l] as usize);
             }
         }
         st.changes += (touch & !held).count_ones() as u64;
@@ -464,17 +499,20 @@ unsafe fn block<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs
     let mut out = Out::new();
     while p < e {
         let n = (e - p).min(V::N);
-        // lanes past n: the first pair; partners of the next blocks: not looked at
-        let i0 = cross.owner[p] as usize;
-        let mut gr = Group { pair: [p; MAX], i: [i0; MAX], j: [i0; MAX], valid: 0 };
-        for l in 0..n {
-            let (i, j) = (cross.owner[p + l] as usize, inp.partner[p + l] as usize);
-            let inside = j < g1;
-            gr.pair[l] = p + l;
-            gr.i[l] = i;
-            gr.j[l] = if inside { j } else { i };
-            gr.valid |= (inside as u32) << l;
-        }
+        // lanes past n: the first pair and its owner; partners of the next blocks: not looked at
+        // SAFETY: AVX2 is enabled here; the masked loads read the pairs p..p + n only.
+        let gr = unsafe {
+            let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+            let live = _mm256_cmpgt_epi32(_mm256_set1_epi32(n as i32), lane);
+            let i = _mm256_maskload_epi32(cross.owner.as_ptr().add(p) as *const i32, live);
+            let i = _mm256_blendv_epi8(_mm256_set1_epi32(cross.owner[p] as i32), i, live);
+            let j = _mm256_maskload_epi32(inp.partner.as_ptr().add(p) as *const i32, live);
+            // grain indices are below 2³¹ (i32 comparison)
+            let inside = _mm256_and_si256(live, _mm256_cmpgt_epi32(_mm256_set1_epi32(g1 as i32), j));
+            let j = _mm256_blendv_epi8(i, j, inside);
+            let pair = _mm256_add_epi32(_mm256_set1_epi32(p as i32), _mm256_and_si256(lane, live));
+            Group { pair: u32s(pair), i: u32s(i), j: u32s(j), valid: _mm256_movemask_ps(_mm256_castsi256_ps(inside)) as u32 }
+        };
         // SAFETY: the block's pairs are pairs of `h` with owners in the block; intra-block
         // partners lie in the block (cross index); AVX2 is enabled here.
         let touching = unsafe { eval_group::<D, L, P>(law, damp, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &gr, &mut st, &mut out) };
@@ -483,7 +521,7 @@ unsafe fn block<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs
             while bits != 0 {
                 let l = bits.trailing_zeros() as usize;
                 bits &= bits - 1;
-                let (li, lj) = (gr.i[l] - g0, gr.j[l] - g0);
+                let (li, lj) = (gr.i[l] as usize - g0, gr.j[l] as usize - g0);
                 debug_assert!(li < force.len() && lj < force.len() && li != lj);
                 let f: D::Vector = Out::get(&out.force, l);
                 // SAFETY: owners and intra-block partners lie in the block.
@@ -533,14 +571,14 @@ unsafe fn cross_block<D: Dim, L: WindowLaw, P: Dampers>(
     let mut lanes_out = Out::new();
     while s < e {
         let n = (e - s).min(V::N);
-        let p0 = cross.slot_pair[s] as usize;
-        let i0 = cross.owner[p0] as usize;
+        let p0 = cross.slot_pair[s];
+        let i0 = cross.owner[p0 as usize];
         let mut gr = Group { pair: [p0; MAX], i: [i0; MAX], j: [i0; MAX], valid: (1 << n) - 1 };
         for l in 0..n {
-            let p = cross.slot_pair[s + l] as usize;
+            let p = cross.slot_pair[s + l];
             gr.pair[l] = p;
-            gr.i[l] = cross.owner[p] as usize;
-            gr.j[l] = inp.partner[p] as usize;
+            gr.i[l] = cross.owner[p as usize];
+            gr.j[l] = inp.partner[p as usize];
         }
         // SAFETY: the slots of block b hold pairs of `h` (cross index); whole velocity arrays;
         // AVX2 is enabled here.
