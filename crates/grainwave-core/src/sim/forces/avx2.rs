@@ -95,6 +95,11 @@ impl Real for F64x4 {
         // SAFETY: as above.
         unsafe { F64x4(_mm256_setr_pd(f(a[0], b[0], c[0]), f(a[1], b[1], c[1]), f(a[2], b[2], c[2]), f(a[3], b[3], c[3]))) }
     }
+    #[inline(always)]
+    fn any(m: __m256d) -> bool {
+        // SAFETY: as above.
+        unsafe { _mm256_movemask_pd(m) != 0 }
+    }
 }
 
 #[inline(always)]
@@ -221,6 +226,11 @@ impl Real for F64x8 {
     #[inline(always)]
     fn map3(a: Self, b: Self, c: Self, f: impl Fn(f64, f64, f64) -> f64) -> Self {
         F64x8(F64x4::map3(a.0, b.0, c.0, &f), F64x4::map3(a.1, b.1, c.1, &f))
+    }
+    #[inline(always)]
+    fn any(m: Self::Mask) -> bool {
+        // SAFETY: only used in code compiled with AVX2.
+        unsafe { _mm256_movemask_pd(_mm256_or_pd(m.0, m.1)) != 0 }
     }
 }
 
@@ -459,7 +469,6 @@ unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &I
         }
         let overlap = o.overlap.array();
         let sliding = V::bits(o.sliding);
-        let ratio = (o.overlap / ri.min(rj)).array();
         let mut bits = touch;
         while bits != 0 {
             let l = bits.trailing_zeros() as usize;
@@ -468,8 +477,22 @@ unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &I
             *h.spring.get_unchecked_mut(k) = Out::get(&spring, l);
             *h.overlap.get_unchecked_mut(k) = overlap[l];
             *h.sliding.get_unchecked_mut(k) = sliding >> l & 1 != 0;
-            if ratio[l] > st.deepest.0 {
-                st.deepest = (ratio[l], 0, g.pair[l] as usize);
+        }
+        // Deepest contact (as `eval_pair`: overlap / smaller radius, the first pair reaching a
+        // new maximum). The division only where it may exceed the maximum so far d: for
+        // positive o, m and d, fl(o/m) > d implies o > d·m·(1 − ε) > fl(fl(d·m)·(1 − 4ε)), so
+        // the lanes failing `o > fl(fl(d·m)·(1 − 4ε))` cannot be deeper (NaN fails both tests).
+        let smaller = ri.min(rj);
+        let bound = smaller * V::splat(st.deepest.0) * V::splat(1.0 - 4.0 * f64::EPSILON);
+        let mut deeper = V::bits(o.overlap.gt(bound)) & touch;
+        if deeper != 0 {
+            let ratio = (o.overlap / smaller).array();
+            while deeper != 0 {
+                let l = deeper.trailing_zeros() as usize;
+                deeper &= deeper - 1;
+                if ratio[l] > st.deepest.0 {
+                    st.deepest = (ratio[l], 0, g.pair[l] as usize);
+                }
             }
         }
         st.changes += (touch & !held).count_ones() as u64;
