@@ -967,7 +967,13 @@ impl<D: Dim> Simulation<D> {
         let mut forces = std::mem::take(&mut cross.forces);
         let inp = Inputs { image: domain.image(), dt: dt_hist, pos, radius, mass, owner_start: &list.owner_start, partner: &list.partner };
         let blocks = n.div_ceil(cross.block_len);
-        let vec = path(work.simd);
+        let mut vec = path(work.simd);
+        // The fused pass keeps grain and pair indices, and three times them, in 32-bit lanes
+        // (signed compares): far beyond any packing that fits in memory, but checked.
+        const FUSED_LIMIT: usize = (u32::MAX / 3) as usize;
+        if vec == Path::Avx2 && (n > FUSED_LIMIT || list.partner.len() > FUSED_LIMIT) {
+            vec = Path::Portable;
+        }
 
         // Phase A: cross-block pairs.
         let cross_stats = if forces.is_empty() {

@@ -12,7 +12,8 @@
 //! paths (tested on whole runs, `tests/force_blocks.rs`, sheared cells included).
 //!
 //! Used on x86-64 processors with AVX2 and without AVX-512 (where the AVX-512 windowed path is
-//! used).
+//! used), for packings of fewer than 2³²/3 grains and pairs (indices, and three times them, are
+//! held in 32-bit lanes; larger ones take the portable path).
 
 use super::{finish_grain, start_block, CrossForce, CrossIndex, Finish, ForceStats, Grain, History, Inputs, Velocities};
 use crate::dim::{Dim, VectorOps};
