@@ -582,10 +582,11 @@ fn cross_pairs_windowed<D: Dim, L: WindowLaw>(
         );
         return ForceStats::merge(a, b);
     }
+    // pairs apart contribute zero
+    let b = blocks.start;
+    out[cross.block_slot_start[b] as usize - slot_base..cross.block_slot_start[b + 1] as usize - slot_base].fill(CrossForce::default());
     #[cfg(target_arch = "x86_64")]
     if path == Path::Avx2 {
-        let b = blocks.start;
-        out[cross.block_slot_start[b] as usize - slot_base..cross.block_slot_start[b + 1] as usize - slot_base].fill(CrossForce::default());
         return lanes::with_dampers(law, avx2::CrossPass { law, inp, vel, omega, cross, b, h, out, slot_base });
     }
     lanes::with_window(|w| {
@@ -616,7 +617,7 @@ fn cross_block_avx512<D: Dim, L: WindowLaw>(
     cross_block::<D, L, true>(law, inp, vel, omega, cross, b, h, out, slot_base, w)
 }
 
-/// Phase A for block `b`.
+/// Phase A for block `b` (its buffer slots already zeroed: pairs apart contribute zero).
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
 fn cross_block<D: Dim, L: WindowLaw, const VEC: bool>(
@@ -635,8 +636,6 @@ fn cross_block<D: Dim, L: WindowLaw, const VEC: bool>(
     let v = Velocities { base: 0, vel, omega };
     let g1 = ((b + 1) * cross.block_len).min(cross.n);
     let (mut s, e) = (cross.block_slot_start[b] as usize, cross.block_slot_start[b + 1] as usize);
-    // pairs apart contribute zero
-    out[s - slot_base..e - slot_base].fill(CrossForce::default());
     if VEC {
         // the block's cross-block pairs eight at a time across owners, through their slots
         while s < e {
@@ -967,12 +966,12 @@ impl<D: Dim> Simulation<D> {
         let mut forces = std::mem::take(&mut cross.forces);
         let inp = Inputs { image: domain.image(), dt: dt_hist, pos, radius, mass, owner_start: &list.owner_start, partner: &list.partner };
         let blocks = n.div_ceil(cross.block_len);
-        let mut vec = path(work.simd);
+        let mut kernels = path(work.simd);
         // The fused pass keeps grain and pair indices, and three times them, in 32-bit lanes
         // (signed compares): far beyond any packing that fits in memory, but checked.
         const FUSED_LIMIT: usize = (u32::MAX / 3) as usize;
-        if vec == Path::Avx2 && (n > FUSED_LIMIT || list.partner.len() > FUSED_LIMIT) {
-            vec = Path::Portable;
+        if kernels == Path::Avx2 && (n > FUSED_LIMIT || list.partner.len() > FUSED_LIMIT) {
+            kernels = Path::Portable;
         }
 
         // Phase A: cross-block pairs.
@@ -981,8 +980,8 @@ impl<D: Dim> Simulation<D> {
         } else {
             let h = History::of_parts(&mut list.spring, &mut list.overlap, &mut list.sliding, &mut list.rolling, &mut list.twist);
             match specialized {
-                Specialized::HertzMindlin(law) => cross_pairs_windowed(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0, vec),
-                Specialized::HookeCundallStrack(law) => cross_pairs_windowed(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0, vec),
+                Specialized::HertzMindlin(law) => cross_pairs_windowed(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0, kernels),
+                Specialized::HookeCundallStrack(law) => cross_pairs_windowed(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0, kernels),
                 Specialized::General(law) => cross_pairs::<D, ContactLaw>(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0),
             }
         };
@@ -1005,8 +1004,8 @@ impl<D: Dim> Simulation<D> {
             ForceStats::new()
         } else {
             match specialized {
-                Specialized::HertzMindlin(law) => blocks_pass_windowed(&law, &inp, cross, &fin, 0..blocks, h, g, vec),
-                Specialized::HookeCundallStrack(law) => blocks_pass_windowed(&law, &inp, cross, &fin, 0..blocks, h, g, vec),
+                Specialized::HertzMindlin(law) => blocks_pass_windowed(&law, &inp, cross, &fin, 0..blocks, h, g, kernels),
+                Specialized::HookeCundallStrack(law) => blocks_pass_windowed(&law, &inp, cross, &fin, 0..blocks, h, g, kernels),
                 Specialized::General(law) => blocks_pass::<D, ContactLaw>(&law, &inp, cross, &fin, 0..blocks, h, g),
             }
         };

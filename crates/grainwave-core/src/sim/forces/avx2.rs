@@ -135,33 +135,27 @@ pub(super) trait Lanes: Real {
 /// Most lanes of a group.
 pub(super) const MAX: usize = 8;
 
-impl Lanes for F64x4 {
-    const N: usize = 4;
-    #[inline(always)]
-    unsafe fn rows(base: *const f64, n: usize, off: &[u32; MAX]) -> [Self; 3] {
-        // SAFETY: the caller's contract.
-        unsafe { rows(base, n, [off[0], off[1], off[2], off[3]]).map(F64x4) }
-    }
-    #[inline(always)]
-    fn array(self) -> [f64; MAX] {
-        let a = lanes_of(self.0);
-        [a[0], a[1], a[2], a[3], 0.0, 0.0, 0.0, 0.0]
-    }
+/// What [`F64x8`] needs of its halves beyond [`Real`].
+impl F64x4 {
+    /// Bit l set when lane l of `m` is true.
     #[inline(always)]
     fn bits(m: __m256d) -> u32 {
         // SAFETY: only used in code compiled with AVX2.
         unsafe { _mm256_movemask_pd(m) as u32 }
     }
+    /// `self < o ? self : o`.
     #[inline(always)]
     fn min(self, o: Self) -> Self {
         // SAFETY: as above.
         unsafe { F64x4(_mm256_min_pd(self.0, o.0)) }
     }
+    /// `self > o ? self : o`.
     #[inline(always)]
     fn max(self, o: Self) -> Self {
         // SAFETY: as above.
         unsafe { F64x4(_mm256_max_pd(self.0, o.0)) }
     }
+    /// `!(self ≥ o)`.
     #[inline(always)]
     fn nge(self, o: Self) -> __m256d {
         // SAFETY: as above.
