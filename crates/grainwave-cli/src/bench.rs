@@ -31,6 +31,12 @@ pub struct BenchArgs {
     #[arg(long, value_name = "ORDER", default_value = "file", value_parser = parse_order)]
     pub order: GrainOrder,
 
+    /// Vector path of grainwave's force pass: 0 portable, 1 the fused AVX2 pass (default), 2 the
+    /// AVX-512 windows (each where the processor has it). Results are the same bits on every
+    /// path; this compares their speed.
+    #[arg(long, value_name = "LEVEL", value_parser = clap::value_parser!(u8).range(0..=2))]
+    pub simd: Option<u8>,
+
     /// Runs per case (each from the file); medians are printed when more than one.
     #[arg(long, value_name = "N", default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..))]
     pub repeat: u32,
@@ -88,7 +94,7 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
         }
     };
     for &case in &cases {
-        let cfg = BenchConfig { case, dir: args.dir.clone(), steps: args.steps, shear: args.shear, order: args.order };
+        let cfg = BenchConfig { case, dir: args.dir.clone(), steps: args.steps, shear: args.shear, order: args.order, simd: args.simd };
         for _ in 0..args.repeat {
             let r = rayon::scope(|_| run_grainwave(&cfg))?;
             say(&r);

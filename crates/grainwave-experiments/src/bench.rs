@@ -151,6 +151,9 @@ pub struct BenchConfig {
     pub shear: f64,
     /// Storage order of the grains.
     pub order: GrainOrder,
+    /// Vector path of the force pass (0 portable, 1 the fused AVX2 pass, 2 the AVX-512 windows;
+    /// `None`: the engine's default, 1). Results are the same bits on every path.
+    pub simd: Option<u8>,
 }
 
 /// Storage order of the grains in a benchmark run.
@@ -291,6 +294,9 @@ fn time_run<D: Dim>(cfg: &BenchConfig, mut grains: Grains<D>, mut domain: Domain
     }
     let law = cfg.case.contact().build(Partner::Grain, "contact")?;
     let mut sim = SimulationBuilder::new(grains, domain, law).dt(cfg.case.dt()).skin(0.1).max_initial_overlap(0.3).build()?;
+    if let Some(level) = cfg.simd {
+        sim.set_simd_level(level);
+    }
     if cfg.order == GrainOrder::Sorted {
         sim.sort_spatially();
         sim.refresh_forces()?;
@@ -459,7 +465,7 @@ Loop time of 15.2738 on 1 procs for 2000 steps with 32000 atoms
 
 Neighbor list builds = 10
 ";
-        let cfg = BenchConfig { case: BenchCase::Hertz3d, dir: PathBuf::new(), steps: None, shear: 0.0, order: GrainOrder::File };
+        let cfg = BenchConfig { case: BenchCase::Hertz3d, dir: PathBuf::new(), steps: None, shear: 0.0, order: GrainOrder::File, simd: None };
         let r = parse_lammps_output(log, &cfg, 1).unwrap();
         assert_eq!((r.grains, r.steps, r.neighbor_rebuilds), (32000, 2000, 10));
         assert_eq!(r.loop_seconds, 15.2738);

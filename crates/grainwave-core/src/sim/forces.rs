@@ -542,7 +542,10 @@ enum Path {
     Avx512,
 }
 
-/// The fastest path the processor has, at most `level` (0 portable, 1 AVX2, 2 AVX-512).
+/// The path for `level` (0 portable, 1 the fused AVX2 pass — the default —, 2 the AVX-512
+/// windows), each only when the processor has it, the next lower level otherwise. The fused AVX2
+/// pass is the default also on processors with AVX-512: it was the faster of the two on the one
+/// measured (`../BENCHMARKS.md`, "Default path on AVX-512 processors").
 fn path(level: u8) -> Path {
     #[cfg(target_arch = "x86_64")]
     {

@@ -133,8 +133,8 @@ struct Workspace<D: Dim> {
     block_len: Option<usize>,
     /// Evaluate every law with the general kernel (tests).
     general_kernel: bool,
-    /// Vector extensions the specialised kernels may use when the processor has them: 0 none
-    /// (portable), 1 AVX2, 2 AVX-512 (tests lower it).
+    /// Vector path of the specialised kernels when the processor has it: 0 none (portable), 1
+    /// the fused AVX2 pass (default), 2 the AVX-512 windows (tests and benchmarks set it).
     simd: u8,
     /// External loads of the current evaluation: (grain index, force, torque).
     loads: Vec<(usize, D::Vector, D::AngVector)>,
@@ -157,7 +157,7 @@ impl<D: Dim> Default for Workspace<D> {
             cross: CrossIndex::default(),
             block_len: None,
             general_kernel: false,
-            simd: 2,
+            simd: 1,
             loads: Vec::new(),
             wall_force: Vec::new(),
             wall_index: WallIndex::default(),
@@ -336,12 +336,12 @@ impl<D: Dim> Simulation<D> {
     /// them on the portable path. Results do not depend on it — this exists to test exactly that.
     #[doc(hidden)]
     pub fn set_simd(&mut self, on: bool) {
-        self.work.simd = if on { 2 } else { 0 };
+        self.work.simd = if on { 1 } else { 0 };
     }
 
-    /// The vector extensions the specialised kernels may use, when the processor has them: 0 none
-    /// (the portable path), 1 up to AVX2 (the fused pass), 2 up to AVX-512 (the default). Results
-    /// do not depend on it — this exists to test exactly that.
+    /// The vector path of the specialised kernels, when the processor has it: 0 none (the
+    /// portable path), 1 the fused AVX2 pass (the default), 2 the AVX-512 windows. Results do
+    /// not depend on it — this exists to test exactly that, and to compare the paths' speed.
     #[doc(hidden)]
     pub fn set_simd_level(&mut self, level: u8) {
         self.work.simd = level;
