@@ -69,12 +69,14 @@ impl ForceStats {
 const MIN_BLOCK: usize = 512;
 
 /// Number of grains per block for `n` grains on `threads` threads: one block for one thread,
-/// otherwise a few blocks per thread so that the work can be balanced.
+/// otherwise two blocks per thread: a second one lets the work be balanced, more add cross-block
+/// pairs (phase A) and passes. Measured on two threads: two blocks per thread beat four by 5–8 %
+/// and one by up to 7 % (`../BENCHMARKS.md`).
 pub(super) fn block_len(n: usize, threads: usize) -> usize {
     if threads <= 1 || n < 2 * MIN_BLOCK {
         return n.max(1);
     }
-    n.div_ceil(4 * threads).max(MIN_BLOCK)
+    n.div_ceil(2 * threads).max(MIN_BLOCK)
 }
 
 /// Read-only inputs of the pair evaluations.
