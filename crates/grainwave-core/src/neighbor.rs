@@ -184,23 +184,39 @@ impl<D: Dim> NeighborList<D> {
         let mut list = build_list::<D>(pos, radius, domain, self.skin);
         let old = &self.list;
         if self.ref_ids.as_slice() == ids {
-            // Same grains in the same storage order: both lists are sorted by (i, j); merge them.
-            for i in 0..n.min(old.owner_start.len().saturating_sub(1)) {
-                let (mut o, o_end) = (old.owner_start[i] as usize, old.owner_start[i + 1] as usize);
-                for p in list.owner_start[i] as usize..list.owner_start[i + 1] as usize {
-                    let j = list.partner[p];
-                    while o < o_end && old.partner[o] < j {
-                        o += 1;
-                    }
-                    if o < o_end && old.partner[o] == j {
-                        list.spring[p] = old.spring[o];
-                        list.overlap[p] = old.overlap[o];
-                        list.sliding[p] = old.sliding[o];
-                        list.rolling[p] = old.rolling[o];
-                        list.twist[p] = old.twist[o];
+            // Same grains in the same storage order: both lists are sorted by (i, j); merge them,
+            // in parallel over chunks of owners (each pair's state is set on its own).
+            let m = n.min(old.owner_start.len().saturating_sub(1));
+            let parts = owner_parts(&list.owner_start[..=m], OWNER_CHUNK);
+            let mut spring = split_parts(&mut list.spring, &parts).into_iter();
+            let mut overlap = split_parts(&mut list.overlap, &parts).into_iter();
+            let mut sliding = split_parts(&mut list.sliding, &parts).into_iter();
+            let mut rolling = split_parts(&mut list.rolling, &parts).into_iter();
+            let mut twist = split_parts(&mut list.twist, &parts).into_iter();
+            let jobs: Vec<_> = parts
+                .iter()
+                .map(|(g, p)| (g.clone(), p.start, spring.next().unwrap(), overlap.next().unwrap(), sliding.next().unwrap(), rolling.next().unwrap(), twist.next().unwrap()))
+                .collect();
+            let (new_start, new_partner) = (&list.owner_start, &list.partner);
+            jobs.into_par_iter().for_each(|(grains, first, spring, overlap, sliding, rolling, twist)| {
+                for i in grains {
+                    let (mut o, o_end) = (old.owner_start[i] as usize, old.owner_start[i + 1] as usize);
+                    for p in new_start[i] as usize..new_start[i + 1] as usize {
+                        let j = new_partner[p];
+                        while o < o_end && old.partner[o] < j {
+                            o += 1;
+                        }
+                        if o < o_end && old.partner[o] == j {
+                            let q = p - first;
+                            spring[q] = old.spring[o];
+                            overlap[q] = old.overlap[o];
+                            sliding[q] = old.sliding[o];
+                            rolling[q] = old.rolling[o];
+                            twist[q] = old.twist[o];
+                        }
                     }
                 }
-            }
+            });
         } else {
             // Grains added, removed or reordered: match contacts by stable id pair (smaller id
             // first), with the orientation they were stored in (histories act on the grain of
@@ -309,6 +325,36 @@ pub fn nan_max(a: f64, b: f64) -> f64 {
     } else {
         a.max(b)
     }
+}
+
+/// Owners per parallel work item of the passes over the pair list at a rebuild.
+const OWNER_CHUNK: usize = 2048;
+
+/// Consecutive chunks of at most `chunk` owners of a list with `owner_start` (one more entry than
+/// owners): the owners and their pairs.
+fn owner_parts(owner_start: &[u32], chunk: usize) -> Vec<(std::ops::Range<usize>, std::ops::Range<usize>)> {
+    let n = owner_start.len().saturating_sub(1);
+    (0..n.div_ceil(chunk))
+        .map(|c| {
+            let g = c * chunk..((c + 1) * chunk).min(n);
+            (g.clone(), owner_start[g.start] as usize..owner_start[g.end] as usize)
+        })
+        .collect()
+}
+
+/// The pieces of `data` holding the pairs of each part (consecutive, from the start).
+fn split_parts<'a, T>(mut data: &'a mut [T], parts: &[(std::ops::Range<usize>, std::ops::Range<usize>)]) -> Vec<&'a mut [T]> {
+    let mut out = Vec::with_capacity(parts.len());
+    let mut at = parts.first().map_or(0, |p| p.1.start);
+    data = &mut data[at..];
+    for (_, pairs) in parts {
+        debug_assert_eq!(pairs.start, at);
+        let (head, tail) = std::mem::take(&mut data).split_at_mut(pairs.end - at);
+        out.push(head);
+        data = tail;
+        at = pairs.end;
+    }
+    out
 }
 
 /// Cell grid over the grains.
@@ -561,9 +607,14 @@ fn build_list<D: Dim>(pos: &[D::Vector], radius: &[f64], domain: &Domain<D>, ski
             fill[i as usize] += 1;
         }
     }
-    for i in 0..n {
-        list.partner[list.owner_start[i] as usize..list.owner_start[i + 1] as usize].sort_unstable();
-    }
+    // each owner's partners in increasing order, in parallel over chunks of owners
+    let parts = owner_parts(&list.owner_start, OWNER_CHUNK);
+    let owner_start = &list.owner_start;
+    split_parts(&mut list.partner, &parts).into_par_iter().zip(parts.par_iter()).for_each(|(partner, (grains, pairs))| {
+        for i in grains.clone() {
+            partner[owner_start[i] as usize - pairs.start..owner_start[i + 1] as usize - pairs.start].sort_unstable();
+        }
+    });
     let m = list.len();
     list.spring = vec![D::Vector::ZERO; m];
     list.overlap = vec![0.0; m];
