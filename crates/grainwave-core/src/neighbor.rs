@@ -13,7 +13,7 @@
 
 use crate::contact::ContactState;
 use crate::dim::{Dim, VectorOps};
-use crate::domain::Domain;
+use crate::domain::{Domain, PeriodicImage};
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
@@ -309,12 +309,40 @@ fn id_key(a: u32, b: u32) -> u64 {
 /// position is not finite.
 pub fn max_displacement2_since<D: Dim>(reference: &[D::Vector], pos: &[D::Vector], domain: &Domain<D>) -> f64 {
     let image = domain.image();
-    pos.par_iter()
-        .with_min_len(4096)
-        .zip(reference.par_iter())
-        .map(|(&x, &r)| image.displacement(r, x).norm2())
+    pos.par_chunks(4096)
+        .zip(reference.par_chunks(4096))
+        .map(|(x, r)| max_displacement2(&image, r, x))
         // NaN-propagating max: a non-finite position forces a rebuild, whose checks report it
         .reduce(|| 0.0, nan_max)
+}
+
+/// Largest squared nearest-image displacement from `reference` to `pos` (as a fold of
+/// [`nan_max`] from 0: NaN when any is NaN), without a branch per grain: four running maxima
+/// (`x > m ? x : m`, which skips NaN) and a separate NaN flag, so the loop vectorizes. The maximum
+/// of the same values, so the same bits as the fold.
+#[inline]
+pub(crate) fn max_displacement2<D: Dim>(image: &PeriodicImage<D>, reference: &[D::Vector], pos: &[D::Vector]) -> f64 {
+    const L: usize = 4;
+    let (mut m, mut nan) = ([0.0f64; L], [false; L]);
+    let n = reference.len().min(pos.len());
+    let (reference, pos) = (&reference[..n], &pos[..n]);
+    let split = n - n % L;
+    for (r, x) in reference[..split].chunks_exact(L).zip(pos[..split].chunks_exact(L)) {
+        for l in 0..L {
+            let d2 = image.displacement(r[l], x[l]).norm2();
+            m[l] = if d2 > m[l] { d2 } else { m[l] };
+            nan[l] |= d2.is_nan();
+        }
+    }
+    for k in split..n {
+        let d2 = image.displacement(reference[k], pos[k]).norm2();
+        m[0] = if d2 > m[0] { d2 } else { m[0] };
+        nan[0] |= d2.is_nan();
+    }
+    if nan.iter().any(|&b| b) {
+        return f64::NAN;
+    }
+    m.iter().fold(0.0, |a, &b| if b > a { b } else { a })
 }
 
 /// max(a, b), NaN when either is NaN.
@@ -690,6 +718,32 @@ mod tests {
                 .collect();
             let rad: Vec<f64> = (0..400).map(|_| 0.1 + 0.1 * rng.random::<f64>()).collect();
             check(&pos, &rad, &d3, 0.1);
+        }
+    }
+
+    /// The lane-wise maximum is the fold of `nan_max` from 0, bit for bit: lengths that are and
+    /// are not multiples of the lane count, images across the periodic boundary, a NaN anywhere.
+    #[test]
+    fn max_displacement_is_the_nan_max_fold() {
+        let dom: Domain<D2> = Domain::new(DVec2::ZERO, DVec2::new(7.0, 5.0), [true, false, false]);
+        let image = dom.image();
+        let mut seed = 12345u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        for n in [0, 1, 3, 4, 5, 17, 64] {
+            let reference: Vec<DVec2> = (0..n).map(|_| DVec2::new(7.0 * next(), 5.0 * next())).collect();
+            let mut pos: Vec<DVec2> = reference.iter().map(|r| *r + DVec2::new(next() - 0.5, next() - 0.5) * 3.0).collect();
+            let fold = |p: &[DVec2]| reference.iter().zip(p).fold(0.0, |m, (r, x)| nan_max(m, image.displacement(*r, *x).norm2()));
+            let got = max_displacement2(&image, &reference, &pos);
+            assert_eq!(got.to_bits(), fold(&pos).to_bits(), "n = {n}");
+            if n > 0 {
+                assert!(got > 0.0);
+                pos[n - 1].y = f64::NAN;
+                assert!(max_displacement2(&image, &reference, &pos).is_nan(), "n = {n}");
+                assert!(fold(&pos).is_nan());
+            }
         }
     }
 }

@@ -547,7 +547,7 @@ enum Path {
 /// The path for `level` (0 portable, 1 the fused AVX2 pass — the default —, 2 the AVX-512
 /// windows), each only when the processor has it, the next lower level otherwise. The fused AVX2
 /// pass is the default also on processors with AVX-512: it was the faster of the two on the one
-/// measured (`../BENCHMARKS.md`, "Default path on AVX-512 processors").
+/// measured (`../BENCHMARKS.md`, "Intel Xeon with AVX-512").
 fn path(level: u8) -> Path {
     #[cfg(target_arch = "x86_64")]
     {
