@@ -115,9 +115,6 @@ pub(super) trait Real: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Outp
     fn select(m: Self::Mask, a: Self, b: Self) -> Self;
     /// `f` lane by lane (the general damping parts).
     fn map3(a: Self, b: Self, c: Self, f: impl Fn(f64, f64, f64) -> f64) -> Self;
-    /// False only when no lane of `m` is true — a hint that lets vectors skip work whose result
-    /// no lane selects. `f64` answers true (no branch: the window loop stays vectorized).
-    fn any(m: Self::Mask) -> bool;
 }
 
 impl Real for f64 {
@@ -153,10 +150,6 @@ impl Real for f64 {
     #[inline(always)]
     fn map3(a: Self, b: Self, c: Self, f: impl Fn(f64, f64, f64) -> f64) -> Self {
         f(a, b, c)
-    }
-    #[inline(always)]
-    fn any(_m: bool) -> bool {
-        true
     }
 }
 
@@ -549,20 +542,17 @@ pub(super) fn contact<R: Real, const DIM: usize, const ROT: usize, L: WindowLaw,
     let t2 = dot::<R, DIM>(trial, trial);
     let cap = R::splat(law.friction()) * f_n;
     let sliding = t2.gt(cap * cap);
-    // (when no lane slides, f is the trial force and the kept history is the new one: the
-    // divisions below are skipped by vectors of lanes, same bits)
-    let (f, slid) = if R::any(sliding) {
-        let shrink = cap / t2.sqrt();
-        let cap_pos = cap.gt(zero);
-        let mut f = [zero; 3];
-        for c in 0..DIM {
-            let capped = R::select(cap_pos, trial[c] * shrink, zero);
-            f[c] = R::select(sliding, capped, trial[c]);
-        }
-        (f, law.slid::<R, DIM>(f))
-    } else {
-        (trial, kept)
-    };
+    // Branch-free: the capped force is computed on every lane and selected where the lane
+    // slides (a branch skipping it when no lane of a vector slides was mispredicted often
+    // enough to cost 3–4 % on `hooke2d`, BENCHMARKS.md; the same bits either way).
+    let shrink = cap / t2.sqrt();
+    let cap_pos = cap.gt(zero);
+    let mut f = [zero; 3];
+    for c in 0..DIM {
+        let capped = R::select(cap_pos, trial[c] * shrink, zero);
+        f[c] = R::select(sliding, capped, trial[c]);
+    }
+    let slid = law.slid::<R, DIM>(f);
 
     // forces and torques: F_i = F_t − F_n n̂, τ_i = a_i n̂ × F_t, τ_j = a_j n̂ × F_t
     let mut t = [zero; 3];

@@ -96,11 +96,6 @@ impl Real for F64x4 {
         // SAFETY: as above.
         unsafe { F64x4(_mm256_setr_pd(f(a[0], b[0], c[0]), f(a[1], b[1], c[1]), f(a[2], b[2], c[2]), f(a[3], b[3], c[3]))) }
     }
-    #[inline(always)]
-    fn any(m: __m256d) -> bool {
-        // SAFETY: as above.
-        unsafe { _mm256_movemask_pd(m) != 0 }
-    }
 }
 
 #[inline(always)]
@@ -221,11 +216,6 @@ impl Real for F64x8 {
     #[inline(always)]
     fn map3(a: Self, b: Self, c: Self, f: impl Fn(f64, f64, f64) -> f64) -> Self {
         F64x8(F64x4::map3(a.0, b.0, c.0, &f), F64x4::map3(a.1, b.1, c.1, &f))
-    }
-    #[inline(always)]
-    fn any(m: Self::Mask) -> bool {
-        // SAFETY: only used in code compiled with AVX2.
-        unsafe { _mm256_movemask_pd(_mm256_or_pd(m.0, m.1)) != 0 }
     }
 }
 
