@@ -41,13 +41,18 @@ impl<D: Dim> Simulation<D> {
         let h = 0.5 * dt;
         // Kick, drift, wrap, turn, and measure how far the grains moved since the neighbor list
         // was built.
-        let max_displacement2 = {
-            let Simulation { grains: g, domain: dom, nlist, .. } = self;
+        let (max_displacement2, max_close2) = {
+            let Simulation { grains: g, domain: dom, nlist, work, .. } = self;
             let image = dom.image();
             let (lo, hi) = dom.wrap_bounds();
             let reference = &nlist.ref_pos;
             let track = reference.len() == g.pos.len();
-            g.pos
+            // the close list's reference too (the force pass's own check, done here in the same
+            // sweep)
+            let close = &work.cross.close_ref;
+            let track_close = work.cross.close_ok && close.len() == g.pos.len();
+            let m = g
+                .pos
                 .par_chunks_mut(MIN_LEN)
                 .zip(g.vel.par_chunks_mut(MIN_LEN))
                 .zip(g.image.par_chunks_mut(MIN_LEN))
@@ -83,13 +88,15 @@ impl<D: Dim> Simulation<D> {
                         }
                     }
                     let max_d2 = if track { max_displacement2(&image, &reference[base..base + n], x) } else { 0.0 };
+                    let close_d2 = if track_close { max_displacement2(&image, &close[base..base + n], x) } else { 0.0 };
                     for k in 0..w.len() {
                         w[k] += t[k] * ki[k];
                     }
                     D::rotate_orientations(o, w, dt);
-                    max_d2
+                    (max_d2, close_d2)
                 })
-                .reduce(|| 0.0, nan_max)
+                .reduce(|| (0.0, 0.0), |a, b| (nan_max(a.0, b.0), nan_max(a.1, b.1)));
+            (m.0, track_close.then_some(m.1))
         };
         let t0 = self.time;
         for w in &mut self.domain.walls {
@@ -108,6 +115,7 @@ impl<D: Dim> Simulation<D> {
         self.time = t0 + dt;
         self.domain.advance_tilt(dt);
         self.prepare_neighbors(Some(max_displacement2))?;
+        self.work.cross.close_known = max_close2;
         // forces, then the second half kick in the same per-grain pass
         self.compute_forces(dt, false, Some(h))?;
         self.update_piston_accelerations();

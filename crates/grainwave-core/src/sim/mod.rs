@@ -204,6 +204,26 @@ struct CrossIndex<D: Dim> {
     in_slot: Vec<u32>,
     /// The buffer.
     forces: Vec<CrossForce<D>>,
+    /// The close list (see `forces`, "Close list"): per block, the intra-block pairs that may
+    /// touch before the grains move `close_margin / 2` from `close_ref`:
+    /// `close_pair[close_start[b]..close_start[b + 1]]` in list order, with their owners and
+    /// partners.
+    close_start: Vec<u32>,
+    close_pair: Vec<u32>,
+    close_owner: Vec<u32>,
+    close_partner: Vec<u32>,
+    /// Positions and cell tilt when the close list was built.
+    close_ref: Vec<D::Vector>,
+    close_tilt: [f64; 3],
+    /// Its margin (length); 0: no close list is kept (built on demand).
+    close_margin: f64,
+    /// The close list is valid for the current pair list and blocks.
+    close_ok: bool,
+    /// max|x − close_ref|² when already measured for the current positions (by the drift
+    /// pass); taken by the next force evaluation.
+    close_known: Option<f64>,
+    /// Close-list builds so far (a diagnostic).
+    close_builds: u64,
 }
 
 impl<D: Dim> Default for CrossIndex<D> {
@@ -220,6 +240,16 @@ impl<D: Dim> Default for CrossIndex<D> {
             in_start: Vec::new(),
             in_slot: Vec::new(),
             forces: Vec::new(),
+            close_start: Vec::new(),
+            close_pair: Vec::new(),
+            close_owner: Vec::new(),
+            close_partner: Vec::new(),
+            close_ref: Vec::new(),
+            close_tilt: [0.0; 3],
+            close_margin: 0.0,
+            close_ok: false,
+            close_known: None,
+            close_builds: 0,
         }
     }
 }
@@ -345,6 +375,12 @@ impl<D: Dim> Simulation<D> {
     #[doc(hidden)]
     pub fn set_simd_level(&mut self, level: u8) {
         self.work.simd = level;
+    }
+
+    /// How many times the force pass's close list was built (a diagnostic: the fused AVX2 pass
+    /// keeps it, see `sim::forces`, "Close list"; 0 on the other paths). Not part of the state.
+    pub fn close_list_builds(&self) -> u64 {
+        self.work.cross.close_builds
     }
 
     /// Adds a warning once. A warning starting like an earlier one (same first four words, e.g.
