@@ -18,9 +18,9 @@
 //! kick: one pass over the grains, no per-pair force buffer for intra-block pairs, and each pair
 //! evaluated exactly once.
 //!
-//! **Close list.** The neighbor list holds every pair within r_i + r_j + skin, and with the
-//! benchmark skin (0.1 of a diameter) only ≈ 77 % (3D) / 83 % (2D) of those pairs touch. The
-//! fused AVX2 pass (`avx2`) therefore walks a second, shorter list of each block's intra-block
+//! **Close list (3D).** The neighbor list holds every pair within r_i + r_j + skin, and with the
+//! benchmark skin (0.1 of a diameter) only ≈ 77 % (3D) / 83 % (2D) of those pairs touch. In 3D
+//! the fused AVX2 pass (`avx2`) therefore walks a second, shorter list of each block's intra-block
 //! pairs: those within r_i + r_j + m, m = 0.3 × skin, plus any pair still holding a contact
 //! (so that its opening is seen and its history forgotten as before), in list order. A pair left
 //! out cannot touch before some grain has moved m/2 from where it was when the close list was
@@ -31,8 +31,9 @@
 //! that measures it for the neighbor list. Skipped pairs touch nobody and hold no contact: the
 //! evaluation would add nothing to any sum and change no history, so every bit of a run is as
 //! without the close list (tested against the general kernel, `tests/force_blocks.rs`). On the
-//! benchmark packings it holds 83 % (3D) / 90 % (2D) of the pairs and is rebuilt every ≈ 14
-//! (3D) / 50 (2D) steps at m = 0.2 × skin (`../../BENCHMARKS.md`).
+//! benchmark packings it would hold 83 % (3D) / 90 % (2D) of the pairs, rebuilt every ≈ 14 (3D)
+//! / 50 (2D) steps at m = 0.2 × skin; in 2D it saved less than its displacement check cost on
+//! two workers, so it is kept in 3D only (`../../BENCHMARKS.md`).
 
 use super::lanes::{self, Window, WindowLaw, CAP};
 use super::{CrossForce, CrossIndex, Simulation, WallForce};
@@ -1019,7 +1020,9 @@ impl<D: Dim> Simulation<D> {
         };
         // (a displacement measured by the drift pass is for these positions only: always taken)
         let known = work.cross.close_known.take();
-        if kernels == Path::Avx2 && !matches!(specialized, Specialized::General(_)) && n > 0 {
+        // (3D only: in 2D the list would hold ≈ 90 % of the pairs, and on two workers its
+        // displacement check cost more than it saved, −6 % on `hooke2d`, BENCHMARKS.md)
+        if D::D == 3 && kernels == Path::Avx2 && !matches!(specialized, Specialized::General(_)) && n > 0 {
             work.cross.ensure_close(list, pos, radius, &inp.image, domain.tilt, CLOSE_FRACTION * nlist.skin, known);
         }
         let (gv, gw) = if use_eval { (&mut work.vel_eval, &mut work.omega_eval) } else { (&mut grains.vel, &mut grains.omega) };
