@@ -47,11 +47,12 @@ impl<D: Dim> Simulation<D> {
             let (lo, hi) = dom.wrap_bounds();
             let reference = &nlist.ref_pos;
             let track = reference.len() == g.pos.len();
-            // the close list's reference too (the force pass's own check, done here in the same
-            // sweep)
+            // In 3D, the close list's reference too (the force pass's own check, done here in
+            // the same sweep). 2D keeps the pass with one reference: the second one cost its
+            // two-worker runs 9–15 % (BENCHMARKS.md), and 2D keeps no close list.
             let close = &work.cross.close_ref;
-            let track_close = work.cross.close_ok && close.len() == g.pos.len();
-            let m = g
+            let track_close = D::D == 3 && work.cross.close_ok && close.len() == g.pos.len();
+            let chunks = g
                 .pos
                 .par_chunks_mut(MIN_LEN)
                 .zip(g.vel.par_chunks_mut(MIN_LEN))
@@ -60,43 +61,52 @@ impl<D: Dim> Simulation<D> {
                 .zip(g.omega.par_chunks_mut(MIN_LEN))
                 .zip(g.orientation.par_chunks_mut(MIN_LEN))
                 .zip(g.torque.par_chunks(MIN_LEN))
-                .enumerate()
-                .map(|(c, ((((((x, v), im), f), w), o), t))| {
-                    let base = c * MIN_LEN;
-                    let n = x.len();
-                    let (mass, inertia) = (&g.mass[base..base + n], &g.inertia[base..base + n]);
-                    // h/m and h/I first, in loops the compiler vectorizes (the same quotients as
-                    // inline)
-                    let (mut km, mut ki) = ([0.0; MIN_LEN], [0.0; MIN_LEN]);
-                    for k in 0..n {
-                        km[k] = h / mass[k];
+                .enumerate();
+            let drift = |c: usize, x: &mut [D::Vector], v: &mut [D::Vector], im: &mut [[i32; 3]], f: &[D::Vector], w: &mut [D::AngVector], o: &mut [D::Orientation], t: &[D::AngVector]| {
+                let base = c * MIN_LEN;
+                let n = x.len();
+                let (mass, inertia) = (&g.mass[base..base + n], &g.inertia[base..base + n]);
+                // h/m and h/I first, in loops the compiler vectorizes (the same quotients as
+                // inline)
+                let (mut km, mut ki) = ([0.0; MIN_LEN], [0.0; MIN_LEN]);
+                for k in 0..n {
+                    km[k] = h / mass[k];
+                }
+                for k in 0..n {
+                    ki[k] = h / inertia[k];
+                }
+                for k in 0..n {
+                    v[k] += f[k] * km[k];
+                    x[k] += v[k] * dt;
+                    // most grains stay inside the cell: the full wrap only for the others
+                    // (non-short-circuit `|`: one test per grain instead of a branch per bound)
+                    let mut out = image.sheared;
+                    for c in 0..D::D {
+                        out |= (x[k].get(c) >= hi.get(c)) | (x[k].get(c) < lo.get(c));
                     }
-                    for k in 0..n {
-                        ki[k] = h / inertia[k];
+                    if out {
+                        dom.wrap_in(&image, &mut x[k], &mut v[k], &mut im[k]);
                     }
-                    for k in 0..n {
-                        v[k] += f[k] * km[k];
-                        x[k] += v[k] * dt;
-                        // most grains stay inside the cell: the full wrap only for the others
-                        // (non-short-circuit `|`: one test per grain instead of a branch per bound)
-                        let mut out = image.sheared;
-                        for c in 0..D::D {
-                            out |= (x[k].get(c) >= hi.get(c)) | (x[k].get(c) < lo.get(c));
-                        }
-                        if out {
-                            dom.wrap_in(&image, &mut x[k], &mut v[k], &mut im[k]);
-                        }
-                    }
-                    let max_d2 = if track { max_displacement2(&image, &reference[base..base + n], x) } else { 0.0 };
-                    let close_d2 = if track_close { max_displacement2(&image, &close[base..base + n], x) } else { 0.0 };
-                    for k in 0..w.len() {
-                        w[k] += t[k] * ki[k];
-                    }
-                    D::rotate_orientations(o, w, dt);
-                    (max_d2, close_d2)
-                })
-                .reduce(|| (0.0, 0.0), |a, b| (nan_max(a.0, b.0), nan_max(a.1, b.1)));
-            (m.0, track_close.then_some(m.1))
+                }
+                let max_d2 = if track { max_displacement2(&image, &reference[base..base + n], x) } else { 0.0 };
+                for k in 0..w.len() {
+                    w[k] += t[k] * ki[k];
+                }
+                D::rotate_orientations(o, w, dt);
+                max_d2
+            };
+            if track_close {
+                let m = chunks
+                    .map(|(c, ((((((x, v), im), f), w), o), t))| {
+                        let max_d2 = drift(c, x, v, im, f, w, o, t);
+                        let base = c * MIN_LEN;
+                        (max_d2, max_displacement2(&image, &close[base..base + x.len()], x))
+                    })
+                    .reduce(|| (0.0, 0.0), |a, b| (nan_max(a.0, b.0), nan_max(a.1, b.1)));
+                (m.0, Some(m.1))
+            } else {
+                (chunks.map(|(c, ((((((x, v), im), f), w), o), t))| drift(c, x, v, im, f, w, o, t)).reduce(|| 0.0, nan_max), None)
+            }
         };
         let t0 = self.time;
         for w in &mut self.domain.walls {

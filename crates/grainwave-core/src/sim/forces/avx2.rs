@@ -497,6 +497,10 @@ unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &I
 #[target_feature(enable = "avx2,popcnt")]
 #[allow(clippy::too_many_arguments)]
 unsafe fn block<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, mut h: History<D>, g: Grain<D>) -> ForceStats {
+    if cross.close_ok {
+        // SAFETY: AVX2 is enabled here (the caller's contract).
+        return unsafe { block_close::<D, L, P>(law, damp, inp, cross, fin, b, h, g) };
+    }
     let mut st = ForceStats::new();
     let (g0, g1) = (b * cross.block_len, ((b + 1) * cross.block_len).min(cross.n));
     let Grain { force, torque, vel, omega, .. } = g;
@@ -505,40 +509,6 @@ unsafe fn block<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs
     let mut done = g0;
     let (mut p, e) = (inp.owner_start[g0] as usize, inp.owner_start[g1] as usize);
     let mut out = Out::new();
-    if cross.close_ok {
-        // The close list: the block's pairs that may touch, in list order (the others touch
-        // nobody and hold no contact: skipping them changes no bit).
-        let (mut k, ke) = (cross.close_start[b] as usize, cross.close_start[b + 1] as usize);
-        while k < ke {
-            let n = (ke - k).min(V::N);
-            // lanes past n: the first pair and its owner (not looked at)
-            // SAFETY: AVX2 is enabled here; the masked loads read the entries k..k + n only.
-            let gr = unsafe {
-                let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-                let live = _mm256_cmpgt_epi32(_mm256_set1_epi32(n as i32), lane);
-                let pair = _mm256_maskload_epi32(cross.close_pair.as_ptr().add(k) as *const i32, live);
-                let pair = _mm256_blendv_epi8(_mm256_set1_epi32(cross.close_pair[k] as i32), pair, live);
-                let i = _mm256_maskload_epi32(cross.close_owner.as_ptr().add(k) as *const i32, live);
-                let i = _mm256_blendv_epi8(_mm256_set1_epi32(cross.close_owner[k] as i32), i, live);
-                let j = _mm256_maskload_epi32(cross.close_partner.as_ptr().add(k) as *const i32, live);
-                let j = _mm256_blendv_epi8(i, j, live);
-                Group { pair: u32s(pair), i: u32s(i), j: u32s(j), valid: _mm256_movemask_ps(_mm256_castsi256_ps(live)) as u32 }
-            };
-            // SAFETY: as below (the close list holds intra-block pairs of the block).
-            let touching = unsafe { eval_group::<D, L, P>(law, damp, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &gr, &mut st, &mut out) };
-            if touching {
-                add_group::<D>(&out, &gr.i, &gr.j, g0, force, torque);
-            }
-            k += n;
-            // every pair before `next` is added now
-            let next = if k < ke { cross.close_pair[k] as usize } else { e };
-            while done < g1 && cross.cross_begin[done] as usize <= next {
-                finish_grain(inp, cross, fin, done, g0, force, torque, vel, omega, &mut load, &mut st);
-                done += 1;
-            }
-        }
-        p = e;
-    }
     while p < e {
         let n = (e - p).min(V::N);
         // lanes past n: the first pair and its owner; partners of the next blocks: not looked at
@@ -559,10 +529,81 @@ unsafe fn block<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs
         // partners lie in the block (cross index); AVX2 is enabled here.
         let touching = unsafe { eval_group::<D, L, P>(law, damp, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &gr, &mut st, &mut out) };
         if touching {
-            add_group::<D>(&out, &gr.i, &gr.j, g0, force, torque);
+            let mut bits = out.touch;
+            while bits != 0 {
+                let l = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let (li, lj) = (gr.i[l] as usize - g0, gr.j[l] as usize - g0);
+                debug_assert!(li < force.len() && lj < force.len() && li != lj);
+                let f: D::Vector = Out::get(&out.force, l);
+                // SAFETY: owners and intra-block partners lie in the block.
+                unsafe {
+                    *force.get_unchecked_mut(li) += f;
+                    *torque.get_unchecked_mut(li) += Out::get::<D::AngVector>(&out.torque_i, l);
+                    *force.get_unchecked_mut(lj) -= f;
+                    *torque.get_unchecked_mut(lj) += Out::get::<D::AngVector>(&out.torque_j, l);
+                }
+            }
         }
         p += n;
         while done < g1 && cross.cross_begin[done] as usize <= p {
+            finish_grain(inp, cross, fin, done, g0, force, torque, vel, omega, &mut load, &mut st);
+            done += 1;
+        }
+    }
+    while done < g1 {
+        finish_grain(inp, cross, fin, done, g0, force, torque, vel, omega, &mut load, &mut st);
+        done += 1;
+    }
+    st
+}
+
+/// [`block`] through the close list (see `super`, "Close list"): its groups are taken from the
+/// block's close list instead of consecutive pairs of the neighbor list, a grain is completed
+/// once the next pair of the close list lies past its intra-block pairs; the same bits. A
+/// function of its own (not inlined) so that the code of [`block`] is not changed by it.
+///
+/// # Safety
+/// AVX2 is available.
+#[target_feature(enable = "avx2,popcnt")]
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+unsafe fn block_close<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, mut h: History<D>, g: Grain<D>) -> ForceStats {
+    let mut st = ForceStats::new();
+    let (g0, g1) = (b * cross.block_len, ((b + 1) * cross.block_len).min(cross.n));
+    let Grain { force, torque, vel, omega, .. } = g;
+    start_block(cross, g0, g1, force, torque);
+    let mut load = fin.loads.partition_point(|l| l.0 < g0);
+    let mut done = g0;
+    let e = inp.owner_start[g1] as usize;
+    let mut out = Out::new();
+    // The close list: the block's pairs that may touch, in list order (the others touch
+    // nobody and hold no contact: skipping them changes no bit).
+    let (mut k, ke) = (cross.close_start[b] as usize, cross.close_start[b + 1] as usize);
+    while k < ke {
+        let n = (ke - k).min(V::N);
+        // lanes past n: the first pair and its owner (not looked at)
+        // SAFETY: AVX2 is enabled here; the masked loads read the entries k..k + n only.
+        let gr = unsafe {
+            let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+            let live = _mm256_cmpgt_epi32(_mm256_set1_epi32(n as i32), lane);
+            let pair = _mm256_maskload_epi32(cross.close_pair.as_ptr().add(k) as *const i32, live);
+            let pair = _mm256_blendv_epi8(_mm256_set1_epi32(cross.close_pair[k] as i32), pair, live);
+            let i = _mm256_maskload_epi32(cross.close_owner.as_ptr().add(k) as *const i32, live);
+            let i = _mm256_blendv_epi8(_mm256_set1_epi32(cross.close_owner[k] as i32), i, live);
+            let j = _mm256_maskload_epi32(cross.close_partner.as_ptr().add(k) as *const i32, live);
+            let j = _mm256_blendv_epi8(i, j, live);
+            Group { pair: u32s(pair), i: u32s(i), j: u32s(j), valid: _mm256_movemask_ps(_mm256_castsi256_ps(live)) as u32 }
+        };
+        // SAFETY: as below (the close list holds intra-block pairs of the block).
+        let touching = unsafe { eval_group::<D, L, P>(law, damp, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &gr, &mut st, &mut out) };
+        if touching {
+            add_group::<D>(&out, &gr.i, &gr.j, g0, force, torque);
+        }
+        k += n;
+        // every pair before `next` is added now
+        let next = if k < ke { cross.close_pair[k] as usize } else { e };
+        while done < g1 && cross.cross_begin[done] as usize <= next {
             finish_grain(inp, cross, fin, done, g0, force, torque, vel, omega, &mut load, &mut st);
             done += 1;
         }
