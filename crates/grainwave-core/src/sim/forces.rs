@@ -31,9 +31,11 @@
 //! that measures it for the neighbor list. Skipped pairs touch nobody and hold no contact: the
 //! evaluation would add nothing to any sum and change no history, so every bit of a run is as
 //! without the close list (tested against the general kernel, `tests/force_blocks.rs`). On the
-//! benchmark packings it would hold 83 % (3D) / 90 % (2D) of the pairs, rebuilt every ≈ 14 (3D)
-//! / 50 (2D) steps at m = 0.2 × skin; in 2D it saved less than its displacement check cost on
-//! two workers, so it is kept in 3D only (`../../BENCHMARKS.md`).
+//! benchmark packings it holds 83 % (3D) / would hold 90 % (2D) of the pairs, rebuilt every ≈ 14
+//! (3D) / 52 (2D) steps at m = 0.2 × skin. In 2D it gained 3–6 % on one worker, but the second
+//! displacement reference in the drift pass tipped two-worker runs into rayon's workers sleeping
+//! between the parallel regions of the short 2D steps (−6 to −15 %), so it is kept in 3D only
+//! (`../../BENCHMARKS.md`, Zen 4 section).
 
 use super::lanes::{self, Window, WindowLaw, CAP};
 use super::{CrossForce, CrossIndex, Simulation, WallForce};
@@ -1020,8 +1022,8 @@ impl<D: Dim> Simulation<D> {
         };
         // (a displacement measured by the drift pass is for these positions only: always taken)
         let known = work.cross.close_known.take();
-        // (3D only: in 2D the list would hold ≈ 90 % of the pairs, and on two workers its
-        // displacement check cost more than it saved, −6 % on `hooke2d`, BENCHMARKS.md)
+        // (3D only: in 2D the list would skip only ≈ 10 % of the pairs, and its displacement
+        // check cost two-worker runs 6–15 %, BENCHMARKS.md)
         if D::D == 3 && kernels == Path::Avx2 && !matches!(specialized, Specialized::General(_)) && n > 0 {
             work.cross.ensure_close(list, pos, radius, &inp.image, domain.tilt, CLOSE_FRACTION * nlist.skin, known);
         }
