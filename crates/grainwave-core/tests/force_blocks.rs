@@ -156,3 +156,22 @@ fn the_close_list_of_the_fused_pass_misses_no_contact() {
         assert!(close_builds > 2 * builds, "close list built {close_builds} times, neighbor list {builds}");
     }
 }
+
+#[test]
+fn a_nan_spin_is_caught_through_the_close_list() {
+    // A NaN angular velocity leaves positions finite (no neighbor-list rebuild), so only the
+    // force pass can see it: through the close list (3D, fused pass), the grain's contacts still
+    // carry it into a non-finite force.
+    let law = hooke(1.0e3, Some(0.8), 0.3).build(Partner::Grain, "contact").unwrap();
+    for general in [false, true] {
+        let mut sim = dense_3d(4, law, 0.3, 22).expected_overlap(0.05).build().unwrap();
+        sim.set_general_kernel(general);
+        sim.set_simd_level(1);
+        sim.steps(50).unwrap();
+        #[cfg(target_arch = "x86_64")]
+        assert!(general || sim.close_list_builds() > 0 || !std::arch::is_x86_feature_detected!("avx2"));
+        sim.grains.omega[7] = glam::DVec3::new(f64::NAN, 0.0, 0.0);
+        let e = sim.steps(5).unwrap_err().to_string();
+        assert!(e.contains("non-finite"), "general {general}: {e}");
+    }
+}
