@@ -41,9 +41,9 @@ use super::lanes::{self, Window, WindowLaw, CAP};
 use super::{CrossForce, CrossIndex, Simulation, WallForce};
 use crate::contact::{evaluate_parts, pair_kinematics, wall_kinematics, ContactLaw, ContactState, LawParts, Rolling, Specialized, Twisting};
 use crate::dim::{Dim, VectorOps};
-use crate::domain::{PeriodicImage, WallMotion};
+use crate::domain::{Domain, PeriodicImage, WallMotion};
 use crate::error::{CoreError, Result};
-use crate::neighbor::{max_displacement2, nan_max, PairList};
+use crate::neighbor::{max_displacement2_since, PairList};
 use rayon::prelude::*;
 
 #[cfg(target_arch = "x86_64")]
@@ -1025,7 +1025,7 @@ impl<D: Dim> Simulation<D> {
         // (3D only: in 2D the list would skip only ≈ 10 % of the pairs, and its displacement
         // check cost two-worker runs 6–15 %, BENCHMARKS.md)
         if D::D == 3 && kernels == Path::Avx2 && !matches!(specialized, Specialized::General(_)) && n > 0 {
-            work.cross.ensure_close(list, pos, radius, &inp.image, domain.tilt, CLOSE_FRACTION * nlist.skin, known);
+            work.cross.ensure_close(list, pos, radius, domain, CLOSE_FRACTION * nlist.skin, known);
         }
         let (gv, gw) = if use_eval { (&mut work.vel_eval, &mut work.omega_eval) } else { (&mut grains.vel, &mut grains.omega) };
         let g = Grain { base: 0, force: &mut grains.force, torque: &mut grains.torque, vel: gv, omega: gw };
@@ -1163,20 +1163,19 @@ impl<D: Dim> CrossIndex<D> {
     /// documentation): rebuilt when it is missing, when the margin changed, or when a grain may
     /// have moved so far since it was built (2·max|x − x_ref| + Σ|Δtilt| above 0.9 × margin;
     /// the 10 % slack covers rounding in the distances) that an excluded pair could touch.
-    #[allow(clippy::too_many_arguments)]
     /// `known`: max|x − close_ref|² when already measured (by the drift pass).
-    fn ensure_close(&mut self, list: &PairList<D>, pos: &[D::Vector], radius: &[f64], image: &PeriodicImage<D>, tilt: [f64; 3], margin: f64, known: Option<f64>) {
+    fn ensure_close(&mut self, list: &PairList<D>, pos: &[D::Vector], radius: &[f64], domain: &Domain<D>, margin: f64, known: Option<f64>) {
+        let tilt = domain.tilt;
         if self.close_ok && self.close_margin == margin && self.close_ref.len() == pos.len() {
             let tilt_change: f64 = tilt.iter().zip(&self.close_tilt).map(|(t, r)| (t - r).abs()).sum();
-            let max_d2 = known.unwrap_or_else(|| {
-                self.close_ref.par_chunks(CLOSE_CHUNK).zip(pos.par_chunks(CLOSE_CHUNK)).map(|(r, x)| max_displacement2(image, r, x)).reduce(|| 0.0, nan_max)
-            });
+            let max_d2 = known.unwrap_or_else(|| max_displacement2_since(&self.close_ref, pos, domain));
             // false for NaN: rebuilt (and the pairs of NaN grains kept)
             if 2.0 * max_d2.sqrt() + tilt_change <= 0.9 * margin {
                 return;
             }
         }
         let blocks = self.n.div_ceil(self.block_len.max(1));
+        let image = &domain.image();
         let this = &*self;
         let parts: Vec<[Vec<u32>; 3]> = (0..blocks)
             .into_par_iter()
@@ -1219,9 +1218,6 @@ impl<D: Dim> CrossIndex<D> {
         self.close_builds += 1;
     }
 }
-
-/// Grains per task of the close list's displacement check.
-const CLOSE_CHUNK: usize = 4096;
 
 /// Margin of the close list as a fraction of the neighbor-list skin.
 const CLOSE_FRACTION: f64 = 0.3;

@@ -529,21 +529,7 @@ unsafe fn block<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs
         // partners lie in the block (cross index); AVX2 is enabled here.
         let touching = unsafe { eval_group::<D, L, P>(law, damp, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &gr, &mut st, &mut out) };
         if touching {
-            let mut bits = out.touch;
-            while bits != 0 {
-                let l = bits.trailing_zeros() as usize;
-                bits &= bits - 1;
-                let (li, lj) = (gr.i[l] as usize - g0, gr.j[l] as usize - g0);
-                debug_assert!(li < force.len() && lj < force.len() && li != lj);
-                let f: D::Vector = Out::get(&out.force, l);
-                // SAFETY: owners and intra-block partners lie in the block.
-                unsafe {
-                    *force.get_unchecked_mut(li) += f;
-                    *torque.get_unchecked_mut(li) += Out::get::<D::AngVector>(&out.torque_i, l);
-                    *force.get_unchecked_mut(lj) -= f;
-                    *torque.get_unchecked_mut(lj) += Out::get::<D::AngVector>(&out.torque_j, l);
-                }
-            }
+            add_group::<D>(&out, &gr.i, &gr.j, g0, force, torque);
         }
         p += n;
         while done < g1 && cross.cross_begin[done] as usize <= p {
