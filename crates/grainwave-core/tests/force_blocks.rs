@@ -68,8 +68,8 @@ fn specialised_window_kernels_give_the_bits_of_the_general_kernel() {
     // and restitution damping), 2D and 3D, still and shearing cells, 1 and 2 threads with
     // several blocks, and one block.
     // (general, simd, one block): the general kernel, or a specialised one on the portable path
-    // (simd 0), the fused AVX2 pass (1) or the AVX-512 windows (2) — each when the processor has
-    // it, the next slower path otherwise)
+    // (simd 0), the fused AVX2 pass (1), the AVX-512 windows (2) or the fused pass on 512-bit
+    // lanes (3) — each when the processor has it, the next lower level otherwise)
     type Make = dyn Fn() -> Box<dyn FnMut((bool, u8, bool)) -> u64> + Sync;
     let run = |mode: (bool, u8, bool), threads: usize, make: &Make| {
         pool(threads).install(|| (make())(mode))
@@ -117,11 +117,11 @@ fn specialised_window_kernels_give_the_bits_of_the_general_kernel() {
             for make in [&make2 as &Make, &make3] {
                 let reference = run((true, 0, false), 1, make);
                 for threads in [1, 2] {
-                    for simd in [0, 1, 2] {
+                    for simd in [0, 1, 2, 3] {
                         assert_eq!(run((false, simd, false), threads, make), reference, "{law:?}, shear {shear}, {threads} threads, simd {simd}");
                     }
                 }
-                for simd in [0, 1, 2] {
+                for simd in [0, 1, 2, 3] {
                     assert_eq!(run((false, simd, true), 1, make), reference, "{law:?}, shear {shear}, one block, simd {simd}");
                 }
             }
@@ -137,23 +137,27 @@ fn the_close_list_of_the_fused_pass_misses_no_contact() {
     // general kernel.
     let p = hooke(1.0e3, Some(0.8), 0.3);
     let law = p.build(Partner::Grain, "contact").unwrap();
-    let run = |general: bool| {
+    let run = |general: bool, simd: u8| {
         let mut sim = dense_3d(4, law, 2.0, 7).expected_overlap(0.05).build().unwrap();
         sim.set_general_kernel(general);
-        sim.set_simd_level(1);
+        sim.set_simd_level(simd);
         sim.steps(400).unwrap();
         (sim.state_hash(), sim.close_list_builds(), sim.nlist.builds)
     };
-    let (general, _, builds) = run(true);
-    let (fused, close_builds, _) = run(false);
-    assert_eq!(fused, general);
-    // only where the processor has AVX2 (the fused pass); elsewhere the portable path ran
-    #[cfg(target_arch = "x86_64")]
-    let fused_pass = std::arch::is_x86_feature_detected!("avx2");
-    #[cfg(not(target_arch = "x86_64"))]
-    let fused_pass = false;
-    if fused_pass {
-        assert!(close_builds > 2 * builds, "close list built {close_builds} times, neighbor list {builds}");
+    let (general, _, builds) = run(true, 0);
+    // the fused pass on 256-bit (1) and 512-bit lanes (3; level 1 where the processor lacks
+    // AVX-512)
+    for simd in [1, 3] {
+        let (fused, close_builds, _) = run(false, simd);
+        assert_eq!(fused, general, "simd {simd}");
+        // only where the processor has AVX2 (the fused pass); elsewhere the portable path ran
+        #[cfg(target_arch = "x86_64")]
+        let fused_pass = std::arch::is_x86_feature_detected!("avx2");
+        #[cfg(not(target_arch = "x86_64"))]
+        let fused_pass = false;
+        if fused_pass {
+            assert!(close_builds > 2 * builds, "simd {simd}: close list built {close_builds} times, neighbor list {builds}");
+        }
     }
 }
 
@@ -163,15 +167,15 @@ fn a_nan_spin_is_caught_through_the_close_list() {
     // force pass can see it: through the close list (3D, fused pass), the grain's contacts still
     // carry it into a non-finite force.
     let law = hooke(1.0e3, Some(0.8), 0.3).build(Partner::Grain, "contact").unwrap();
-    for general in [false, true] {
+    for (general, simd) in [(false, 1), (false, 3), (true, 0)] {
         let mut sim = dense_3d(4, law, 0.3, 22).expected_overlap(0.05).build().unwrap();
         sim.set_general_kernel(general);
-        sim.set_simd_level(1);
+        sim.set_simd_level(simd);
         sim.steps(50).unwrap();
         #[cfg(target_arch = "x86_64")]
         assert!(general || sim.close_list_builds() > 0 || !std::arch::is_x86_feature_detected!("avx2"));
         sim.grains.omega[7] = glam::DVec3::new(f64::NAN, 0.0, 0.0);
         let e = sim.steps(5).unwrap_err().to_string();
-        assert!(e.contains("non-finite"), "general {general}: {e}");
+        assert!(e.contains("non-finite"), "general {general}, simd {simd}: {e}");
     }
 }

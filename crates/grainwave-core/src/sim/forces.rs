@@ -561,15 +561,28 @@ enum Path {
     Avx2,
     /// Windows filled eight candidates at a time with AVX-512 (`simd`).
     Avx512,
+    /// The fused pass on 512-bit lanes (`avx2::Wide8`, AVX-512 F and VL).
+    Fused512,
 }
 
-/// The path for `level` (0 portable, 1 the fused AVX2 pass — the default —, 2 the AVX-512
-/// windows), each only when the processor has it, the next lower level otherwise. The fused AVX2
-/// pass is the default also on processors with AVX-512: it was the faster of the two on the one
-/// measured (`../BENCHMARKS.md`, "Intel Xeon with AVX-512").
+impl Path {
+    /// The fused pass, on either lane width.
+    fn fused(self) -> bool {
+        matches!(self, Path::Avx2 | Path::Fused512)
+    }
+}
+
+/// The path for `level` (0 portable, 1 the fused AVX2 pass, 2 the AVX-512 windows, 3 the fused
+/// pass on 512-bit lanes — the default —), each only when the processor has it, the next lower
+/// level otherwise. On the AVX-512 processor measured last (a Zen-5 AMD EPYC, `../BENCHMARKS.md`)
+/// the 512-bit lanes were 5–14 % faster than the AVX2 pass, which in turn had been faster than
+/// the AVX-512 windows on an Intel Xeon.
 fn path(level: u8) -> Path {
     #[cfg(target_arch = "x86_64")]
     {
+        if level >= 3 && avx2::wide_available() {
+            return Path::Fused512;
+        }
         if level >= 2 && simd::available() {
             return Path::Avx512;
         }
@@ -610,8 +623,8 @@ fn cross_pairs_windowed<D: Dim, L: WindowLaw>(
     let b = blocks.start;
     out[cross.block_slot_start[b] as usize - slot_base..cross.block_slot_start[b + 1] as usize - slot_base].fill(CrossForce::default());
     #[cfg(target_arch = "x86_64")]
-    if path == Path::Avx2 {
-        return lanes::with_dampers(law, avx2::CrossPass { law, inp, vel, omega, cross, b, h, out, slot_base });
+    if path.fused() {
+        return lanes::with_dampers(law, avx2::CrossPass { law, inp, vel, omega, cross, b, h, out, slot_base, wide: path == Path::Fused512 });
     }
     lanes::with_window(|w| {
         #[cfg(target_arch = "x86_64")]
@@ -736,8 +749,8 @@ fn blocks_pass_windowed<D: Dim, L: WindowLaw>(
         return ForceStats::merge(a, b);
     }
     #[cfg(target_arch = "x86_64")]
-    if path == Path::Avx2 {
-        return lanes::with_dampers(law, avx2::BlockPass { law, inp, cross, fin, b: blocks.start, h, g });
+    if path.fused() {
+        return lanes::with_dampers(law, avx2::BlockPass { law, inp, cross, fin, b: blocks.start, h, g, wide: path == Path::Fused512 });
     }
     lanes::with_window(|w| {
         #[cfg(target_arch = "x86_64")]
@@ -994,7 +1007,7 @@ impl<D: Dim> Simulation<D> {
         // The fused pass keeps grain and pair indices, and three times them, in 32-bit lanes
         // (signed compares): far beyond any packing that fits in memory, but checked.
         const FUSED_LIMIT: usize = (u32::MAX / 3) as usize;
-        if kernels == Path::Avx2 && (n > FUSED_LIMIT || list.partner.len() > FUSED_LIMIT) {
+        if kernels.fused() && (n > FUSED_LIMIT || list.partner.len() > FUSED_LIMIT) {
             kernels = Path::Portable;
         }
 
@@ -1024,7 +1037,7 @@ impl<D: Dim> Simulation<D> {
         let known = work.cross.close_known.take();
         // (3D only: in 2D the list would skip only ≈ 10 % of the pairs, and its displacement
         // check cost two-worker runs 6–15 %, BENCHMARKS.md)
-        if D::D == 3 && kernels == Path::Avx2 && !matches!(specialized, Specialized::General(_)) && n > 0 {
+        if D::D == 3 && kernels.fused() && !matches!(specialized, Specialized::General(_)) && n > 0 {
             work.cross.ensure_close(list, pos, radius, domain, CLOSE_FRACTION * nlist.skin, known);
         }
         let (gv, gw) = if use_eval { (&mut work.vel_eval, &mut work.omega_eval) } else { (&mut grains.vel, &mut grains.omega) };

@@ -134,7 +134,8 @@ struct Workspace<D: Dim> {
     /// Evaluate every law with the general kernel (tests).
     general_kernel: bool,
     /// Vector path of the specialised kernels when the processor has it: 0 none (portable), 1
-    /// the fused AVX2 pass (default), 2 the AVX-512 windows (tests and benchmarks set it).
+    /// the fused AVX2 pass, 2 the AVX-512 windows, 3 the fused pass on 512-bit lanes (default;
+    /// the next lower level where the processor lacks it). Tests and benchmarks set it.
     simd: u8,
     /// External loads of the current evaluation: (grain index, force, torque).
     loads: Vec<(usize, D::Vector, D::AngVector)>,
@@ -157,7 +158,7 @@ impl<D: Dim> Default for Workspace<D> {
             cross: CrossIndex::default(),
             block_len: None,
             general_kernel: false,
-            simd: 1,
+            simd: 3,
             loads: Vec::new(),
             wall_force: Vec::new(),
             wall_index: WallIndex::default(),
@@ -366,12 +367,14 @@ impl<D: Dim> Simulation<D> {
     /// them on the portable path. Results do not depend on it — this exists to test exactly that.
     #[doc(hidden)]
     pub fn set_simd(&mut self, on: bool) {
-        self.work.simd = if on { 1 } else { 0 };
+        self.work.simd = if on { 3 } else { 0 };
     }
 
     /// The vector path of the specialised kernels, when the processor has it: 0 none (the
-    /// portable path), 1 the fused AVX2 pass (the default), 2 the AVX-512 windows. Results do
-    /// not depend on it — this exists to test exactly that, and to compare the paths' speed.
+    /// portable path), 1 the fused AVX2 pass, 2 the AVX-512 windows, 3 the fused pass on
+    /// 512-bit lanes (the default; each level falls back to the next lower one the processor
+    /// has). Results do not depend on it — this exists to test exactly that, and to compare the
+    /// paths' speed.
     #[doc(hidden)]
     pub fn set_simd_level(&mut self, level: u8) {
         self.work.simd = level;

@@ -27,6 +27,11 @@ pub(super) fn available() -> bool {
     std::arch::is_x86_feature_detected!("avx2")
 }
 
+/// True when the processor also has AVX-512 F and VL (the pass on 512-bit lanes, [`Wide8`]).
+pub(super) fn wide_available() -> bool {
+    available() && std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("avx512vl")
+}
+
 /// Four f64 lanes. Only used inside functions compiled with AVX2 (the operations are inlined
 /// there).
 #[derive(Clone, Copy)]
@@ -253,6 +258,147 @@ impl Lanes for F64x8 {
     }
 }
 
+/// Eight f64 lanes in one 512-bit register: the lane type of the fused pass on processors with
+/// AVX-512 F and VL (`Path::Fused512`). Only used inside functions compiled with those (the
+/// operations are inlined there). Every operation is the IEEE operation of `f64` lane by lane,
+/// as for [`F64x8`]: the same bits.
+#[derive(Clone, Copy)]
+pub(super) struct Wide8(__m512d);
+
+macro_rules! binary_wide {
+    ($trait:ident, $f:ident, $op:ident) => {
+        impl $trait for Wide8 {
+            type Output = Self;
+            #[inline(always)]
+            fn $f(self, o: Self) -> Self {
+                // SAFETY: only used in code compiled with AVX-512 F, on processors that have it.
+                unsafe { Wide8($op(self.0, o.0)) }
+            }
+        }
+    };
+}
+binary_wide!(Add, add, _mm512_add_pd);
+binary_wide!(Sub, sub, _mm512_sub_pd);
+binary_wide!(Mul, mul, _mm512_mul_pd);
+binary_wide!(Div, div, _mm512_div_pd);
+
+impl Neg for Wide8 {
+    type Output = Self;
+    #[inline(always)]
+    fn neg(self) -> Self {
+        // SAFETY: as above. Flips the sign bit, as f64 negation (integer xor: AVX-512 F only).
+        unsafe { Wide8(_mm512_castsi512_pd(_mm512_xor_si512(_mm512_castpd_si512(self.0), _mm512_set1_epi64(i64::MIN)))) }
+    }
+}
+
+impl Real for Wide8 {
+    type Mask = __mmask8;
+    #[inline(always)]
+    fn splat(x: f64) -> Self {
+        // SAFETY: as above.
+        unsafe { Wide8(_mm512_set1_pd(x)) }
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        // SAFETY: as above.
+        unsafe { Wide8(_mm512_sqrt_pd(self.0)) }
+    }
+    #[inline(always)]
+    fn max_zero(self) -> Self {
+        // SAFETY: as above. `x > 0 ? x : 0`: 0 for NaN, as f64::max.
+        unsafe { Wide8(_mm512_max_pd(self.0, _mm512_setzero_pd())) }
+    }
+    #[inline(always)]
+    fn eq(self, o: Self) -> __mmask8 {
+        // SAFETY: as above.
+        unsafe { _mm512_cmp_pd_mask::<_CMP_EQ_OQ>(self.0, o.0) }
+    }
+    #[inline(always)]
+    fn gt(self, o: Self) -> __mmask8 {
+        // SAFETY: as above.
+        unsafe { _mm512_cmp_pd_mask::<_CMP_GT_OQ>(self.0, o.0) }
+    }
+    #[inline(always)]
+    fn select(m: __mmask8, a: Self, b: Self) -> Self {
+        // SAFETY: as above (lanes of `a` where `m` is set).
+        unsafe { Wide8(_mm512_mask_blend_pd(m, b.0, a.0)) }
+    }
+    #[inline(always)]
+    fn map3(a: Self, b: Self, c: Self, f: impl Fn(f64, f64, f64) -> f64) -> Self {
+        let (a, b, c) = (a.array(), b.array(), c.array());
+        // SAFETY: as above.
+        unsafe { Wide8(_mm512_setr_pd(f(a[0], b[0], c[0]), f(a[1], b[1], c[1]), f(a[2], b[2], c[2]), f(a[3], b[3], c[3]), f(a[4], b[4], c[4]), f(a[5], b[5], c[5]), f(a[6], b[6], c[6]), f(a[7], b[7], c[7]))) }
+    }
+}
+
+impl Lanes for Wide8 {
+    const N: usize = 8;
+    /// Row loads (three elements masked: nothing past a row is read) and a transposition,
+    /// cheaper than gathers.
+    #[inline(always)]
+    unsafe fn rows(base: *const f64, n: usize, off: &[u32; MAX]) -> [Self; 3] {
+        // SAFETY: the caller's contract; masked-off elements are not read.
+        unsafe {
+            let at = |l: usize| base.wrapping_add(off[l] as usize);
+            let z = _mm512_setzero_pd();
+            match n {
+                1 => [Wide8(_mm512_setr_pd(*at(0), *at(1), *at(2), *at(3), *at(4), *at(5), *at(6), *at(7))), Wide8(z), Wide8(z)],
+                2 => {
+                    let row = |l: usize| _mm_loadu_pd(at(l));
+                    let quad = |l: usize| _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(row(l)), row(l + 1));
+                    let a = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(quad(0)), quad(2));
+                    let b = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(quad(4)), quad(6));
+                    [
+                        Wide8(_mm512_permutex2var_pd(a, _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14), b)),
+                        Wide8(_mm512_permutex2var_pd(a, _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15), b)),
+                        Wide8(z),
+                    ]
+                }
+                _ => {
+                    let row = |l: usize| _mm256_maskz_loadu_pd(0b0111, at(l));
+                    let a0 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(0)), row(4));
+                    let a1 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(1)), row(5));
+                    let a2 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(2)), row(6));
+                    let a3 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(3)), row(7));
+                    let t0 = _mm512_unpacklo_pd(a0, a1);
+                    let t1 = _mm512_unpackhi_pd(a0, a1);
+                    let t2 = _mm512_unpacklo_pd(a2, a3);
+                    let t3 = _mm512_unpackhi_pd(a2, a3);
+                    let lo = _mm512_setr_epi64(0, 1, 8, 9, 4, 5, 12, 13);
+                    let hi = _mm512_setr_epi64(2, 3, 10, 11, 6, 7, 14, 15);
+                    [Wide8(_mm512_permutex2var_pd(t0, lo, t2)), Wide8(_mm512_permutex2var_pd(t1, lo, t3)), Wide8(_mm512_permutex2var_pd(t0, hi, t2))]
+                }
+            }
+        }
+    }
+    #[inline(always)]
+    fn array(self) -> [f64; MAX] {
+        let mut a = [0.0; MAX];
+        // SAFETY: as above; unaligned store into eight f64.
+        unsafe { _mm512_storeu_pd(a.as_mut_ptr(), self.0) };
+        a
+    }
+    #[inline(always)]
+    fn bits(m: __mmask8) -> u32 {
+        m as u32
+    }
+    #[inline(always)]
+    fn min(self, o: Self) -> Self {
+        // SAFETY: as above. `self < o ? self : o`.
+        unsafe { Wide8(_mm512_min_pd(self.0, o.0)) }
+    }
+    #[inline(always)]
+    fn max(self, o: Self) -> Self {
+        // SAFETY: as above. `self > o ? self : o`.
+        unsafe { Wide8(_mm512_max_pd(self.0, o.0)) }
+    }
+    #[inline(always)]
+    fn nge(self, o: Self) -> __mmask8 {
+        // SAFETY: as above.
+        unsafe { _mm512_cmp_pd_mask::<_CMP_NGE_UQ>(self.0, o.0) }
+    }
+}
+
 /// The constants of [`crate::domain::nearest_integer`].
 const SHIFT: f64 = 6_755_399_441_055_744.0;
 const LIMIT: f64 = 2_251_799_813_685_248.0;
@@ -279,9 +425,6 @@ unsafe fn rows(base: *const f64, n: usize, off: [u32; 4]) -> [__m256d; 3] {
         [_mm256_unpacklo_pd(a, b), _mm256_unpackhi_pd(a, b), third]
     }
 }
-
-/// The lane type of the fused pass: eight contacts (two vectors of four) at a time.
-type V = F64x8;
 
 /// Candidate pairs of a group: pair index, first grain, second grain (lanes not looked at: a
 /// valid pair and its owner twice), and the lanes looked at (bit l for lane l).
@@ -354,7 +497,7 @@ impl Out {
 /// `v.base`); AVX2 is available.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs<D>, h: &mut History<D>, v: Velocities<D>, g: &Group, st: &mut ForceStats, out: &mut Out) -> bool {
+unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: P, inp: &Inputs<D>, h: &mut History<D>, v: Velocities<D>, g: &Group, st: &mut ForceStats, out: &mut Out) -> bool {
     let (dd, rot) = (D::D, <D::AngVector as VectorOps>::LEN);
     // SAFETY: the caller's contract.
     unsafe {
@@ -496,11 +639,39 @@ unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &I
 /// AVX2 is available.
 #[target_feature(enable = "avx2,popcnt")]
 #[allow(clippy::too_many_arguments)]
-unsafe fn block<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, mut h: History<D>, g: Grain<D>) -> ForceStats {
-    if cross.close_ok {
-        // SAFETY: AVX2 is enabled here (the caller's contract).
-        return unsafe { block_close::<D, L, P>(law, damp, inp, cross, fin, b, h, g) };
+unsafe fn block<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, h: History<D>, g: Grain<D>) -> ForceStats {
+    // SAFETY: AVX2 is enabled here (the caller's contract).
+    unsafe {
+        if cross.close_ok {
+            return block_close::<D, L, P>(law, damp, inp, cross, fin, b, h, g);
+        }
+        block_plain::<D, L, P, F64x8>(law, damp, inp, cross, fin, b, h, g)
     }
+}
+
+/// [`block`] on 512-bit lanes ([`Wide8`]).
+///
+/// # Safety
+/// AVX-512 F and VL are available.
+#[target_feature(enable = "avx2,avx512f,avx512vl,popcnt")]
+#[allow(clippy::too_many_arguments)]
+unsafe fn block_wide<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, h: History<D>, g: Grain<D>) -> ForceStats {
+    // SAFETY: AVX-512 F and VL are enabled here (the caller's contract).
+    unsafe {
+        if cross.close_ok {
+            return block_close_wide::<D, L, P>(law, damp, inp, cross, fin, b, h, g);
+        }
+        block_plain::<D, L, P, Wide8>(law, damp, inp, cross, fin, b, h, g)
+    }
+}
+
+/// The body of [`block`] for lanes `V` (the list's pairs a group at a time).
+///
+/// # Safety
+/// AVX2 and what `V` needs are available.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+unsafe fn block_plain<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, mut h: History<D>, g: Grain<D>) -> ForceStats {
     let mut st = ForceStats::new();
     let (g0, g1) = (b * cross.block_len, ((b + 1) * cross.block_len).min(cross.n));
     let Grain { force, torque, vel, omega, .. } = g;
@@ -527,7 +698,7 @@ unsafe fn block<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs
         };
         // SAFETY: the block's pairs are pairs of `h` with owners in the block; intra-block
         // partners lie in the block (cross index); AVX2 is enabled here.
-        let touching = unsafe { eval_group::<D, L, P>(law, damp, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &gr, &mut st, &mut out) };
+        let touching = unsafe { eval_group::<D, L, P, V>(law, damp, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &gr, &mut st, &mut out) };
         if touching {
             add_group::<D>(&out, &gr.i, &gr.j, g0, force, torque);
         }
@@ -554,7 +725,30 @@ unsafe fn block<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs
 #[target_feature(enable = "avx2,popcnt")]
 #[inline(never)]
 #[allow(clippy::too_many_arguments)]
-unsafe fn block_close<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, mut h: History<D>, g: Grain<D>) -> ForceStats {
+unsafe fn block_close<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, h: History<D>, g: Grain<D>) -> ForceStats {
+    // SAFETY: AVX2 is enabled here (the caller's contract).
+    unsafe { block_close_impl::<D, L, P, F64x8>(law, damp, inp, cross, fin, b, h, g) }
+}
+
+/// [`block_close`] on 512-bit lanes ([`Wide8`]).
+///
+/// # Safety
+/// AVX-512 F and VL are available.
+#[target_feature(enable = "avx2,avx512f,avx512vl,popcnt")]
+#[inline(never)]
+#[allow(clippy::too_many_arguments)]
+unsafe fn block_close_wide<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, h: History<D>, g: Grain<D>) -> ForceStats {
+    // SAFETY: AVX-512 F and VL are enabled here (the caller's contract).
+    unsafe { block_close_impl::<D, L, P, Wide8>(law, damp, inp, cross, fin, b, h, g) }
+}
+
+/// The body of [`block_close`] for lanes `V`.
+///
+/// # Safety
+/// AVX2 and what `V` needs are available.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+unsafe fn block_close_impl<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, mut h: History<D>, g: Grain<D>) -> ForceStats {
     let mut st = ForceStats::new();
     let (g0, g1) = (b * cross.block_len, ((b + 1) * cross.block_len).min(cross.n));
     let Grain { force, torque, vel, omega, .. } = g;
@@ -582,7 +776,7 @@ unsafe fn block_close<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &
             Group { pair: u32s(pair), i: u32s(i), j: u32s(j), valid: _mm256_movemask_ps(_mm256_castsi256_ps(live)) as u32 }
         };
         // SAFETY: as below (the close list holds intra-block pairs of the block).
-        let touching = unsafe { eval_group::<D, L, P>(law, damp, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &gr, &mut st, &mut out) };
+        let touching = unsafe { eval_group::<D, L, P, V>(law, damp, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &gr, &mut st, &mut out) };
         if touching {
             add_group::<D>(&out, &gr.i, &gr.j, g0, force, torque);
         }
@@ -629,7 +823,28 @@ fn add_group<D: Dim>(out: &Out, gi: &[u32; MAX], gj: &[u32; MAX], g0: usize, for
 /// AVX2 is available.
 #[target_feature(enable = "avx2,popcnt")]
 #[allow(clippy::too_many_arguments)]
-unsafe fn cross_block<D: Dim, L: WindowLaw, P: Dampers>(
+unsafe fn cross_block<D: Dim, L: WindowLaw, P: Dampers>(p: CrossPass<'_, '_, D, L>, damp: P) -> ForceStats {
+    // SAFETY: AVX2 is enabled here (the caller's contract).
+    unsafe { cross_block_impl::<D, L, P, F64x8>(p.law, damp, p.inp, p.vel, p.omega, p.cross, p.b, p.h, p.out, p.slot_base) }
+}
+
+/// [`cross_block`] on 512-bit lanes ([`Wide8`]).
+///
+/// # Safety
+/// AVX-512 F and VL are available.
+#[target_feature(enable = "avx2,avx512f,avx512vl,popcnt")]
+unsafe fn cross_block_wide<D: Dim, L: WindowLaw, P: Dampers>(p: CrossPass<'_, '_, D, L>, damp: P) -> ForceStats {
+    // SAFETY: AVX-512 F and VL are enabled here (the caller's contract).
+    unsafe { cross_block_impl::<D, L, P, Wide8>(p.law, damp, p.inp, p.vel, p.omega, p.cross, p.b, p.h, p.out, p.slot_base) }
+}
+
+/// The body of [`cross_block`] for lanes `V`.
+///
+/// # Safety
+/// AVX2 and what `V` needs are available.
+#[inline(always)]
+#[allow(clippy::too_many_arguments)]
+unsafe fn cross_block_impl<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(
     law: &L,
     damp: P,
     inp: &Inputs<D>,
@@ -657,7 +872,7 @@ unsafe fn cross_block<D: Dim, L: WindowLaw, P: Dampers>(
         }
         // SAFETY: the slots of block b hold pairs of `h` (cross index); whole velocity arrays;
         // AVX2 is enabled here.
-        let touching = unsafe { eval_group::<D, L, P>(law, damp, inp, &mut h, Velocities { base: 0, vel, omega }, &gr, &mut st, &mut lanes_out) };
+        let touching = unsafe { eval_group::<D, L, P, V>(law, damp, inp, &mut h, Velocities { base: 0, vel, omega }, &gr, &mut st, &mut lanes_out) };
         if touching {
             let mut bits = lanes_out.touch;
             while bits != 0 {
@@ -680,14 +895,22 @@ pub(super) struct BlockPass<'a, 'b, D: Dim, L> {
     pub b: usize,
     pub h: History<'a, D>,
     pub g: Grain<'a, D>,
+    /// On 512-bit lanes ([`Wide8`]).
+    pub wide: bool,
 }
 
 impl<D: Dim, L: WindowLaw> WithDampers for BlockPass<'_, '_, D, L> {
     type Out = ForceStats;
     fn run<P: Dampers>(self, damp: P) -> ForceStats {
-        debug_assert!(available());
-        // SAFETY: this path is chosen only when the processor has AVX2 (`available`).
-        unsafe { block::<D, L, P>(self.law, damp, self.inp, self.cross, self.fin, self.b, self.h, self.g) }
+        debug_assert!(available() && (!self.wide || wide_available()));
+        // SAFETY: this path is chosen only when the processor has AVX2 (`available`), and
+        // with `wide` only when it has AVX-512 F and VL (`wide_available`).
+        unsafe {
+            if self.wide {
+                return block_wide::<D, L, P>(self.law, damp, self.inp, self.cross, self.fin, self.b, self.h, self.g);
+            }
+            block::<D, L, P>(self.law, damp, self.inp, self.cross, self.fin, self.b, self.h, self.g)
+        }
     }
 }
 
@@ -702,13 +925,20 @@ pub(super) struct CrossPass<'a, 'b, D: Dim, L> {
     pub h: History<'a, D>,
     pub out: &'a mut [CrossForce<D>],
     pub slot_base: usize,
+    /// On 512-bit lanes ([`Wide8`]).
+    pub wide: bool,
 }
 
 impl<D: Dim, L: WindowLaw> WithDampers for CrossPass<'_, '_, D, L> {
     type Out = ForceStats;
     fn run<P: Dampers>(self, damp: P) -> ForceStats {
-        debug_assert!(available());
-        // SAFETY: this path is chosen only when the processor has AVX2 (`available`).
-        unsafe { cross_block::<D, L, P>(self.law, damp, self.inp, self.vel, self.omega, self.cross, self.b, self.h, self.out, self.slot_base) }
+        debug_assert!(available() && (!self.wide || wide_available()));
+        // SAFETY: as for `BlockPass`.
+        unsafe {
+            if self.wide {
+                return cross_block_wide::<D, L, P>(self, damp);
+            }
+            cross_block::<D, L, P>(self, damp)
+        }
     }
 }
