@@ -130,6 +130,44 @@ pub(super) trait Lanes: Real {
     fn max(self, o: Self) -> Self;
     /// `!(self ≥ o)`: true for NaN.
     fn nge(self, o: Self) -> Self::Mask;
+    /// Whether [`Lanes::rows3`] is available: 3D results go back as rows with masked vector
+    /// loads and stores (AVX-512 VL) instead of element by element.
+    const ROWS: bool = false;
+    /// The lanes of the components (x, y, z) as rows (x, y, z, 0), lane l in row l. Only called
+    /// when [`Lanes::ROWS`].
+    ///
+    /// # Safety
+    /// What the lane type needs is available.
+    unsafe fn rows3(_c: [Self; 3]) -> [__m256d; MAX] {
+        unreachable!("rows3 without ROWS")
+    }
+}
+
+/// The three f64 at `p` as (x, y, z, 0) (the fourth element is not read): a two-element and a
+/// one-element load, so that both can be forwarded from the stores of [`store3`] (a masked
+/// vector store is not forwarded to a later load of the same row on the processors measured,
+/// and a grain's row is often stored and loaded again a few pairs apart).
+///
+/// # Safety
+/// `p..p + 3` is readable; AVX2 is available.
+#[inline(always)]
+unsafe fn load3(p: *const f64) -> __m256d {
+    // SAFETY: the caller's contract.
+    unsafe { _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(_mm_loadu_pd(p)), _mm_load_sd(p.add(2))) }
+}
+
+/// Stores x, y, z of `r` at `p` (the fourth element is not written), as a two-element and a
+/// one-element store (see [`load3`]).
+///
+/// # Safety
+/// `p..p + 3` is writable; AVX2 is available.
+#[inline(always)]
+unsafe fn store3(p: *mut f64, r: __m256d) {
+    // SAFETY: the caller's contract.
+    unsafe {
+        _mm_storeu_pd(p, _mm256_castpd256_pd128(r));
+        _mm_store_sd(p.add(2), _mm256_extractf128_pd::<1>(r));
+    }
 }
 
 /// Most lanes of a group.
@@ -397,6 +435,28 @@ impl Lanes for Wide8 {
         // SAFETY: as above.
         unsafe { _mm512_cmp_pd_mask::<_CMP_NGE_UQ>(self.0, o.0) }
     }
+    const ROWS: bool = true;
+    #[inline(always)]
+    unsafe fn rows3(c: [Self; 3]) -> [__m256d; MAX] {
+        // SAFETY: the caller's contract (AVX-512 F).
+        unsafe {
+            let (x, y, z) = (c[0].0, c[1].0, c[2].0);
+            // (x_l, y_l) and (z_l, 0) pairs of even and odd lanes
+            let xy_even = _mm512_unpacklo_pd(x, y);
+            let xy_odd = _mm512_unpackhi_pd(x, y);
+            let z_even = _mm512_unpacklo_pd(z, _mm512_setzero_pd());
+            let z_odd = _mm512_unpackhi_pd(z, _mm512_setzero_pd());
+            let lo = _mm512_setr_epi64(0, 1, 8, 9, 2, 3, 10, 11);
+            let hi = _mm512_setr_epi64(4, 5, 12, 13, 6, 7, 14, 15);
+            // rows 0 and 2, 4 and 6, 1 and 3, 5 and 7
+            let r02 = _mm512_permutex2var_pd(xy_even, lo, z_even);
+            let r46 = _mm512_permutex2var_pd(xy_even, hi, z_even);
+            let r13 = _mm512_permutex2var_pd(xy_odd, lo, z_odd);
+            let r57 = _mm512_permutex2var_pd(xy_odd, hi, z_odd);
+            let (a, b) = (_mm512_castpd512_pd256, |v| _mm512_extractf64x4_pd::<1>(v));
+            [a(r02), a(r13), b(r02), b(r13), a(r46), a(r57), b(r46), b(r57)]
+        }
+    }
 }
 
 /// The constants of [`crate::domain::nearest_integer`].
@@ -465,26 +525,38 @@ fn times(x: __m256i, n: usize) -> [u32; MAX] {
 }
 
 /// Forces and torques of a group, lane by lane (meaningful on the touching lanes only).
-struct Out {
+struct Out<V> {
     touch: u32,
-    force: [[f64; MAX]; 3],
-    torque_i: [[f64; MAX]; 3],
-    torque_j: [[f64; MAX]; 3],
+    force: [V; 3],
+    torque_i: [V; 3],
+    torque_j: [V; 3],
 }
 
-impl Out {
+impl<V: Lanes> Out<V> {
     fn new() -> Self {
-        Out { touch: 0, force: [[0.0; MAX]; 3], torque_i: [[0.0; MAX]; 3], torque_j: [[0.0; MAX]; 3] }
+        let z = V::splat(0.0);
+        Out { touch: 0, force: [z; 3], torque_i: [z; 3], torque_j: [z; 3] }
     }
+}
 
-    #[inline(always)]
-    fn get<T: VectorOps>(a: &[[f64; MAX]; 3], l: usize) -> T {
-        let mut v = T::ZERO;
-        for c in 0..T::LEN {
-            v.set(c, a[c][l]);
-        }
-        v
+/// Lane `l` of component arrays as a vector.
+#[inline(always)]
+fn lane_of<T: VectorOps>(a: &[[f64; MAX]; 3], l: usize) -> T {
+    let mut v = T::ZERO;
+    for c in 0..T::LEN {
+        v.set(c, a[c][l]);
     }
+    v
+}
+
+/// The lanes of `v` as component arrays.
+#[inline(always)]
+fn arrays<V: Lanes>(v: &[V; 3], n: usize) -> [[f64; MAX]; 3] {
+    let mut a = [[0.0; MAX]; 3];
+    for c in 0..n {
+        a[c] = v[c].array();
+    }
+    a
 }
 
 /// Looks at the pairs of `g` as [`super::push_pair`] does one by one, then evaluates and records
@@ -497,7 +569,7 @@ impl Out {
 /// `v.base`); AVX2 is available.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: P, inp: &Inputs<D>, h: &mut History<D>, v: Velocities<D>, g: &Group, st: &mut ForceStats, out: &mut Out) -> bool {
+unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: P, inp: &Inputs<D>, h: &mut History<D>, v: Velocities<D>, g: &Group, st: &mut ForceStats, out: &mut Out<V>) -> bool {
     let (dd, rot) = (D::D, <D::AngVector as VectorOps>::LEN);
     // SAFETY: the caller's contract.
     unsafe {
@@ -583,28 +655,36 @@ unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: 
             _ => lanes::contact::<V, 3, 3, L, P>(law, damp, &input, inp.dt),
         };
         out.touch = touch;
-        for c in 0..dd {
-            out.force[c] = o.force[c].array();
-        }
-        for c in 0..rot {
-            out.torque_i[c] = o.torque_i[c].array();
-            out.torque_j[c] = o.torque_j[c].array();
-        }
+        out.force = o.force;
+        out.torque_i = o.torque_i;
+        out.torque_j = o.torque_j;
         // histories and statistics, in pair order (as `eval_window`, `eval_pair`)
-        let mut spring = [[0.0; MAX]; 3];
-        for c in 0..dd {
-            spring[c] = o.new_spring[c].array();
-        }
         let overlap = o.overlap.array();
         let sliding = V::bits(o.sliding);
         let mut bits = touch;
-        while bits != 0 {
-            let l = bits.trailing_zeros() as usize;
-            bits &= bits - 1;
-            let k = q[l] as usize;
-            *h.spring.get_unchecked_mut(k) = Out::get(&spring, l);
-            *h.overlap.get_unchecked_mut(k) = overlap[l];
-            *h.sliding.get_unchecked_mut(k) = sliding >> l & 1 != 0;
+        if V::ROWS && dd == 3 {
+            // a row store per history (3D vectors are three consecutive f64)
+            let spring = V::rows3(o.new_spring);
+            let sp = h.spring.as_mut_ptr() as *mut f64;
+            while bits != 0 {
+                let l = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let k = q[l] as usize;
+                debug_assert!(k < h.spring.len());
+                store3(sp.add(3 * k), spring[l]);
+                *h.overlap.get_unchecked_mut(k) = overlap[l];
+                *h.sliding.get_unchecked_mut(k) = sliding >> l & 1 != 0;
+            }
+        } else {
+            let spring = arrays(&o.new_spring, dd);
+            while bits != 0 {
+                let l = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let k = q[l] as usize;
+                *h.spring.get_unchecked_mut(k) = lane_of(&spring, l);
+                *h.overlap.get_unchecked_mut(k) = overlap[l];
+                *h.sliding.get_unchecked_mut(k) = sliding >> l & 1 != 0;
+            }
         }
         // Deepest contact (as `eval_pair`: overlap / smaller radius, the first pair reaching a
         // new maximum). The division only where it may exceed the maximum so far d: for
@@ -700,7 +780,7 @@ unsafe fn block_plain<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp:
         // partners lie in the block (cross index); AVX2 is enabled here.
         let touching = unsafe { eval_group::<D, L, P, V>(law, damp, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &gr, &mut st, &mut out) };
         if touching {
-            add_group::<D>(&out, &gr.i, &gr.j, g0, force, torque);
+            add_group::<D, V>(&out, &gr.i, &gr.j, g0, force, torque);
         }
         p += n;
         while done < g1 && cross.cross_begin[done] as usize <= p {
@@ -778,7 +858,7 @@ unsafe fn block_close_impl<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, 
         // SAFETY: as below (the close list holds intra-block pairs of the block).
         let touching = unsafe { eval_group::<D, L, P, V>(law, damp, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &gr, &mut st, &mut out) };
         if touching {
-            add_group::<D>(&out, &gr.i, &gr.j, g0, force, torque);
+            add_group::<D, V>(&out, &gr.i, &gr.j, g0, force, torque);
         }
         k += n;
         // every pair before `next` is added now
@@ -797,20 +877,59 @@ unsafe fn block_close_impl<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, 
 
 /// Adds the forces and torques of a group's touching lanes to both grains, in lane (list) order.
 #[inline(always)]
-fn add_group<D: Dim>(out: &Out, gi: &[u32; MAX], gj: &[u32; MAX], g0: usize, force: &mut [D::Vector], torque: &mut [D::AngVector]) {
+fn add_group<D: Dim, V: Lanes>(out: &Out<V>, gi: &[u32; MAX], gj: &[u32; MAX], g0: usize, force: &mut [D::Vector], torque: &mut [D::AngVector]) {
+    let rot = <D::AngVector as VectorOps>::LEN;
     let mut bits = out.touch;
+    if V::ROWS && D::D == 3 && rot == 3 {
+        // Rows and masked vector updates. The owner's sums stay in registers over its lanes
+        // of the group: its terms are still added in list order, as nothing else touches it
+        // meanwhile (its pairs as a partner, i < j, all come before its own).
+        // SAFETY: `ROWS` lane types run with AVX-512 F and VL; 3D vectors are three
+        // consecutive f64; owners and intra-block partners lie in the block.
+        unsafe {
+            let (fr, tir, tjr) = (V::rows3(out.force), V::rows3(out.torque_i), V::rows3(out.torque_j));
+            let (fp, tp) = (force.as_mut_ptr() as *mut f64, torque.as_mut_ptr() as *mut f64);
+            let mut cur = usize::MAX;
+            let (mut acc_f, mut acc_t) = (_mm256_setzero_pd(), _mm256_setzero_pd());
+            while bits != 0 {
+                let l = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                let (li, lj) = (gi[l] as usize - g0, gj[l] as usize - g0);
+                debug_assert!(li < force.len() && lj < force.len() && li != lj);
+                if li != cur {
+                    if cur != usize::MAX {
+                        store3(fp.add(3 * cur), acc_f);
+                        store3(tp.add(3 * cur), acc_t);
+                    }
+                    cur = li;
+                    acc_f = load3(fp.add(3 * li));
+                    acc_t = load3(tp.add(3 * li));
+                }
+                acc_f = _mm256_add_pd(acc_f, fr[l]);
+                acc_t = _mm256_add_pd(acc_t, tir[l]);
+                store3(fp.add(3 * lj), _mm256_sub_pd(load3(fp.add(3 * lj)), fr[l]));
+                store3(tp.add(3 * lj), _mm256_add_pd(load3(tp.add(3 * lj)), tjr[l]));
+            }
+            if cur != usize::MAX {
+                store3(fp.add(3 * cur), acc_f);
+                store3(tp.add(3 * cur), acc_t);
+            }
+        }
+        return;
+    }
+    let (f, ti, tj) = (arrays(&out.force, D::D), arrays(&out.torque_i, rot), arrays(&out.torque_j, rot));
     while bits != 0 {
         let l = bits.trailing_zeros() as usize;
         bits &= bits - 1;
         let (li, lj) = (gi[l] as usize - g0, gj[l] as usize - g0);
         debug_assert!(li < force.len() && lj < force.len() && li != lj);
-        let f: D::Vector = Out::get(&out.force, l);
+        let f: D::Vector = lane_of(&f, l);
         // SAFETY: owners and intra-block partners lie in the block.
         unsafe {
             *force.get_unchecked_mut(li) += f;
-            *torque.get_unchecked_mut(li) += Out::get::<D::AngVector>(&out.torque_i, l);
+            *torque.get_unchecked_mut(li) += lane_of::<D::AngVector>(&ti, l);
             *force.get_unchecked_mut(lj) -= f;
-            *torque.get_unchecked_mut(lj) += Out::get::<D::AngVector>(&out.torque_j, l);
+            *torque.get_unchecked_mut(lj) += lane_of::<D::AngVector>(&tj, l);
         }
     }
 }
@@ -874,11 +993,13 @@ unsafe fn cross_block_impl<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(
         // AVX2 is enabled here.
         let touching = unsafe { eval_group::<D, L, P, V>(law, damp, inp, &mut h, Velocities { base: 0, vel, omega }, &gr, &mut st, &mut lanes_out) };
         if touching {
+            let rot = <D::AngVector as VectorOps>::LEN;
+            let (f, ti, tj) = (arrays(&lanes_out.force, D::D), arrays(&lanes_out.torque_i, rot), arrays(&lanes_out.torque_j, rot));
             let mut bits = lanes_out.touch;
             while bits != 0 {
                 let l = bits.trailing_zeros() as usize;
                 bits &= bits - 1;
-                out[s + l - slot_base] = CrossForce { force: Out::get(&lanes_out.force, l), torque_i: Out::get(&lanes_out.torque_i, l), torque_j: Out::get(&lanes_out.torque_j, l) };
+                out[s + l - slot_base] = CrossForce { force: lane_of(&f, l), torque_i: lane_of(&ti, l), torque_j: lane_of(&tj, l) };
             }
         }
         s += n;
