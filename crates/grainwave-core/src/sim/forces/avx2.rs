@@ -171,7 +171,13 @@ unsafe fn store3(p: *mut f64, r: __m256d) {
 }
 
 /// Most lanes of a group.
-pub(super) const MAX: usize = 8;
+pub(super) const MAX: usize = 16;
+
+/// Eight lanes `8h..8h + 8` of a group's array.
+#[inline(always)]
+fn half<T>(a: &[T; MAX], h: usize) -> &[T; 8] {
+    a[8 * h..8 * h + 8].try_into().unwrap()
+}
 
 /// What [`F64x8`] needs of its halves beyond [`Real`].
 impl F64x4 {
@@ -270,13 +276,16 @@ impl Lanes for F64x8 {
         unsafe {
             let a = rows(base, n, [off[0], off[1], off[2], off[3]]);
             let b = rows(base, n, [off[4], off[5], off[6], off[7]]);
+            // (lanes 8.. are not used by this lane type)
             [F64x8(F64x4(a[0]), F64x4(b[0])), F64x8(F64x4(a[1]), F64x4(b[1])), F64x8(F64x4(a[2]), F64x4(b[2]))]
         }
     }
     #[inline(always)]
     fn array(self) -> [f64; MAX] {
         let (a, b) = (lanes_of(self.0 .0), lanes_of(self.1 .0));
-        [a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]]
+        let mut r = [0.0; MAX];
+        r[..8].copy_from_slice(&[a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]]);
+        r
     }
     #[inline(always)]
     fn bits(m: Self::Mask) -> u32 {
@@ -369,45 +378,54 @@ impl Real for Wide8 {
     }
 }
 
-impl Lanes for Wide8 {
-    const N: usize = 8;
-    /// Row loads (three elements masked: nothing past a row is read) and a transposition,
-    /// cheaper than gathers.
-    #[inline(always)]
-    unsafe fn rows(base: *const f64, n: usize, off: &[u32; MAX]) -> [Self; 3] {
-        // SAFETY: the caller's contract; masked-off elements are not read.
-        unsafe {
-            let at = |l: usize| base.wrapping_add(off[l] as usize);
-            let z = _mm512_setzero_pd();
-            match n {
-                1 => [Wide8(_mm512_setr_pd(*at(0), *at(1), *at(2), *at(3), *at(4), *at(5), *at(6), *at(7))), Wide8(z), Wide8(z)],
-                2 => {
-                    let row = |l: usize| _mm_loadu_pd(at(l));
-                    let quad = |l: usize| _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(row(l)), row(l + 1));
-                    let a = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(quad(0)), quad(2));
-                    let b = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(quad(4)), quad(6));
-                    [
-                        Wide8(_mm512_permutex2var_pd(a, _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14), b)),
-                        Wide8(_mm512_permutex2var_pd(a, _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15), b)),
-                        Wide8(z),
-                    ]
-                }
-                _ => {
-                    let row = |l: usize| _mm256_maskz_loadu_pd(0b0111, at(l));
-                    let a0 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(0)), row(4));
-                    let a1 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(1)), row(5));
-                    let a2 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(2)), row(6));
-                    let a3 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(3)), row(7));
-                    let t0 = _mm512_unpacklo_pd(a0, a1);
-                    let t1 = _mm512_unpackhi_pd(a0, a1);
-                    let t2 = _mm512_unpacklo_pd(a2, a3);
-                    let t3 = _mm512_unpackhi_pd(a2, a3);
-                    let lo = _mm512_setr_epi64(0, 1, 8, 9, 4, 5, 12, 13);
-                    let hi = _mm512_setr_epi64(2, 3, 10, 11, 6, 7, 14, 15);
-                    [Wide8(_mm512_permutex2var_pd(t0, lo, t2)), Wide8(_mm512_permutex2var_pd(t1, lo, t3)), Wide8(_mm512_permutex2var_pd(t0, hi, t2))]
-                }
+/// [`Lanes::rows`] for eight lanes of 512 bits: row loads (three elements masked: nothing past a
+/// row is read) and a transposition, cheaper than gathers.
+///
+/// # Safety
+/// As [`Lanes::rows`]; AVX-512 F and VL are available.
+#[inline(always)]
+unsafe fn wide_rows(base: *const f64, n: usize, off: &[u32; 8]) -> [Wide8; 3] {
+    // SAFETY: the caller's contract; masked-off elements are not read.
+    unsafe {
+        let at = |l: usize| base.wrapping_add(off[l] as usize);
+        let z = _mm512_setzero_pd();
+        match n {
+            1 => [Wide8(_mm512_setr_pd(*at(0), *at(1), *at(2), *at(3), *at(4), *at(5), *at(6), *at(7))), Wide8(z), Wide8(z)],
+            2 => {
+                let row = |l: usize| _mm_loadu_pd(at(l));
+                let quad = |l: usize| _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(row(l)), row(l + 1));
+                let a = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(quad(0)), quad(2));
+                let b = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(quad(4)), quad(6));
+                [
+                    Wide8(_mm512_permutex2var_pd(a, _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14), b)),
+                    Wide8(_mm512_permutex2var_pd(a, _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15), b)),
+                    Wide8(z),
+                ]
+            }
+            _ => {
+                let row = |l: usize| _mm256_maskz_loadu_pd(0b0111, at(l));
+                let a0 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(0)), row(4));
+                let a1 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(1)), row(5));
+                let a2 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(2)), row(6));
+                let a3 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(3)), row(7));
+                let t0 = _mm512_unpacklo_pd(a0, a1);
+                let t1 = _mm512_unpackhi_pd(a0, a1);
+                let t2 = _mm512_unpacklo_pd(a2, a3);
+                let t3 = _mm512_unpackhi_pd(a2, a3);
+                let lo = _mm512_setr_epi64(0, 1, 8, 9, 4, 5, 12, 13);
+                let hi = _mm512_setr_epi64(2, 3, 10, 11, 6, 7, 14, 15);
+                [Wide8(_mm512_permutex2var_pd(t0, lo, t2)), Wide8(_mm512_permutex2var_pd(t1, lo, t3)), Wide8(_mm512_permutex2var_pd(t0, hi, t2))]
             }
         }
+    }
+}
+
+impl Lanes for Wide8 {
+    const N: usize = 8;
+    #[inline(always)]
+    unsafe fn rows(base: *const f64, n: usize, off: &[u32; MAX]) -> [Self; 3] {
+        // SAFETY: the caller's contract.
+        unsafe { wide_rows(base, n, half(off, 0)) }
     }
     #[inline(always)]
     fn array(self) -> [f64; MAX] {
@@ -454,10 +472,126 @@ impl Lanes for Wide8 {
             let r13 = _mm512_permutex2var_pd(xy_odd, lo, z_odd);
             let r57 = _mm512_permutex2var_pd(xy_odd, hi, z_odd);
             let (a, b) = (_mm512_castpd512_pd256, |v| _mm512_extractf64x4_pd::<1>(v));
-            [a(r02), a(r13), b(r02), b(r13), a(r46), a(r57), b(r46), b(r57)]
+            let z = _mm256_setzero_pd();
+            [a(r02), a(r13), b(r02), b(r13), a(r46), a(r57), b(r46), b(r57), z, z, z, z, z, z, z, z]
         }
     }
 }
+
+/// Sixteen f64 lanes as two [`Wide8`]: two groups of eight contacts evaluated side by side, so
+/// that the long dependency chains of the law (square roots, divisions) overlap, as [`F64x8`]
+/// does with 256-bit halves.
+#[derive(Clone, Copy)]
+pub(super) struct Wide16(Wide8, Wide8);
+
+macro_rules! binary16 {
+    ($trait:ident, $f:ident) => {
+        impl $trait for Wide16 {
+            type Output = Self;
+            #[inline(always)]
+            fn $f(self, o: Self) -> Self {
+                Wide16(self.0.$f(o.0), self.1.$f(o.1))
+            }
+        }
+    };
+}
+binary16!(Add, add);
+binary16!(Sub, sub);
+binary16!(Mul, mul);
+binary16!(Div, div);
+
+impl Neg for Wide16 {
+    type Output = Self;
+    #[inline(always)]
+    fn neg(self) -> Self {
+        Wide16(-self.0, -self.1)
+    }
+}
+
+impl Real for Wide16 {
+    type Mask = (__mmask8, __mmask8);
+    #[inline(always)]
+    fn splat(x: f64) -> Self {
+        Wide16(Wide8::splat(x), Wide8::splat(x))
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        Wide16(self.0.sqrt(), self.1.sqrt())
+    }
+    #[inline(always)]
+    fn max_zero(self) -> Self {
+        Wide16(self.0.max_zero(), self.1.max_zero())
+    }
+    #[inline(always)]
+    fn eq(self, o: Self) -> Self::Mask {
+        (self.0.eq(o.0), self.1.eq(o.1))
+    }
+    #[inline(always)]
+    fn gt(self, o: Self) -> Self::Mask {
+        (self.0.gt(o.0), self.1.gt(o.1))
+    }
+    #[inline(always)]
+    fn select(m: Self::Mask, a: Self, b: Self) -> Self {
+        Wide16(Wide8::select(m.0, a.0, b.0), Wide8::select(m.1, a.1, b.1))
+    }
+    #[inline(always)]
+    fn map3(a: Self, b: Self, c: Self, f: impl Fn(f64, f64, f64) -> f64) -> Self {
+        Wide16(Wide8::map3(a.0, b.0, c.0, &f), Wide8::map3(a.1, b.1, c.1, &f))
+    }
+}
+
+impl Lanes for Wide16 {
+    const N: usize = 16;
+    #[inline(always)]
+    unsafe fn rows(base: *const f64, n: usize, off: &[u32; MAX]) -> [Self; 3] {
+        // SAFETY: the caller's contract.
+        unsafe {
+            let (a, b) = (wide_rows(base, n, half(off, 0)), wide_rows(base, n, half(off, 1)));
+            [Wide16(a[0], b[0]), Wide16(a[1], b[1]), Wide16(a[2], b[2])]
+        }
+    }
+    #[inline(always)]
+    fn array(self) -> [f64; MAX] {
+        let mut a = [0.0; MAX];
+        // SAFETY: as for `Wide8`; unaligned stores into sixteen f64.
+        unsafe {
+            _mm512_storeu_pd(a.as_mut_ptr(), self.0 .0);
+            _mm512_storeu_pd(a.as_mut_ptr().add(8), self.1 .0);
+        }
+        a
+    }
+    #[inline(always)]
+    fn bits(m: Self::Mask) -> u32 {
+        m.0 as u32 | (m.1 as u32) << 8
+    }
+    #[inline(always)]
+    fn min(self, o: Self) -> Self {
+        Wide16(self.0.min(o.0), self.1.min(o.1))
+    }
+    #[inline(always)]
+    fn max(self, o: Self) -> Self {
+        Wide16(self.0.max(o.0), self.1.max(o.1))
+    }
+    #[inline(always)]
+    fn nge(self, o: Self) -> Self::Mask {
+        (self.0.nge(o.0), self.1.nge(o.1))
+    }
+    const ROWS: bool = true;
+    #[inline(always)]
+    unsafe fn rows3(c: [Self; 3]) -> [__m256d; MAX] {
+        // SAFETY: the caller's contract.
+        unsafe {
+            let a = Wide8::rows3([c[0].0, c[1].0, c[2].0]);
+            let b = Wide8::rows3([c[0].1, c[1].1, c[2].1]);
+            let mut r = a;
+            r[8..].copy_from_slice(&b[..8]);
+            r
+        }
+    }
+}
+
+/// The lanes of the fused pass on processors with AVX-512 F and VL.
+type WideLanes = Wide16;
 
 /// The constants of [`crate::domain::nearest_integer`].
 const SHIFT: f64 = 6_755_399_441_055_744.0;
@@ -487,7 +621,8 @@ unsafe fn rows(base: *const f64, n: usize, off: [u32; 4]) -> [__m256d; 3] {
 }
 
 /// Candidate pairs of a group: pair index, first grain, second grain (lanes not looked at: a
-/// valid pair and its owner twice), and the lanes looked at (bit l for lane l).
+/// valid pair and its owner twice), and the lanes looked at (bit l for lane l). Lanes past the
+/// lane type's `N` are not used.
 struct Group {
     pair: [u32; MAX],
     i: [u32; MAX],
@@ -495,10 +630,25 @@ struct Group {
     valid: u32,
 }
 
+impl Group {
+    fn new() -> Self {
+        Group { pair: [0; MAX], i: [0; MAX], j: [0; MAX], valid: 0 }
+    }
+
+    /// Lanes `8h..8h + 8` from eight-lane vectors and their valid bits.
+    #[inline(always)]
+    fn set_half(&mut self, h: usize, pair: __m256i, i: __m256i, j: __m256i, valid: u32) {
+        self.pair[8 * h..8 * h + 8].copy_from_slice(&u32s(pair));
+        self.i[8 * h..8 * h + 8].copy_from_slice(&u32s(i));
+        self.j[8 * h..8 * h + 8].copy_from_slice(&u32s(j));
+        self.valid |= valid << (8 * h);
+    }
+}
+
 /// `x` as eight u32 lanes.
 #[inline(always)]
-fn u32s(x: __m256i) -> [u32; MAX] {
-    let mut a = [0u32; MAX];
+fn u32s(x: __m256i) -> [u32; 8] {
+    let mut a = [0u32; 8];
     // SAFETY: only used in code compiled with AVX2; unaligned store into eight u32.
     unsafe { _mm256_storeu_si256(a.as_mut_ptr() as *mut __m256i, x) };
     a
@@ -506,14 +656,14 @@ fn u32s(x: __m256i) -> [u32; MAX] {
 
 /// Eight u32 lanes of `a`.
 #[inline(always)]
-fn load_u32s(a: &[u32; MAX]) -> __m256i {
+fn load_u32s(a: &[u32; 8]) -> __m256i {
     // SAFETY: only used in code compiled with AVX2; unaligned load of eight u32.
     unsafe { _mm256_loadu_si256(a.as_ptr() as *const __m256i) }
 }
 
 /// n·x lane by lane (n = 1, 2 or 3; indices are far below 2³² / 3).
 #[inline(always)]
-fn times(x: __m256i, n: usize) -> [u32; MAX] {
+fn times(x: __m256i, n: usize) -> [u32; 8] {
     // SAFETY: only used in code compiled with AVX2.
     unsafe {
         u32s(match n {
@@ -573,12 +723,17 @@ unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: 
     let (dd, rot) = (D::D, <D::AngVector as VectorOps>::LEN);
     // SAFETY: the caller's contract.
     unsafe {
-        debug_assert!(g.pair.iter().all(|&p| p as usize >= h.base && p as usize - h.base < h.overlap.len()));
-        let (gi, gj) = (load_u32s(&g.i), load_u32s(&g.j));
-        let qv = _mm256_sub_epi32(load_u32s(&g.pair), _mm256_set1_epi32(h.base as i32));
-        let q = u32s(qv);
-        // row offsets of vectors (f64 units)
-        let (oi, oj) = (times(gi, dd), times(gj, dd));
+        debug_assert!(g.pair[..V::N].iter().all(|&p| p as usize >= h.base && p as usize - h.base < h.overlap.len()));
+        // history index, and row offsets of vectors (f64 units)
+        let (mut q, mut qd, mut oi, mut oj) = ([0u32; MAX], [0u32; MAX], [0u32; MAX], [0u32; MAX]);
+        for hf in 0..V::N / 8 {
+            let r = 8 * hf..8 * hf + 8;
+            let qv = _mm256_sub_epi32(load_u32s(half(&g.pair, hf)), _mm256_set1_epi32(h.base as i32));
+            q[r.clone()].copy_from_slice(&u32s(qv));
+            qd[r.clone()].copy_from_slice(&times(qv, dd));
+            oi[r.clone()].copy_from_slice(&times(load_u32s(half(&g.i, hf)), dd));
+            oj[r].copy_from_slice(&times(load_u32s(half(&g.j, hf)), dd));
+        }
         let pos = inp.pos.as_ptr() as *const f64;
         let (xi, xj) = (V::rows(pos, dd, &oi), V::rows(pos, dd, &oj));
         let (ri, rj) = (V::rows(inp.radius.as_ptr(), 1, &g.i)[0], V::rows(inp.radius.as_ptr(), 1, &g.j)[0]);
@@ -648,7 +803,7 @@ unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: 
             rad_j: rj,
             mass_i: V::rows(inp.mass.as_ptr(), 1, &g.i)[0],
             mass_j: V::rows(inp.mass.as_ptr(), 1, &g.j)[0],
-            spring: V::rows(h.spring.as_ptr() as *const f64, dd, &times(qv, dd)),
+            spring: V::rows(h.spring.as_ptr() as *const f64, dd, &qd),
         };
         let o = match dd {
             2 => lanes::contact::<V, 2, 1, L, P>(law, damp, &input, inp.dt),
@@ -729,7 +884,7 @@ unsafe fn block<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs
     }
 }
 
-/// [`block`] on 512-bit lanes ([`Wide8`]).
+/// [`block`] on 512-bit lanes ([`WideLanes`]).
 ///
 /// # Safety
 /// AVX-512 F and VL are available.
@@ -741,7 +896,7 @@ unsafe fn block_wide<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &I
         if cross.close_ok {
             return block_close_wide::<D, L, P>(law, damp, inp, cross, fin, b, h, g);
         }
-        block_plain::<D, L, P, Wide8>(law, damp, inp, cross, fin, b, h, g)
+        block_plain::<D, L, P, WideLanes>(law, damp, inp, cross, fin, b, h, g)
     }
 }
 
@@ -763,19 +918,24 @@ unsafe fn block_plain<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp:
     while p < e {
         let n = (e - p).min(V::N);
         // lanes past n: the first pair and its owner; partners of the next blocks: not looked at
-        // SAFETY: AVX2 is enabled here; the masked loads read the pairs p..p + n only.
-        let gr = unsafe {
-            let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-            let live = _mm256_cmpgt_epi32(_mm256_set1_epi32(n as i32), lane);
-            let i = _mm256_maskload_epi32(cross.owner.as_ptr().add(p) as *const i32, live);
-            let i = _mm256_blendv_epi8(_mm256_set1_epi32(cross.owner[p] as i32), i, live);
-            let j = _mm256_maskload_epi32(inp.partner.as_ptr().add(p) as *const i32, live);
-            // grain indices are below 2³¹ (i32 comparison)
-            let inside = _mm256_and_si256(live, _mm256_cmpgt_epi32(_mm256_set1_epi32(g1 as i32), j));
-            let j = _mm256_blendv_epi8(i, j, inside);
-            let pair = _mm256_add_epi32(_mm256_set1_epi32(p as i32), _mm256_and_si256(lane, live));
-            Group { pair: u32s(pair), i: u32s(i), j: u32s(j), valid: _mm256_movemask_ps(_mm256_castsi256_ps(inside)) as u32 }
-        };
+        let mut gr = Group::new();
+        // eight lanes at a time
+        for hf in 0..V::N / 8 {
+            let s = p + 8 * hf;
+            // SAFETY: AVX2 is enabled here; the masked loads read the pairs p..p + n only.
+            unsafe {
+                let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+                let live = _mm256_cmpgt_epi32(_mm256_set1_epi32(n as i32 - 8 * hf as i32), lane);
+                let i = _mm256_maskload_epi32(cross.owner.as_ptr().wrapping_add(s) as *const i32, live);
+                let i = _mm256_blendv_epi8(_mm256_set1_epi32(cross.owner[p] as i32), i, live);
+                let j = _mm256_maskload_epi32(inp.partner.as_ptr().wrapping_add(s) as *const i32, live);
+                // grain indices are below 2³¹ (i32 comparison)
+                let inside = _mm256_and_si256(live, _mm256_cmpgt_epi32(_mm256_set1_epi32(g1 as i32), j));
+                let j = _mm256_blendv_epi8(i, j, inside);
+                let pair = _mm256_blendv_epi8(_mm256_set1_epi32(p as i32), _mm256_add_epi32(_mm256_set1_epi32(s as i32), lane), live);
+                gr.set_half(hf, pair, i, j, _mm256_movemask_ps(_mm256_castsi256_ps(inside)) as u32);
+            }
+        }
         // SAFETY: the block's pairs are pairs of `h` with owners in the block; intra-block
         // partners lie in the block (cross index); AVX2 is enabled here.
         let touching = unsafe { eval_group::<D, L, P, V>(law, damp, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &gr, &mut st, &mut out) };
@@ -819,7 +979,7 @@ unsafe fn block_close<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &
 #[allow(clippy::too_many_arguments)]
 unsafe fn block_close_wide<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, h: History<D>, g: Grain<D>) -> ForceStats {
     // SAFETY: AVX-512 F and VL are enabled here (the caller's contract).
-    unsafe { block_close_impl::<D, L, P, Wide8>(law, damp, inp, cross, fin, b, h, g) }
+    unsafe { block_close_impl::<D, L, P, WideLanes>(law, damp, inp, cross, fin, b, h, g) }
 }
 
 /// The body of [`block_close`] for lanes `V`.
@@ -843,18 +1003,23 @@ unsafe fn block_close_impl<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, 
     while k < ke {
         let n = (ke - k).min(V::N);
         // lanes past n: the first pair and its owner (not looked at)
-        // SAFETY: AVX2 is enabled here; the masked loads read the entries k..k + n only.
-        let gr = unsafe {
-            let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-            let live = _mm256_cmpgt_epi32(_mm256_set1_epi32(n as i32), lane);
-            let pair = _mm256_maskload_epi32(cross.close_pair.as_ptr().add(k) as *const i32, live);
-            let pair = _mm256_blendv_epi8(_mm256_set1_epi32(cross.close_pair[k] as i32), pair, live);
-            let i = _mm256_maskload_epi32(cross.close_owner.as_ptr().add(k) as *const i32, live);
-            let i = _mm256_blendv_epi8(_mm256_set1_epi32(cross.close_owner[k] as i32), i, live);
-            let j = _mm256_maskload_epi32(cross.close_partner.as_ptr().add(k) as *const i32, live);
-            let j = _mm256_blendv_epi8(i, j, live);
-            Group { pair: u32s(pair), i: u32s(i), j: u32s(j), valid: _mm256_movemask_ps(_mm256_castsi256_ps(live)) as u32 }
-        };
+        let mut gr = Group::new();
+        // eight lanes at a time
+        for hf in 0..V::N / 8 {
+            let s = k + 8 * hf;
+            // SAFETY: AVX2 is enabled here; the masked loads read the entries k..k + n only.
+            unsafe {
+                let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+                let live = _mm256_cmpgt_epi32(_mm256_set1_epi32(n as i32 - 8 * hf as i32), lane);
+                let pair = _mm256_maskload_epi32(cross.close_pair.as_ptr().wrapping_add(s) as *const i32, live);
+                let pair = _mm256_blendv_epi8(_mm256_set1_epi32(cross.close_pair[k] as i32), pair, live);
+                let i = _mm256_maskload_epi32(cross.close_owner.as_ptr().wrapping_add(s) as *const i32, live);
+                let i = _mm256_blendv_epi8(_mm256_set1_epi32(cross.close_owner[k] as i32), i, live);
+                let j = _mm256_maskload_epi32(cross.close_partner.as_ptr().wrapping_add(s) as *const i32, live);
+                let j = _mm256_blendv_epi8(i, j, live);
+                gr.set_half(hf, pair, i, j, _mm256_movemask_ps(_mm256_castsi256_ps(live)) as u32);
+            }
+        }
         // SAFETY: as below (the close list holds intra-block pairs of the block).
         let touching = unsafe { eval_group::<D, L, P, V>(law, damp, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &gr, &mut st, &mut out) };
         if touching {
@@ -954,7 +1119,7 @@ unsafe fn cross_block<D: Dim, L: WindowLaw, P: Dampers>(p: CrossPass<'_, '_, D, 
 #[target_feature(enable = "avx2,avx512f,avx512vl,popcnt")]
 unsafe fn cross_block_wide<D: Dim, L: WindowLaw, P: Dampers>(p: CrossPass<'_, '_, D, L>, damp: P) -> ForceStats {
     // SAFETY: AVX-512 F and VL are enabled here (the caller's contract).
-    unsafe { cross_block_impl::<D, L, P, Wide8>(p.law, damp, p.inp, p.vel, p.omega, p.cross, p.b, p.h, p.out, p.slot_base) }
+    unsafe { cross_block_impl::<D, L, P, WideLanes>(p.law, damp, p.inp, p.vel, p.omega, p.cross, p.b, p.h, p.out, p.slot_base) }
 }
 
 /// The body of [`cross_block`] for lanes `V`.
