@@ -113,15 +113,19 @@ fn lanes_of(x: __m256d) -> [f64; 4] {
 
 /// Lanes of several contacts: what the fused pass needs beyond [`Real`].
 pub(super) trait Lanes: Real {
-    /// Number of lanes (at most [`MAX`]).
+    /// Number of lanes (a multiple of 8).
     const N: usize;
+    /// One f64, u32 or row per lane (`[T; N]`).
+    type F: Array<f64>;
+    type U: Array<u32>;
+    type R: Array<__m256d>;
     /// Rows of `n` (1, 2 or 3) consecutive f64 at `base + off[l]`, one vector per component.
     ///
     /// # Safety
     /// Every row lies in one allocation (`base` itself may point outside it); AVX2 is available.
-    unsafe fn rows(base: *const f64, n: usize, off: &[u32; MAX]) -> [Self; 3];
-    /// The lanes (first `N` of the array).
-    fn array(self) -> [f64; MAX];
+    unsafe fn rows(base: *const f64, n: usize, off: &Self::U) -> [Self; 3];
+    /// The lanes.
+    fn array(self) -> Self::F;
     /// Bit l set when lane l of `m` is true.
     fn bits(m: Self::Mask) -> u32;
     /// `self < o ? self : o` (`o` when either is NaN).
@@ -138,8 +142,21 @@ pub(super) trait Lanes: Real {
     ///
     /// # Safety
     /// What the lane type needs is available.
-    unsafe fn rows3(_c: [Self; 3]) -> [__m256d; MAX] {
+    unsafe fn rows3(_c: [Self; 3]) -> Self::R {
         unreachable!("rows3 without ROWS")
+    }
+}
+
+/// One value per lane of a group: `[T; N]`.
+pub(super) trait Array<T: Copy>: Copy + AsRef<[T]> + AsMut<[T]> + std::ops::Index<usize, Output = T> + std::ops::IndexMut<usize> {
+    /// Every lane `x`.
+    fn filled(x: T) -> Self;
+}
+
+impl<T: Copy, const M: usize> Array<T> for [T; M] {
+    #[inline(always)]
+    fn filled(x: T) -> Self {
+        [x; M]
     }
 }
 
@@ -170,13 +187,10 @@ unsafe fn store3(p: *mut f64, r: __m256d) {
     }
 }
 
-/// Most lanes of a group.
-pub(super) const MAX: usize = 16;
-
 /// Eight lanes `8h..8h + 8` of a group's array.
 #[inline(always)]
-fn half<T>(a: &[T; MAX], h: usize) -> &[T; 8] {
-    a[8 * h..8 * h + 8].try_into().unwrap()
+fn half<T: Copy, A: Array<T>>(a: &A, h: usize) -> &[T; 8] {
+    a.as_ref()[8 * h..8 * h + 8].try_into().unwrap()
 }
 
 /// What [`F64x8`] needs of its halves beyond [`Real`].
@@ -270,22 +284,22 @@ impl Real for F64x8 {
 
 impl Lanes for F64x8 {
     const N: usize = 8;
+    type F = [f64; 8];
+    type U = [u32; 8];
+    type R = [__m256d; 8];
     #[inline(always)]
-    unsafe fn rows(base: *const f64, n: usize, off: &[u32; MAX]) -> [Self; 3] {
+    unsafe fn rows(base: *const f64, n: usize, off: &[u32; 8]) -> [Self; 3] {
         // SAFETY: the caller's contract.
         unsafe {
             let a = rows(base, n, [off[0], off[1], off[2], off[3]]);
             let b = rows(base, n, [off[4], off[5], off[6], off[7]]);
-            // (lanes 8.. are not used by this lane type)
             [F64x8(F64x4(a[0]), F64x4(b[0])), F64x8(F64x4(a[1]), F64x4(b[1])), F64x8(F64x4(a[2]), F64x4(b[2]))]
         }
     }
     #[inline(always)]
-    fn array(self) -> [f64; MAX] {
+    fn array(self) -> [f64; 8] {
         let (a, b) = (lanes_of(self.0 .0), lanes_of(self.1 .0));
-        let mut r = [0.0; MAX];
-        r[..8].copy_from_slice(&[a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]]);
-        r
+        [a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]]
     }
     #[inline(always)]
     fn bits(m: Self::Mask) -> u32 {
@@ -422,14 +436,17 @@ unsafe fn wide_rows(base: *const f64, n: usize, off: &[u32; 8]) -> [Wide8; 3] {
 
 impl Lanes for Wide8 {
     const N: usize = 8;
+    type F = [f64; 8];
+    type U = [u32; 8];
+    type R = [__m256d; 8];
     #[inline(always)]
-    unsafe fn rows(base: *const f64, n: usize, off: &[u32; MAX]) -> [Self; 3] {
+    unsafe fn rows(base: *const f64, n: usize, off: &[u32; 8]) -> [Self; 3] {
         // SAFETY: the caller's contract.
-        unsafe { wide_rows(base, n, half(off, 0)) }
+        unsafe { wide_rows(base, n, off) }
     }
     #[inline(always)]
-    fn array(self) -> [f64; MAX] {
-        let mut a = [0.0; MAX];
+    fn array(self) -> [f64; 8] {
+        let mut a = [0.0; 8];
         // SAFETY: as above; unaligned store into eight f64.
         unsafe { _mm512_storeu_pd(a.as_mut_ptr(), self.0) };
         a
@@ -455,7 +472,7 @@ impl Lanes for Wide8 {
     }
     const ROWS: bool = true;
     #[inline(always)]
-    unsafe fn rows3(c: [Self; 3]) -> [__m256d; MAX] {
+    unsafe fn rows3(c: [Self; 3]) -> [__m256d; 8] {
         // SAFETY: the caller's contract (AVX-512 F).
         unsafe {
             let (x, y, z) = (c[0].0, c[1].0, c[2].0);
@@ -472,8 +489,7 @@ impl Lanes for Wide8 {
             let r13 = _mm512_permutex2var_pd(xy_odd, lo, z_odd);
             let r57 = _mm512_permutex2var_pd(xy_odd, hi, z_odd);
             let (a, b) = (_mm512_castpd512_pd256, |v| _mm512_extractf64x4_pd::<1>(v));
-            let z = _mm256_setzero_pd();
-            [a(r02), a(r13), b(r02), b(r13), a(r46), a(r57), b(r46), b(r57), z, z, z, z, z, z, z, z]
+            [a(r02), a(r13), b(r02), b(r13), a(r46), a(r57), b(r46), b(r57)]
         }
     }
 }
@@ -542,8 +558,11 @@ impl Real for Wide16 {
 
 impl Lanes for Wide16 {
     const N: usize = 16;
+    type F = [f64; 16];
+    type U = [u32; 16];
+    type R = [__m256d; 16];
     #[inline(always)]
-    unsafe fn rows(base: *const f64, n: usize, off: &[u32; MAX]) -> [Self; 3] {
+    unsafe fn rows(base: *const f64, n: usize, off: &[u32; 16]) -> [Self; 3] {
         // SAFETY: the caller's contract.
         unsafe {
             let (a, b) = (wide_rows(base, n, half(off, 0)), wide_rows(base, n, half(off, 1)));
@@ -551,8 +570,8 @@ impl Lanes for Wide16 {
         }
     }
     #[inline(always)]
-    fn array(self) -> [f64; MAX] {
-        let mut a = [0.0; MAX];
+    fn array(self) -> [f64; 16] {
+        let mut a = [0.0; 16];
         // SAFETY: as for `Wide8`; unaligned stores into sixteen f64.
         unsafe {
             _mm512_storeu_pd(a.as_mut_ptr(), self.0 .0);
@@ -578,13 +597,14 @@ impl Lanes for Wide16 {
     }
     const ROWS: bool = true;
     #[inline(always)]
-    unsafe fn rows3(c: [Self; 3]) -> [__m256d; MAX] {
+    unsafe fn rows3(c: [Self; 3]) -> [__m256d; 16] {
         // SAFETY: the caller's contract.
         unsafe {
             let a = Wide8::rows3([c[0].0, c[1].0, c[2].0]);
             let b = Wide8::rows3([c[0].1, c[1].1, c[2].1]);
-            let mut r = a;
-            r[8..].copy_from_slice(&b[..8]);
+            let mut r = [a[0]; 16];
+            r[..8].copy_from_slice(&a);
+            r[8..].copy_from_slice(&b);
             r
         }
     }
@@ -623,24 +643,25 @@ unsafe fn rows(base: *const f64, n: usize, off: [u32; 4]) -> [__m256d; 3] {
 /// Candidate pairs of a group: pair index, first grain, second grain (lanes not looked at: a
 /// valid pair and its owner twice), and the lanes looked at (bit l for lane l). Lanes past the
 /// lane type's `N` are not used.
-struct Group {
-    pair: [u32; MAX],
-    i: [u32; MAX],
-    j: [u32; MAX],
+struct Group<V: Lanes> {
+    pair: V::U,
+    i: V::U,
+    j: V::U,
     valid: u32,
 }
 
-impl Group {
+impl<V: Lanes> Group<V> {
+    #[inline(always)]
     fn new() -> Self {
-        Group { pair: [0; MAX], i: [0; MAX], j: [0; MAX], valid: 0 }
+        Group { pair: V::U::filled(0), i: V::U::filled(0), j: V::U::filled(0), valid: 0 }
     }
 
     /// Lanes `8h..8h + 8` from eight-lane vectors and their valid bits.
     #[inline(always)]
     fn set_half(&mut self, h: usize, pair: __m256i, i: __m256i, j: __m256i, valid: u32) {
-        self.pair[8 * h..8 * h + 8].copy_from_slice(&u32s(pair));
-        self.i[8 * h..8 * h + 8].copy_from_slice(&u32s(i));
-        self.j[8 * h..8 * h + 8].copy_from_slice(&u32s(j));
+        self.pair.as_mut()[8 * h..8 * h + 8].copy_from_slice(&u32s(pair));
+        self.i.as_mut()[8 * h..8 * h + 8].copy_from_slice(&u32s(i));
+        self.j.as_mut()[8 * h..8 * h + 8].copy_from_slice(&u32s(j));
         self.valid |= valid << (8 * h);
     }
 }
@@ -691,7 +712,7 @@ impl<V: Lanes> Out<V> {
 
 /// Lane `l` of component arrays as a vector.
 #[inline(always)]
-fn lane_of<T: VectorOps>(a: &[[f64; MAX]; 3], l: usize) -> T {
+fn lane_of<T: VectorOps, A: Array<f64>>(a: &[A; 3], l: usize) -> T {
     let mut v = T::ZERO;
     for c in 0..T::LEN {
         v.set(c, a[c][l]);
@@ -701,8 +722,8 @@ fn lane_of<T: VectorOps>(a: &[[f64; MAX]; 3], l: usize) -> T {
 
 /// The lanes of `v` as component arrays.
 #[inline(always)]
-fn arrays<V: Lanes>(v: &[V; 3], n: usize) -> [[f64; MAX]; 3] {
-    let mut a = [[0.0; MAX]; 3];
+fn arrays<V: Lanes>(v: &[V; 3], n: usize) -> [V::F; 3] {
+    let mut a = [V::F::filled(0.0); 3];
     for c in 0..n {
         a[c] = v[c].array();
     }
@@ -719,20 +740,21 @@ fn arrays<V: Lanes>(v: &[V; 3], n: usize) -> [[f64; MAX]; 3] {
 /// `v.base`); AVX2 is available.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: P, inp: &Inputs<D>, h: &mut History<D>, v: Velocities<D>, g: &Group, st: &mut ForceStats, out: &mut Out<V>) -> bool {
+unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: P, inp: &Inputs<D>, h: &mut History<D>, v: Velocities<D>, g: &Group<V>, st: &mut ForceStats, out: &mut Out<V>) -> bool {
     let (dd, rot) = (D::D, <D::AngVector as VectorOps>::LEN);
     // SAFETY: the caller's contract.
     unsafe {
-        debug_assert!(g.pair[..V::N].iter().all(|&p| p as usize >= h.base && p as usize - h.base < h.overlap.len()));
+        debug_assert!(g.pair.as_ref().iter().all(|&p| p as usize >= h.base && p as usize - h.base < h.overlap.len()));
         // history index, and row offsets of vectors (f64 units)
-        let (mut q, mut qd, mut oi, mut oj) = ([0u32; MAX], [0u32; MAX], [0u32; MAX], [0u32; MAX]);
+        let z = V::U::filled(0);
+        let (mut q, mut qd, mut oi, mut oj) = (z, z, z, z);
         for hf in 0..V::N / 8 {
             let r = 8 * hf..8 * hf + 8;
             let qv = _mm256_sub_epi32(load_u32s(half(&g.pair, hf)), _mm256_set1_epi32(h.base as i32));
-            q[r.clone()].copy_from_slice(&u32s(qv));
-            qd[r.clone()].copy_from_slice(&times(qv, dd));
-            oi[r.clone()].copy_from_slice(&times(load_u32s(half(&g.i, hf)), dd));
-            oj[r].copy_from_slice(&times(load_u32s(half(&g.j, hf)), dd));
+            q.as_mut()[r.clone()].copy_from_slice(&u32s(qv));
+            qd.as_mut()[r.clone()].copy_from_slice(&times(qv, dd));
+            oi.as_mut()[r.clone()].copy_from_slice(&times(load_u32s(half(&g.i, hf)), dd));
+            oj.as_mut()[r].copy_from_slice(&times(load_u32s(half(&g.j, hf)), dd));
         }
         let pos = inp.pos.as_ptr() as *const f64;
         let (xi, xj) = (V::rows(pos, dd, &oi), V::rows(pos, dd, &oj));
@@ -1042,7 +1064,7 @@ unsafe fn block_close_impl<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, 
 
 /// Adds the forces and torques of a group's touching lanes to both grains, in lane (list) order.
 #[inline(always)]
-fn add_group<D: Dim, V: Lanes>(out: &Out<V>, gi: &[u32; MAX], gj: &[u32; MAX], g0: usize, force: &mut [D::Vector], torque: &mut [D::AngVector]) {
+fn add_group<D: Dim, V: Lanes>(out: &Out<V>, gi: &V::U, gj: &V::U, g0: usize, force: &mut [D::Vector], torque: &mut [D::AngVector]) {
     let rot = <D::AngVector as VectorOps>::LEN;
     let mut bits = out.touch;
     if V::ROWS && D::D == 3 && rot == 3 {
@@ -1092,9 +1114,9 @@ fn add_group<D: Dim, V: Lanes>(out: &Out<V>, gi: &[u32; MAX], gj: &[u32; MAX], g
         // SAFETY: owners and intra-block partners lie in the block.
         unsafe {
             *force.get_unchecked_mut(li) += f;
-            *torque.get_unchecked_mut(li) += lane_of::<D::AngVector>(&ti, l);
+            *torque.get_unchecked_mut(li) += lane_of::<D::AngVector, _>(&ti, l);
             *force.get_unchecked_mut(lj) -= f;
-            *torque.get_unchecked_mut(lj) += lane_of::<D::AngVector>(&tj, l);
+            *torque.get_unchecked_mut(lj) += lane_of::<D::AngVector, _>(&tj, l);
         }
     }
 }
@@ -1147,7 +1169,7 @@ unsafe fn cross_block_impl<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(
         let n = (e - s).min(V::N);
         let p0 = cross.slot_pair[s];
         let i0 = cross.owner[p0 as usize];
-        let mut gr = Group { pair: [p0; MAX], i: [i0; MAX], j: [i0; MAX], valid: (1 << n) - 1 };
+        let mut gr = Group::<V> { pair: V::U::filled(p0), i: V::U::filled(i0), j: V::U::filled(i0), valid: (1 << n) - 1 };
         for l in 0..n {
             let p = cross.slot_pair[s + l];
             gr.pair[l] = p;
