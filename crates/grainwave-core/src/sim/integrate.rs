@@ -62,50 +62,36 @@ impl<D: Dim> Simulation<D> {
                 .zip(g.orientation.par_chunks_mut(MIN_LEN))
                 .zip(g.torque.par_chunks(MIN_LEN))
                 .enumerate();
-            let drift = |c: usize, x: &mut [D::Vector], v: &mut [D::Vector], im: &mut [[i32; 3]], f: &[D::Vector], w: &mut [D::AngVector], o: &mut [D::Orientation], t: &[D::AngVector]| {
+            let drift = |c: usize, x: &mut [D::Vector], v: &mut [D::Vector], im: &mut [[i32; 3]], f: &[D::Vector], w: &mut [D::AngVector], o: &mut [D::Orientation], t: &[D::AngVector], close: Option<&[D::Vector]>| {
                 let base = c * MIN_LEN;
                 let n = x.len();
-                let (mass, inertia) = (&g.mass[base..base + n], &g.inertia[base..base + n]);
-                // h/m and h/I first, in loops the compiler vectorizes (the same quotients as
-                // inline)
-                let (mut km, mut ki) = ([0.0; MIN_LEN], [0.0; MIN_LEN]);
-                for k in 0..n {
-                    km[k] = h / mass[k];
-                }
-                for k in 0..n {
-                    ki[k] = h / inertia[k];
-                }
-                for k in 0..n {
-                    v[k] += f[k] * km[k];
-                    x[k] += v[k] * dt;
-                    // most grains stay inside the cell: the full wrap only for the others
-                    // (non-short-circuit `|`: one test per grain instead of a branch per bound)
-                    let mut out = image.sheared;
-                    for c in 0..D::D {
-                        out |= (x[k].get(c) >= hi.get(c)) | (x[k].get(c) < lo.get(c));
-                    }
-                    if out {
-                        dom.wrap_in(&image, &mut x[k], &mut v[k], &mut im[k]);
-                    }
-                }
-                let max_d2 = if track { max_displacement2(&image, &reference[base..base + n], x) } else { 0.0 };
-                for k in 0..w.len() {
-                    w[k] += t[k] * ki[k];
-                }
-                D::rotate_orientations(o, w, dt);
-                max_d2
+                let chunk = DriftChunk {
+                    dt,
+                    mass: &g.mass[base..base + n],
+                    inertia: &g.inertia[base..base + n],
+                    x,
+                    v,
+                    im,
+                    f,
+                    w,
+                    o,
+                    t,
+                    dom: &*dom,
+                    image: &image,
+                    lo,
+                    hi,
+                    reference: if track { Some(&reference[base..base + n]) } else { None },
+                    close: close.map(|r| &r[base..base + n]),
+                };
+                chunk.run()
             };
             if track_close {
                 let m = chunks
-                    .map(|(c, ((((((x, v), im), f), w), o), t))| {
-                        let max_d2 = drift(c, x, v, im, f, w, o, t);
-                        let base = c * MIN_LEN;
-                        (max_d2, max_displacement2(&image, &close[base..base + x.len()], x))
-                    })
+                    .map(|(c, ((((((x, v), im), f), w), o), t))| drift(c, x, v, im, f, w, o, t, Some(close)))
                     .reduce(|| (0.0, 0.0), |a, b| (nan_max(a.0, b.0), nan_max(a.1, b.1)));
                 (m.0, Some(m.1))
             } else {
-                (chunks.map(|(c, ((((((x, v), im), f), w), o), t))| drift(c, x, v, im, f, w, o, t)).reduce(|| 0.0, nan_max), None)
+                (chunks.map(|(c, ((((((x, v), im), f), w), o), t))| drift(c, x, v, im, f, w, o, t, None).0).reduce(|| 0.0, nan_max), None)
             }
         };
         let t0 = self.time;
@@ -246,5 +232,92 @@ impl<D: Dim> Simulation<D> {
         }
         self.work.wall_accel = wall_accel;
         Ok(())
+    }
+}
+
+/// One chunk of velocity Verlet's first half: kick, drift, wrap, turn, and the largest squared
+/// displacements since the neighbor list's reference and the close list's (0 when not tracked).
+struct DriftChunk<'a, D: Dim> {
+    dt: f64,
+    mass: &'a [f64],
+    inertia: &'a [f64],
+    x: &'a mut [D::Vector],
+    v: &'a mut [D::Vector],
+    im: &'a mut [[i32; 3]],
+    f: &'a [D::Vector],
+    w: &'a mut [D::AngVector],
+    o: &'a mut [D::Orientation],
+    t: &'a [D::AngVector],
+    dom: &'a crate::domain::Domain<D>,
+    image: &'a crate::domain::PeriodicImage<D>,
+    lo: D::Vector,
+    hi: D::Vector,
+    reference: Option<&'a [D::Vector]>,
+    close: Option<&'a [D::Vector]>,
+}
+
+impl<D: Dim> DriftChunk<'_, D> {
+    /// Runs the chunk, compiled for the widest vector extension the processor has (the same
+    /// operations in the same order on every path: the same bits).
+    fn run(self) -> (f64, f64) {
+        #[cfg(target_arch = "x86_64")]
+        {
+            if std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("avx512vl") {
+                // SAFETY: the processor supports AVX-512 F and VL.
+                return unsafe { self.run_avx512() };
+            }
+            if std::arch::is_x86_feature_detected!("avx2") {
+                // SAFETY: the processor supports AVX2.
+                return unsafe { self.run_avx2() };
+            }
+        }
+        self.body()
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,avx512f,avx512vl")]
+    unsafe fn run_avx512(self) -> (f64, f64) {
+        self.body()
+    }
+
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2")]
+    unsafe fn run_avx2(self) -> (f64, f64) {
+        self.body()
+    }
+
+    #[inline(always)]
+    fn body(self) -> (f64, f64) {
+        let DriftChunk { dt, mass, inertia, x, v, im, f, w, o, t, dom, image, lo, hi, reference, close } = self;
+        let h = 0.5 * dt;
+        let n = x.len();
+        // h/m and h/I first, in loops the compiler vectorizes (the same quotients as inline)
+        let (mut km, mut ki) = ([0.0; MIN_LEN], [0.0; MIN_LEN]);
+        for k in 0..n {
+            km[k] = h / mass[k];
+        }
+        for k in 0..n {
+            ki[k] = h / inertia[k];
+        }
+        for k in 0..n {
+            v[k] += f[k] * km[k];
+            x[k] += v[k] * dt;
+            // most grains stay inside the cell: the full wrap only for the others
+            // (non-short-circuit `|`: one test per grain instead of a branch per bound)
+            let mut out = image.sheared;
+            for c in 0..D::D {
+                out |= (x[k].get(c) >= hi.get(c)) | (x[k].get(c) < lo.get(c));
+            }
+            if out {
+                dom.wrap_in(image, &mut x[k], &mut v[k], &mut im[k]);
+            }
+        }
+        let max_d2 = reference.map_or(0.0, |r| max_displacement2(image, r, x));
+        let max_close2 = close.map_or(0.0, |r| max_displacement2(image, r, x));
+        for k in 0..w.len() {
+            w[k] += t[k] * ki[k];
+        }
+        D::rotate_orientations(o, w, dt);
+        (max_d2, max_close2)
     }
 }
