@@ -305,11 +305,77 @@ unsafe fn rotate_lanes_avx2(o: &mut [DQuat], w: &[DVec3], dt: f64) {
     rotate_lanes(o, w, dt);
 }
 
-/// [`rotate_lanes`] compiled for AVX-512 (eight lanes in one register; the same operations).
+/// [`rotate_lanes`] with AVX-512 intrinsics: eight grains at a time, their quaternions and spins
+/// loaded as whole rows and transposed in registers (the compiler's version of [`rotate_lanes`]
+/// goes through stack arrays whose element-wise stores cannot be forwarded to the vector loads
+/// that follow). Exactly the operations of [`rotate_lanes`] in the same order (so the same bits);
+/// lanes outside the series' range (or not finite) are redone by the scalar function.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,avx512f,avx512vl")]
 unsafe fn rotate_lanes_avx512(o: &mut [DQuat], w: &[DVec3], dt: f64) {
-    rotate_lanes(o, w, dt);
+    use std::arch::x86_64::*;
+    const S: [f64; 6] = [1.0, 1.0 / 6.0, 1.0 / 120.0, 1.0 / 5040.0, 1.0 / 362_880.0, 1.0 / 39_916_800.0];
+    const C: [f64; 6] = [1.0, 1.0 / 2.0, 1.0 / 24.0, 1.0 / 720.0, 1.0 / 40_320.0, 1.0 / 3_628_800.0];
+    let n = o.len().min(w.len());
+    let split = n - n % 8;
+    // SAFETY: AVX-512 F and VL are enabled here; every load and store stays inside o[k..k + 8]
+    // and w[k..k + 8] (DQuat is four f64, DVec3 three).
+    unsafe {
+        let idx = |a: [i64; 8]| _mm512_setr_epi64(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7]);
+        // (x, y, z, w) of two rows each ⇄ one component of four rows, and halves joined
+        let (even, odd) = (idx([0, 4, 8, 12, 1, 5, 9, 13]), idx([2, 6, 10, 14, 3, 7, 11, 15]));
+        let (lo, hi) = (idx([0, 1, 2, 3, 8, 9, 10, 11]), idx([4, 5, 6, 7, 12, 13, 14, 15]));
+        let c = _mm512_set1_pd;
+        let (add, sub, mul) = (|a, b| _mm512_add_pd(a, b), |a, b| _mm512_sub_pd(a, b), |a, b| _mm512_mul_pd(a, b));
+        for k in (0..split).step_by(8) {
+            let op = o.as_mut_ptr().add(k) as *mut f64;
+            let wp = w.as_ptr().add(k) as *const f64;
+            let rows = [_mm512_loadu_pd(op), _mm512_loadu_pd(op.add(8)), _mm512_loadu_pd(op.add(16)), _mm512_loadu_pd(op.add(24))];
+            // [x0..x3 y0..y3], [z0..z3 w0..w3], the same for grains 4..7
+            let (e0, e1) = (_mm512_permutex2var_pd(rows[0], even, rows[1]), _mm512_permutex2var_pd(rows[0], odd, rows[1]));
+            let (f0, f1) = (_mm512_permutex2var_pd(rows[2], even, rows[3]), _mm512_permutex2var_pd(rows[2], odd, rows[3]));
+            let (x1, y1) = (_mm512_permutex2var_pd(e0, lo, f0), _mm512_permutex2var_pd(e0, hi, f0));
+            let (z1, w1) = (_mm512_permutex2var_pd(e1, lo, f1), _mm512_permutex2var_pd(e1, hi, f1));
+            // spins: 24 consecutive f64 de-interleaved
+            let (a, b, cc) = (_mm512_loadu_pd(wp), _mm512_loadu_pd(wp.add(8)), _mm512_loadu_pd(wp.add(16)));
+            let wx = _mm512_permutex2var_pd(_mm512_permutex2var_pd(a, idx([0, 3, 6, 9, 12, 15, 0, 0]), b), idx([0, 1, 2, 3, 4, 5, 10, 13]), cc);
+            let wy = _mm512_permutex2var_pd(_mm512_permutex2var_pd(a, idx([1, 4, 7, 10, 13, 0, 0, 0]), b), idx([0, 1, 2, 3, 4, 8, 11, 14]), cc);
+            let wz = _mm512_permutex2var_pd(_mm512_permutex2var_pd(a, idx([2, 5, 8, 11, 14, 0, 0, 0]), b), idx([0, 1, 2, 3, 4, 9, 12, 15]), cc);
+            let (vx, vy, vz) = (mul(wx, c(dt)), mul(wy, c(dt)), mul(wz, c(dt)));
+            let theta2 = add(add(mul(vx, vx), mul(vy, vy)), mul(vz, vz));
+            let x2 = mul(c(0.25), theta2);
+            let series = |k: [f64; 6]| sub(c(k[0]), mul(x2, sub(c(k[1]), mul(x2, sub(c(k[2]), mul(x2, sub(c(k[3]), mul(x2, sub(c(k[4]), mul(x2, c(k[5])))))))))));
+            let (sinc, cos) = (series(S), series(C));
+            let half = mul(c(0.5), sinc);
+            let (x0, y0, z0, w0) = (mul(vx, half), mul(vy, half), mul(vz, half), cos);
+            let rx = sub(add(add(mul(w0, x1), mul(x0, w1)), mul(y0, z1)), mul(z0, y1));
+            let ry = add(add(sub(mul(w0, y1), mul(x0, z1)), mul(y0, w1)), mul(z0, x1));
+            let rz = add(sub(add(mul(w0, z1), mul(x0, y1)), mul(y0, x1)), mul(z0, w1));
+            let rw = sub(sub(sub(mul(w0, w1), mul(x0, x1)), mul(y0, y1)), mul(z0, z1));
+            let s = sub(c(1.5), mul(c(0.5), add(add(add(mul(rx, rx), mul(ry, ry)), mul(rz, rz)), mul(rw, rw))));
+            let keep = _mm512_cmp_pd_mask::<_CMP_EQ_OQ>(theta2, _mm512_setzero_pd());
+            let pick = |r, q| _mm512_mask_blend_pd(keep, mul(r, s), q);
+            let (ox, oy, oz, ow) = (pick(rx, x1), pick(ry, y1), pick(rz, z1), pick(rw, w1));
+            // lanes for the scalar function: !(x² < 1e-2), NaN included
+            let scalar = _mm512_cmp_pd_mask::<_CMP_NLT_UQ>(x2, c(1e-2));
+            let orig: [DQuat; 8] = if scalar != 0 { std::array::from_fn(|l| o[k + l]) } else { [DQuat::IDENTITY; 8] };
+            let (e0, f0) = (_mm512_permutex2var_pd(ox, lo, oy), _mm512_permutex2var_pd(ox, hi, oy));
+            let (e1, f1) = (_mm512_permutex2var_pd(oz, lo, ow), _mm512_permutex2var_pd(oz, hi, ow));
+            _mm512_storeu_pd(op, _mm512_permutex2var_pd(e0, even, e1));
+            _mm512_storeu_pd(op.add(8), _mm512_permutex2var_pd(e0, odd, e1));
+            _mm512_storeu_pd(op.add(16), _mm512_permutex2var_pd(f0, even, f1));
+            _mm512_storeu_pd(op.add(24), _mm512_permutex2var_pd(f0, odd, f1));
+            let mut bits = scalar;
+            while bits != 0 {
+                let l = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                o[k + l] = D3::rotate_orientation(orig[l], w[k + l], dt);
+            }
+        }
+    }
+    for k in split..n {
+        o[k] = D3::rotate_orientation(o[k], w[k], dt);
+    }
 }
 
 /// [`D3::rotate_orientation`] for [`ROT_LANES`] grains at a time: the series branch as one
