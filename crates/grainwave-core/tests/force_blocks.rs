@@ -142,13 +142,16 @@ fn the_close_list_of_the_fused_pass_misses_no_contact() {
         sim.set_general_kernel(general);
         sim.set_simd_level(simd);
         sim.steps(400).unwrap();
-        (sim.state_hash(), sim.close_list_builds(), sim.nlist.builds)
+        (sim.state_hash(), sim.close_list_builds(), sim.nlist.builds, sim.close_list_fingerprint())
     };
-    let (general, _, builds) = run(true, 0);
+    let (general, _, builds, _) = run(true, 0);
     // the fused pass on 256-bit (1) and 512-bit lanes (3; level 1 where the processor lacks
-    // AVX-512)
+    // AVX-512), whose close lists are filtered element by element (1) or eight pairs at a time
+    // (3): the same list
+    let fingerprints: Vec<u64> = [1, 3].iter().map(|&simd| run(false, simd).3).collect();
+    assert_eq!(fingerprints[0], fingerprints[1]);
     for simd in [1, 3] {
-        let (fused, close_builds, _) = run(false, simd);
+        let (fused, close_builds, _, _) = run(false, simd);
         assert_eq!(fused, general, "simd {simd}");
         // only where the processor has AVX2 (the fused pass); elsewhere the portable path ran
         #[cfg(target_arch = "x86_64")]

@@ -20,7 +20,7 @@
 //!
 //! **Close list (3D).** The neighbor list holds every pair within r_i + r_j + skin, and with the
 //! benchmark skin (0.1 of a diameter) only ≈ 77 % (3D) / 83 % (2D) of those pairs touch. In 3D
-//! the fused AVX2 pass (`avx2`) therefore walks a second, shorter list of each block's intra-block
+//! the fused pass (`avx2`, either lane width) therefore walks a second, shorter list of each block's intra-block
 //! pairs: those within r_i + r_j + m, m = 0.3 × skin, plus any pair still holding a contact
 //! (so that its opening is seen and its history forgotten as before), in list order. A pair left
 //! out cannot touch before some grain has moved m/2 from where it was when the close list was
@@ -561,7 +561,7 @@ enum Path {
     Avx2,
     /// Windows filled eight candidates at a time with AVX-512 (`simd`).
     Avx512,
-    /// The fused pass on 512-bit lanes (`avx2::Wide8`, AVX-512 F and VL).
+    /// The fused pass on 512-bit lanes (`avx2::Wide16`, AVX-512 F and VL).
     Fused512,
 }
 
@@ -575,8 +575,8 @@ impl Path {
 /// The path for `level` (0 portable, 1 the fused AVX2 pass, 2 the AVX-512 windows, 3 the fused
 /// pass on 512-bit lanes — the default —), each only when the processor has it, the next lower
 /// level otherwise. On the AVX-512 processor measured last (a Zen-5 AMD EPYC, `../BENCHMARKS.md`)
-/// the 512-bit lanes were 5–14 % faster than the AVX2 pass, which in turn had been faster than
-/// the AVX-512 windows on an Intel Xeon.
+/// the 512-bit lanes (sixteen per group) were 13–21 % faster than the AVX2 pass, which in turn
+/// had been faster than the AVX-512 windows on an Intel Xeon.
 fn path(level: u8) -> Path {
     #[cfg(target_arch = "x86_64")]
     {
@@ -1038,7 +1038,7 @@ impl<D: Dim> Simulation<D> {
         // (3D only: in 2D the list would skip only ≈ 10 % of the pairs, and its displacement
         // check cost two-worker runs 6–15 %, BENCHMARKS.md)
         if D::D == 3 && kernels.fused() && !matches!(specialized, Specialized::General(_)) && n > 0 {
-            work.cross.ensure_close(list, pos, radius, domain, CLOSE_FRACTION * nlist.skin, known);
+            work.cross.ensure_close(list, pos, radius, domain, CLOSE_FRACTION * nlist.skin, known, kernels == Path::Fused512);
         }
         let (gv, gw) = if use_eval { (&mut work.vel_eval, &mut work.omega_eval) } else { (&mut grains.vel, &mut grains.omega) };
         let g = Grain { base: 0, force: &mut grains.force, torque: &mut grains.torque, vel: gv, omega: gw };
@@ -1177,7 +1177,7 @@ impl<D: Dim> CrossIndex<D> {
     /// have moved so far since it was built (2·max|x − x_ref| + Σ|Δtilt| above 0.9 × margin;
     /// the 10 % slack covers rounding in the distances) that an excluded pair could touch.
     /// `known`: max|x − close_ref|² when already measured (by the drift pass).
-    fn ensure_close(&mut self, list: &PairList<D>, pos: &[D::Vector], radius: &[f64], domain: &Domain<D>, margin: f64, known: Option<f64>) {
+    fn ensure_close(&mut self, list: &PairList<D>, pos: &[D::Vector], radius: &[f64], domain: &Domain<D>, margin: f64, known: Option<f64>, wide: bool) {
         let tilt = domain.tilt;
         if self.close_ok && self.close_margin == margin && self.close_ref.len() == pos.len() {
             let tilt_change: f64 = tilt.iter().zip(&self.close_tilt).map(|(t, r)| (t - r).abs()).sum();
@@ -1189,12 +1189,30 @@ impl<D: Dim> CrossIndex<D> {
         }
         let blocks = self.n.div_ceil(self.block_len.max(1));
         let image = &domain.image();
+        // 3D cells that are not sheared: eight pairs at a time on AVX-512 (the same decisions)
+        #[cfg(target_arch = "x86_64")]
+        let wide = wide && D::D == 3 && !image.sheared && std::mem::size_of::<D::Vector>() == 24 && avx2::wide_available() && self.owner.len() == list.partner.len();
+        let (period, inverse) = {
+            let (mut p, mut v) = ([0.0; 3], [0.0; 3]);
+            for k in 0..D::D {
+                (p[k], v[k]) = (image.length.get(k), image.inverse.get(k));
+            }
+            (p, v)
+        };
         let this = &*self;
         let parts: Vec<[Vec<u32>; 3]> = (0..blocks)
             .into_par_iter()
             .map(|b| {
                 let (g0, g1) = (b * this.block_len, ((b + 1) * this.block_len).min(this.n));
                 let mut out: [Vec<u32>; 3] = Default::default();
+                #[cfg(target_arch = "x86_64")]
+                if wide {
+                    let pairs = list.owner_start[g0] as usize..list.owner_start[g1] as usize;
+                    // SAFETY: AVX-512 F and VL are available (`wide`); 3D vectors are three
+                    // f64; the block's pairs index the list's arrays and their grains `pos`.
+                    unsafe { avx2::close_filter_wide(pos.as_ptr() as *const f64, radius, &this.owner, &list.partner, &list.overlap, pairs, g1, margin, period, inverse, &mut out) };
+                    return out;
+                }
                 for i in g0..g1 {
                     let (xi, ri) = (pos[i], radius[i]);
                     for p in list.owner_start[i] as usize..this.cross_begin[i] as usize {

@@ -380,6 +380,25 @@ impl<D: Dim> Simulation<D> {
         self.work.simd = level;
     }
 
+    /// A fingerprint of the force pass's close list as it stands (pairs, owners, partners and
+    /// block starts; 0 when there is none). Not part of the state: it exists to test that the
+    /// element-wise and AVX-512 filters build the same list.
+    #[doc(hidden)]
+    pub fn close_list_fingerprint(&self) -> u64 {
+        let c = &self.work.cross;
+        if !c.close_ok {
+            return 0;
+        }
+        let mut h = crate::util::Fnv64::default();
+        for a in [&c.close_start, &c.close_pair, &c.close_owner, &c.close_partner] {
+            h.write(&(a.len() as u64).to_le_bytes());
+            for &x in a.iter() {
+                h.write(&x.to_le_bytes());
+            }
+        }
+        h.finish()
+    }
+
     /// How many times the force pass's close list was built (a diagnostic: the fused AVX2 pass
     /// keeps it, see `sim::forces`, "Close list"; 0 on the other paths). Not part of the state.
     pub fn close_list_builds(&self) -> u64 {

@@ -1,19 +1,28 @@
-//! The fused AVX2 force pass: candidate pairs four at a time, straight from the pair list to the
+//! The fused force pass: candidate pairs a group at a time, straight from the pair list to the
 //! grains' sums, with no window in between.
 //!
-//! Each group of four consecutive pairs of the list (across owners) is looked at in registers:
-//! rows of positions and velocities are loaded and transposed into one vector per component, the
-//! nearest image, the distance test and — when a lane touches — the whole specialised contact law
-//! ([`lanes::contact`] on [`F64x4`]) run on four lanes at once, and the results go back to the
-//! history and to the force and torque sums of both grains in list order. Every lane performs
-//! exactly the floating-point operations of the scalar path ([`super::push_pair`],
-//! [`lanes::contact`] on `f64`, [`super::flush_block`]) in the same order, and every grain's sum
-//! receives its terms in the same order (list order), so the run is bitwise that of the other
-//! paths (tested on whole runs, `tests/force_blocks.rs`, sheared cells included).
+//! Each group of consecutive pairs of the list (across owners; in 3D, of the block's close list)
+//! is looked at in registers: rows of positions and velocities are loaded and transposed into one
+//! vector per component, the nearest image, the distance test and — when a lane touches — the
+//! whole specialised contact law ([`lanes::contact`] on the lane type) run on all lanes at once,
+//! and the results go back to the history and to the force and torque sums of both grains in
+//! list order. Every lane performs exactly the floating-point operations of the scalar path
+//! ([`super::push_pair`], [`lanes::contact`] on `f64`, [`super::flush_block`]) in the same order,
+//! and every grain's sum receives its terms in the same order (list order), so the run is bitwise
+//! that of the other paths (tested on whole runs, `tests/force_blocks.rs`, sheared cells
+//! included).
 //!
-//! Used on x86-64 processors with AVX2 and without AVX-512 (where the AVX-512 windowed path is
-//! used), for packings of fewer than 2³²/3 grains and pairs (indices, and three times them, are
-//! held in 32-bit lanes; larger ones take the portable path).
+//! Two lane types: [`F64x8`], eight lanes as two 256-bit vectors (AVX2; level 1), and
+//! [`Wide16`], sixteen lanes as two 512-bit vectors (AVX-512 F and VL; level 3, the default
+//! where the processor has it). Two vectors side by side let the long square-root and division
+//! chains of two groups overlap (one 512-bit vector of eight lanes was 5–16 % slower, three or
+//! four spilled registers and were 10–20 % slower, `BENCHMARKS.md`). On 512-bit lanes the 3D
+//! results go back as rows (x, y, z) with two-element and one-element vector loads and stores,
+//! the owner's sums kept in registers over its lanes of a group. The passes are written once,
+//! generic over the lane type, with one wrapper per lane type compiled for its extensions.
+//!
+//! Used on x86-64 processors with AVX2, for packings of fewer than 2³²/3 grains and pairs
+//! (indices, and three times them, are held in 32-bit lanes; larger ones take the portable path).
 
 use super::{finish_grain, start_block, CrossForce, CrossIndex, Finish, ForceStats, Grain, History, Inputs, Velocities};
 use crate::dim::{Dim, VectorOps};
@@ -1247,6 +1256,77 @@ impl<D: Dim, L: WindowLaw> WithDampers for CrossPass<'_, '_, D, L> {
                 return cross_block_wide::<D, L, P>(self, damp);
             }
             cross_block::<D, L, P>(self, damp)
+        }
+    }
+}
+
+/// The close-list filter of one block's intra-block pairs (`CrossIndex::ensure_close`), 3D in a
+/// cell that is not sheared, eight pairs at a time on AVX-512: pair p of owner i and partner j
+/// (`pairs`, with `owner[p]`, `partner[p]`) is kept when j < `g1` (intra-block) and
+/// `!(|d|² ≥ (r_i + r_j + margin)²)` (true for NaN) or it holds a contact (`overlap[p] > 0`),
+/// with d the nearest-image vector computed as [`crate::domain::PeriodicImage::displacement`]
+/// does; kept pairs are appended in list order. The same decisions as the element-wise filter.
+///
+/// # Safety
+/// Pairs and grains index the slices; `pos` holds three f64 per grain; AVX-512 F and VL are
+/// available.
+#[target_feature(enable = "avx2,avx512f,avx512vl,popcnt")]
+#[allow(clippy::too_many_arguments)]
+pub(super) unsafe fn close_filter_wide(
+    pos: *const f64,
+    radius: &[f64],
+    owner: &[u32],
+    partner: &[u32],
+    overlap: &[f64],
+    pairs: std::ops::Range<usize>,
+    g1: usize,
+    margin: f64,
+    period: [f64; 3],
+    inverse: [f64; 3],
+    out: &mut [Vec<u32>; 3],
+) {
+    // SAFETY: the caller's contract; masked loads read pairs inside `pairs` only, and the
+    // compressing stores write only the kept lanes, into reserved capacity.
+    unsafe {
+        let (limit, shift) = (Wide8::splat(LIMIT), Wide8::splat(SHIFT));
+        let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+        for o in out.iter_mut() {
+            o.reserve(pairs.len());
+        }
+        let mut p = pairs.start;
+        while p < pairs.end {
+            let n = (pairs.end - p).min(8);
+            let live = _mm256_cmpgt_epi32_mask(_mm256_set1_epi32(n as i32), lane);
+            // lanes past n: the first pair (valid indices), not kept
+            let first = _mm256_set1_epi32(p as i32);
+            let pv = _mm256_mask_add_epi32(first, live, first, lane);
+            let i = _mm256_mask_loadu_epi32(_mm256_set1_epi32(owner[p] as i32), live, owner.as_ptr().add(p) as *const i32);
+            let j = _mm256_mask_loadu_epi32(_mm256_set1_epi32(partner[p] as i32), live, partner.as_ptr().add(p) as *const i32);
+            let intra = live & _mm256_cmplt_epu32_mask(j, _mm256_set1_epi32(g1 as i32));
+            let (il, jl) = (u32s(i), u32s(j));
+            let (xi, xj) = (wide_rows(pos, 3, &times(i, 3)), wide_rows(pos, 3, &times(j, 3)));
+            let mut d = [xj[0] - xi[0], xj[1] - xi[1], xj[2] - xi[2]];
+            for c in (0..3).rev() {
+                let t = d[c] * Wide8::splat(inverse[c]);
+                let t = limit.min((-limit).max(t));
+                let t = (t + shift) - shift;
+                d[c] = d[c] - Wide8::splat(period[c]) * t;
+            }
+            let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
+            let ri = Wide8(_mm512_setr_pd(radius[il[0] as usize], radius[il[1] as usize], radius[il[2] as usize], radius[il[3] as usize], radius[il[4] as usize], radius[il[5] as usize], radius[il[6] as usize], radius[il[7] as usize]));
+            let rj = Wide8(_mm512_setr_pd(radius[jl[0] as usize], radius[jl[1] as usize], radius[jl[2] as usize], radius[jl[3] as usize], radius[jl[4] as usize], radius[jl[5] as usize], radius[jl[6] as usize], radius[jl[7] as usize]));
+            let cut = ri + rj + Wide8::splat(margin);
+            let held = _mm512_mask_cmp_pd_mask::<_CMP_GT_OQ>(live, _mm512_maskz_loadu_pd(live, overlap.as_ptr().add(p)), _mm512_setzero_pd());
+            let keep = intra & (d2.nge(cut * cut) | held);
+            let k = keep.count_ones() as usize;
+            if k != 0 {
+                for (o, v) in out.iter_mut().zip([pv, i, j]) {
+                    let len = o.len();
+                    _mm256_mask_compressstoreu_epi32(o.as_mut_ptr().add(len) as *mut i32, keep, v);
+                    o.set_len(len + k);
+                }
+            }
+            p += n;
         }
     }
 }
