@@ -575,8 +575,8 @@ impl Path {
 /// The path for `level` (0 portable, 1 the fused AVX2 pass, 2 the AVX-512 windows, 3 the fused
 /// pass on 512-bit lanes — the default —), each only when the processor has it, the next lower
 /// level otherwise. On the AVX-512 processor measured last (a Zen-5 AMD EPYC, `../BENCHMARKS.md`)
-/// the 512-bit lanes (sixteen per group) were 13–21 % faster than the AVX2 pass, which in turn
-/// had been faster than the AVX-512 windows on an Intel Xeon.
+/// the 512-bit lanes were faster than the AVX2 pass (eight lanes: +5.5 to +14 %; sixteen: a
+/// further +5 to +16 %), which in turn had been faster than the AVX-512 windows on an Intel Xeon.
 fn path(level: u8) -> Path {
     #[cfg(target_arch = "x86_64")]
     {
