@@ -313,6 +313,7 @@ unsafe fn rotate_lanes_avx2(o: &mut [DQuat], w: &[DVec3], dt: f64) {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,avx512f,avx512vl")]
 unsafe fn rotate_lanes_avx512(o: &mut [DQuat], w: &[DVec3], dt: f64) {
+    use crate::simd512::{deinterleave3, idx};
     use std::arch::x86_64::*;
     const S: [f64; 6] = [1.0, 1.0 / 6.0, 1.0 / 120.0, 1.0 / 5040.0, 1.0 / 362_880.0, 1.0 / 39_916_800.0];
     const C: [f64; 6] = [1.0, 1.0 / 2.0, 1.0 / 24.0, 1.0 / 720.0, 1.0 / 40_320.0, 1.0 / 3_628_800.0];
@@ -321,7 +322,6 @@ unsafe fn rotate_lanes_avx512(o: &mut [DQuat], w: &[DVec3], dt: f64) {
     // SAFETY: AVX-512 F and VL are enabled here; every load and store stays inside o[k..k + 8]
     // and w[k..k + 8] (DQuat is four f64, DVec3 three).
     unsafe {
-        let idx = |a: [i64; 8]| _mm512_setr_epi64(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7]);
         // (x, y, z, w) of two rows each ⇄ one component of four rows, and halves joined
         let (even, odd) = (idx([0, 4, 8, 12, 1, 5, 9, 13]), idx([2, 6, 10, 14, 3, 7, 11, 15]));
         let (lo, hi) = (idx([0, 1, 2, 3, 8, 9, 10, 11]), idx([4, 5, 6, 7, 12, 13, 14, 15]));
@@ -338,9 +338,7 @@ unsafe fn rotate_lanes_avx512(o: &mut [DQuat], w: &[DVec3], dt: f64) {
             let (z1, w1) = (_mm512_permutex2var_pd(e1, lo, f1), _mm512_permutex2var_pd(e1, hi, f1));
             // spins: 24 consecutive f64 de-interleaved
             let (a, b, cc) = (_mm512_loadu_pd(wp), _mm512_loadu_pd(wp.add(8)), _mm512_loadu_pd(wp.add(16)));
-            let wx = _mm512_permutex2var_pd(_mm512_permutex2var_pd(a, idx([0, 3, 6, 9, 12, 15, 0, 0]), b), idx([0, 1, 2, 3, 4, 5, 10, 13]), cc);
-            let wy = _mm512_permutex2var_pd(_mm512_permutex2var_pd(a, idx([1, 4, 7, 10, 13, 0, 0, 0]), b), idx([0, 1, 2, 3, 4, 8, 11, 14]), cc);
-            let wz = _mm512_permutex2var_pd(_mm512_permutex2var_pd(a, idx([2, 5, 8, 11, 14, 0, 0, 0]), b), idx([0, 1, 2, 3, 4, 9, 12, 15]), cc);
+            let [wx, wy, wz] = deinterleave3(a, b, cc);
             let (vx, vy, vz) = (mul(wx, c(dt)), mul(wy, c(dt)), mul(wz, c(dt)));
             let theta2 = add(add(mul(vx, vx), mul(vy, vy)), mul(vz, vz));
             let x2 = mul(c(0.25), theta2);

@@ -38,6 +38,8 @@ pub mod grains;
 pub mod neighbor;
 pub mod placement;
 pub mod sim;
+#[cfg(target_arch = "x86_64")]
+pub(crate) mod simd512;
 pub mod snapshot;
 pub mod timestep;
 pub mod util;

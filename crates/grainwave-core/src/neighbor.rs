@@ -332,8 +332,7 @@ pub(crate) fn max_displacement2<D: Dim>(image: &PeriodicImage<D>, reference: &[D
     if D::D == 3 && !image.sheared && std::mem::size_of::<D::Vector>() == 24 && n >= 8 && std::arch::is_x86_feature_detected!("avx512f") {
         // eight grains at a time (the same operations), the rest below
         let split = n - n % 8;
-        let period = [image.length.get(0), image.length.get(1), image.length.get(2)];
-        let inverse = [image.inverse.get(0), image.inverse.get(1), image.inverse.get(2)];
+        let (period, inverse) = image.lengths_and_inverses();
         // SAFETY: AVX-512 F is available; D::Vector is three f64 here (3D, 24 bytes), so the
         // first `split` grains are 3·split consecutive f64.
         wide = unsafe { max_displacement2_3d_avx512(period, inverse, reference.as_ptr() as *const f64, pos.as_ptr() as *const f64, split) };
@@ -371,21 +370,14 @@ pub(crate) fn max_displacement2<D: Dim>(image: &PeriodicImage<D>, reference: &[D
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,avx512f")]
 unsafe fn max_displacement2_3d_avx512(period: [f64; 3], inverse: [f64; 3], reference: *const f64, pos: *const f64, n: usize) -> f64 {
+    use crate::domain::{ROUND_LIMIT, ROUND_SHIFT};
+    use crate::simd512::{deinterleave3, per_coordinate};
     use std::arch::x86_64::*;
-    const SHIFT: f64 = 6_755_399_441_055_744.0; // as `nearest_integer`
-    const LIMIT: f64 = 2_251_799_813_685_248.0;
     debug_assert!(n % 8 == 0);
     // SAFETY: the caller's contract.
     unsafe {
-        // the per-coordinate constants in the pattern of three consecutive rows of 8 f64
-        let pattern = |a: [f64; 3], r: usize| {
-            let e = |k: usize| a[(8 * r + k) % 3];
-            _mm512_setr_pd(e(0), e(1), e(2), e(3), e(4), e(5), e(6), e(7))
-        };
-        let per = [pattern(period, 0), pattern(period, 1), pattern(period, 2)];
-        let inv = [pattern(inverse, 0), pattern(inverse, 1), pattern(inverse, 2)];
-        let (limit, shift) = (_mm512_set1_pd(LIMIT), _mm512_set1_pd(SHIFT));
-        let idx = |a: [i64; 8]| _mm512_setr_epi64(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7]);
+        let (per, inv) = (per_coordinate(period), per_coordinate(inverse));
+        let (limit, shift) = (_mm512_set1_pd(ROUND_LIMIT), _mm512_set1_pd(ROUND_SHIFT));
         let (mut m, mut nan) = (_mm512_setzero_pd(), 0u8);
         for k in (0..3 * n).step_by(24) {
             let mut sq = [_mm512_setzero_pd(); 3];
@@ -398,11 +390,8 @@ unsafe fn max_displacement2_3d_avx512(period: [f64; 3], inverse: [f64; 3], refer
                 let d = _mm512_sub_pd(d, _mm512_mul_pd(per[r], t));
                 sq[r] = _mm512_mul_pd(d, d);
             }
-            // squares of x, y, z of the eight grains (as in `contiguous` of the force pass)
-            let (a, b, c) = (sq[0], sq[1], sq[2]);
-            let x = _mm512_permutex2var_pd(_mm512_permutex2var_pd(a, idx([0, 3, 6, 9, 12, 15, 0, 0]), b), idx([0, 1, 2, 3, 4, 5, 10, 13]), c);
-            let y = _mm512_permutex2var_pd(_mm512_permutex2var_pd(a, idx([1, 4, 7, 10, 13, 0, 0, 0]), b), idx([0, 1, 2, 3, 4, 8, 11, 14]), c);
-            let z = _mm512_permutex2var_pd(_mm512_permutex2var_pd(a, idx([2, 5, 8, 11, 14, 0, 0, 0]), b), idx([0, 1, 2, 3, 4, 9, 12, 15]), c);
+            // squares of x, y, z of the eight grains
+            let [x, y, z] = deinterleave3(sq[0], sq[1], sq[2]);
             let d2 = _mm512_add_pd(_mm512_add_pd(x, y), z);
             // d2 > m ? d2 : m (skips NaN), and the NaN flag
             m = _mm512_max_pd(d2, m);

@@ -310,6 +310,17 @@ pub struct PeriodicImage<D: Dim> {
 }
 
 impl<D: Dim> PeriodicImage<D> {
+    /// Cell lengths and their inverses along x, y, z (0 along non-periodic axes and past the
+    /// dimension), for the vector paths that take them as plain arrays.
+    #[cfg(target_arch = "x86_64")]
+    pub(crate) fn lengths_and_inverses(&self) -> ([f64; 3], [f64; 3]) {
+        let (mut length, mut inverse) = ([0.0; 3], [0.0; 3]);
+        for k in 0..D::D {
+            (length[k], inverse[k]) = (self.length.get(k), self.inverse.get(k));
+        }
+        (length, inverse)
+    }
+
     /// Vector from `from` to `to`, nearest periodic image: from the last axis down,
     /// d − n e_k with n = nint(d_k / L_k) and e_k the cell edge along k; branch-free.
     #[inline(always)]
@@ -399,10 +410,13 @@ impl<D: Dim> PeriodicImage<D> {
 /// so that the force kernels vectorize. NaN stays NaN.
 #[inline(always)]
 pub fn nearest_integer(x: f64) -> f64 {
-    const SHIFT: f64 = 6_755_399_441_055_744.0; // 1.5 × 2⁵²
-    const LIMIT: f64 = 2_251_799_813_685_248.0; // 2⁵¹
-    (x.clamp(-LIMIT, LIMIT) + SHIFT) - SHIFT
+    (x.clamp(-ROUND_LIMIT, ROUND_LIMIT) + ROUND_SHIFT) - ROUND_SHIFT
 }
+
+/// 1.5 × 2⁵², the shift of [`nearest_integer`] (and of its vector twins).
+pub(crate) const ROUND_SHIFT: f64 = 6_755_399_441_055_744.0;
+/// 2⁵¹, the clamp of [`nearest_integer`] (and of its vector twins).
+pub(crate) const ROUND_LIMIT: f64 = 2_251_799_813_685_248.0;
 
 #[cfg(test)]
 mod tests {

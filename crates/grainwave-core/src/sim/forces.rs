@@ -1192,13 +1192,10 @@ impl<D: Dim> CrossIndex<D> {
         // 3D cells that are not sheared: eight pairs at a time on AVX-512 (the same decisions)
         #[cfg(target_arch = "x86_64")]
         let wide = wide && D::D == 3 && !image.sheared && std::mem::size_of::<D::Vector>() == 24 && avx2::wide_available() && self.owner.len() == list.partner.len();
-        let (period, inverse) = {
-            let (mut p, mut v) = ([0.0; 3], [0.0; 3]);
-            for k in 0..D::D {
-                (p[k], v[k]) = (image.length.get(k), image.inverse.get(k));
-            }
-            (p, v)
-        };
+        #[cfg(target_arch = "x86_64")]
+        let (period, inverse) = image.lengths_and_inverses();
+        #[cfg(not(target_arch = "x86_64"))]
+        let _ = wide;
         let this = &*self;
         let parts: Vec<[Vec<u32>; 3]> = (0..blocks)
             .into_par_iter()

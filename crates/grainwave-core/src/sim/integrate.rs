@@ -358,6 +358,7 @@ impl Flagged {
 #[cfg(target_arch = "x86_64")]
 mod wide {
     use super::{Flagged, MIN_LEN};
+    use crate::simd512::{idx, per_coordinate};
     use std::arch::x86_64::*;
 
     /// v += f·km, x += v·dt, ω += τ·ki for the first `n` (a multiple of 8) grains, eight at a
@@ -374,16 +375,10 @@ mod wide {
         let mut flagged = Flagged { list: [0; MIN_LEN], len: 0 };
         // SAFETY: the caller's contract.
         unsafe {
-            let idx = |a: [i64; 8]| _mm512_setr_epi64(a[0], a[1], a[2], a[3], a[4], a[5], a[6], a[7]);
             // the factor of grain l for each coordinate of three rows of 8 f64
             let spread = [idx([0, 0, 0, 1, 1, 1, 2, 2]), idx([2, 3, 3, 3, 4, 4, 4, 5]), idx([5, 5, 6, 6, 6, 7, 7, 7])];
-            let pattern = |a: [f64; 3], r: usize| {
-                let e = |k: usize| a[(8 * r + k) % 3];
-                _mm512_setr_pd(e(0), e(1), e(2), e(3), e(4), e(5), e(6), e(7))
-            };
-            let (lo3, hi3) = ([bounds[0], bounds[1], bounds[2]], [bounds[3], bounds[4], bounds[5]]);
-            let lo = [pattern(lo3, 0), pattern(lo3, 1), pattern(lo3, 2)];
-            let hi = [pattern(hi3, 0), pattern(hi3, 1), pattern(hi3, 2)];
+            let lo = per_coordinate([bounds[0], bounds[1], bounds[2]]);
+            let hi = per_coordinate([bounds[3], bounds[4], bounds[5]]);
             let dtv = _mm512_set1_pd(dt);
             for k in (0..n).step_by(8) {
                 let (kmv, kiv) = (_mm512_loadu_pd(km.as_ptr().add(k)), _mm512_loadu_pd(ki.as_ptr().add(k)));

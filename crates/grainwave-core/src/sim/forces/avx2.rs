@@ -230,48 +230,55 @@ impl F64x4 {
     }
 }
 
-/// Eight f64 lanes as two [`F64x4`]: two groups of four contacts evaluated side by side, so that
-/// the long dependency chains of the law (square roots, divisions) overlap.
+/// Two lane vectors side by side: two groups of contacts evaluated together, so that the long
+/// dependency chains of the law (square roots, divisions) of the two overlap. Every operation
+/// is that of the halves.
 #[derive(Clone, Copy)]
-pub(super) struct F64x8(F64x4, F64x4);
+pub(super) struct Pair<H>(H, H);
 
-macro_rules! binary8 {
+/// Eight f64 lanes as two [`F64x4`] (AVX2).
+pub(super) type F64x8 = Pair<F64x4>;
+
+/// Sixteen f64 lanes as two [`Wide8`] (AVX-512).
+pub(super) type Wide16 = Pair<Wide8>;
+
+macro_rules! binary_pair {
     ($trait:ident, $f:ident) => {
-        impl $trait for F64x8 {
+        impl<H: Real> $trait for Pair<H> {
             type Output = Self;
             #[inline(always)]
             fn $f(self, o: Self) -> Self {
-                F64x8(self.0.$f(o.0), self.1.$f(o.1))
+                Pair(self.0.$f(o.0), self.1.$f(o.1))
             }
         }
     };
 }
-binary8!(Add, add);
-binary8!(Sub, sub);
-binary8!(Mul, mul);
-binary8!(Div, div);
+binary_pair!(Add, add);
+binary_pair!(Sub, sub);
+binary_pair!(Mul, mul);
+binary_pair!(Div, div);
 
-impl Neg for F64x8 {
+impl<H: Real> Neg for Pair<H> {
     type Output = Self;
     #[inline(always)]
     fn neg(self) -> Self {
-        F64x8(-self.0, -self.1)
+        Pair(-self.0, -self.1)
     }
 }
 
-impl Real for F64x8 {
-    type Mask = (__m256d, __m256d);
+impl<H: Real> Real for Pair<H> {
+    type Mask = (H::Mask, H::Mask);
     #[inline(always)]
     fn splat(x: f64) -> Self {
-        F64x8(F64x4::splat(x), F64x4::splat(x))
+        Pair(H::splat(x), H::splat(x))
     }
     #[inline(always)]
     fn sqrt(self) -> Self {
-        F64x8(self.0.sqrt(), self.1.sqrt())
+        Pair(self.0.sqrt(), self.1.sqrt())
     }
     #[inline(always)]
     fn max_zero(self) -> Self {
-        F64x8(self.0.max_zero(), self.1.max_zero())
+        Pair(self.0.max_zero(), self.1.max_zero())
     }
     #[inline(always)]
     fn eq(self, o: Self) -> Self::Mask {
@@ -283,11 +290,11 @@ impl Real for F64x8 {
     }
     #[inline(always)]
     fn select(m: Self::Mask, a: Self, b: Self) -> Self {
-        F64x8(F64x4::select(m.0, a.0, b.0), F64x4::select(m.1, a.1, b.1))
+        Pair(H::select(m.0, a.0, b.0), H::select(m.1, a.1, b.1))
     }
     #[inline(always)]
     fn map3(a: Self, b: Self, c: Self, f: impl Fn(f64, f64, f64) -> f64) -> Self {
-        F64x8(F64x4::map3(a.0, b.0, c.0, &f), F64x4::map3(a.1, b.1, c.1, &f))
+        Pair(H::map3(a.0, b.0, c.0, &f), H::map3(a.1, b.1, c.1, &f))
     }
 }
 
@@ -302,7 +309,7 @@ impl Lanes for F64x8 {
         unsafe {
             let a = rows(base, n, [off[0], off[1], off[2], off[3]]);
             let b = rows(base, n, [off[4], off[5], off[6], off[7]]);
-            [F64x8(F64x4(a[0]), F64x4(b[0])), F64x8(F64x4(a[1]), F64x4(b[1])), F64x8(F64x4(a[2]), F64x4(b[2]))]
+            [Pair(F64x4(a[0]), F64x4(b[0])), Pair(F64x4(a[1]), F64x4(b[1])), Pair(F64x4(a[2]), F64x4(b[2]))]
         }
     }
     #[inline(always)]
@@ -316,11 +323,11 @@ impl Lanes for F64x8 {
     }
     #[inline(always)]
     fn min(self, o: Self) -> Self {
-        F64x8(self.0.min(o.0), self.1.min(o.1))
+        Pair(self.0.min(o.0), self.1.min(o.1))
     }
     #[inline(always)]
     fn max(self, o: Self) -> Self {
-        F64x8(self.0.max(o.0), self.1.max(o.1))
+        Pair(self.0.max(o.0), self.1.max(o.1))
     }
     #[inline(always)]
     fn nge(self, o: Self) -> Self::Mask {
@@ -401,46 +408,14 @@ impl Real for Wide8 {
     }
 }
 
-/// [`Lanes::rows`] for eight lanes of 512 bits: row loads (three elements masked: nothing past a
-/// row is read) and a transposition, cheaper than gathers.
+/// [`Lanes::rows`] for eight lanes of 512 bits ([`super::simd::rows_at`]).
 ///
 /// # Safety
 /// As [`Lanes::rows`]; AVX-512 F and VL are available.
 #[inline(always)]
 unsafe fn wide_rows(base: *const f64, n: usize, off: &[u32; 8]) -> [Wide8; 3] {
-    // SAFETY: the caller's contract; masked-off elements are not read.
-    unsafe {
-        let at = |l: usize| base.wrapping_add(off[l] as usize);
-        let z = _mm512_setzero_pd();
-        match n {
-            1 => [Wide8(_mm512_setr_pd(*at(0), *at(1), *at(2), *at(3), *at(4), *at(5), *at(6), *at(7))), Wide8(z), Wide8(z)],
-            2 => {
-                let row = |l: usize| _mm_loadu_pd(at(l));
-                let quad = |l: usize| _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(row(l)), row(l + 1));
-                let a = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(quad(0)), quad(2));
-                let b = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(quad(4)), quad(6));
-                [
-                    Wide8(_mm512_permutex2var_pd(a, _mm512_setr_epi64(0, 2, 4, 6, 8, 10, 12, 14), b)),
-                    Wide8(_mm512_permutex2var_pd(a, _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15), b)),
-                    Wide8(z),
-                ]
-            }
-            _ => {
-                let row = |l: usize| _mm256_maskz_loadu_pd(0b0111, at(l));
-                let a0 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(0)), row(4));
-                let a1 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(1)), row(5));
-                let a2 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(2)), row(6));
-                let a3 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(3)), row(7));
-                let t0 = _mm512_unpacklo_pd(a0, a1);
-                let t1 = _mm512_unpackhi_pd(a0, a1);
-                let t2 = _mm512_unpacklo_pd(a2, a3);
-                let t3 = _mm512_unpackhi_pd(a2, a3);
-                let lo = _mm512_setr_epi64(0, 1, 8, 9, 4, 5, 12, 13);
-                let hi = _mm512_setr_epi64(2, 3, 10, 11, 6, 7, 14, 15);
-                [Wide8(_mm512_permutex2var_pd(t0, lo, t2)), Wide8(_mm512_permutex2var_pd(t1, lo, t3)), Wide8(_mm512_permutex2var_pd(t0, hi, t2))]
-            }
-        }
-    }
+    // SAFETY: the caller's contract.
+    unsafe { super::simd::rows_at(n, |l| base.wrapping_add(off[l] as usize)).map(Wide8) }
 }
 
 impl Lanes for Wide8 {
@@ -503,68 +478,6 @@ impl Lanes for Wide8 {
     }
 }
 
-/// Sixteen f64 lanes as two [`Wide8`]: two groups of eight contacts evaluated side by side, so
-/// that the long dependency chains of the law (square roots, divisions) overlap, as [`F64x8`]
-/// does with 256-bit halves.
-#[derive(Clone, Copy)]
-pub(super) struct Wide16(Wide8, Wide8);
-
-macro_rules! binary16 {
-    ($trait:ident, $f:ident) => {
-        impl $trait for Wide16 {
-            type Output = Self;
-            #[inline(always)]
-            fn $f(self, o: Self) -> Self {
-                Wide16(self.0.$f(o.0), self.1.$f(o.1))
-            }
-        }
-    };
-}
-binary16!(Add, add);
-binary16!(Sub, sub);
-binary16!(Mul, mul);
-binary16!(Div, div);
-
-impl Neg for Wide16 {
-    type Output = Self;
-    #[inline(always)]
-    fn neg(self) -> Self {
-        Wide16(-self.0, -self.1)
-    }
-}
-
-impl Real for Wide16 {
-    type Mask = (__mmask8, __mmask8);
-    #[inline(always)]
-    fn splat(x: f64) -> Self {
-        Wide16(Wide8::splat(x), Wide8::splat(x))
-    }
-    #[inline(always)]
-    fn sqrt(self) -> Self {
-        Wide16(self.0.sqrt(), self.1.sqrt())
-    }
-    #[inline(always)]
-    fn max_zero(self) -> Self {
-        Wide16(self.0.max_zero(), self.1.max_zero())
-    }
-    #[inline(always)]
-    fn eq(self, o: Self) -> Self::Mask {
-        (self.0.eq(o.0), self.1.eq(o.1))
-    }
-    #[inline(always)]
-    fn gt(self, o: Self) -> Self::Mask {
-        (self.0.gt(o.0), self.1.gt(o.1))
-    }
-    #[inline(always)]
-    fn select(m: Self::Mask, a: Self, b: Self) -> Self {
-        Wide16(Wide8::select(m.0, a.0, b.0), Wide8::select(m.1, a.1, b.1))
-    }
-    #[inline(always)]
-    fn map3(a: Self, b: Self, c: Self, f: impl Fn(f64, f64, f64) -> f64) -> Self {
-        Wide16(Wide8::map3(a.0, b.0, c.0, &f), Wide8::map3(a.1, b.1, c.1, &f))
-    }
-}
-
 impl Lanes for Wide16 {
     const N: usize = 16;
     type F = [f64; 16];
@@ -575,7 +488,7 @@ impl Lanes for Wide16 {
         // SAFETY: the caller's contract.
         unsafe {
             let (a, b) = (wide_rows(base, n, half(off, 0)), wide_rows(base, n, half(off, 1)));
-            [Wide16(a[0], b[0]), Wide16(a[1], b[1]), Wide16(a[2], b[2])]
+            [Pair(a[0], b[0]), Pair(a[1], b[1]), Pair(a[2], b[2])]
         }
     }
     #[inline(always)]
@@ -594,11 +507,11 @@ impl Lanes for Wide16 {
     }
     #[inline(always)]
     fn min(self, o: Self) -> Self {
-        Wide16(self.0.min(o.0), self.1.min(o.1))
+        Pair(self.0.min(o.0), self.1.min(o.1))
     }
     #[inline(always)]
     fn max(self, o: Self) -> Self {
-        Wide16(self.0.max(o.0), self.1.max(o.1))
+        Pair(self.0.max(o.0), self.1.max(o.1))
     }
     #[inline(always)]
     fn nge(self, o: Self) -> Self::Mask {
@@ -622,9 +535,7 @@ impl Lanes for Wide16 {
 /// The lanes of the fused pass on processors with AVX-512 F and VL.
 type WideLanes = Wide16;
 
-/// The constants of [`crate::domain::nearest_integer`].
-const SHIFT: f64 = 6_755_399_441_055_744.0;
-const LIMIT: f64 = 2_251_799_813_685_248.0;
+use crate::domain::{ROUND_LIMIT as LIMIT, ROUND_SHIFT as SHIFT};
 
 /// Rows of `n` (1, 2 or 3) consecutive f64 at `base + off[l]`, as `n` vectors of four lanes
 /// (lane l from the row at `off[l]`): two-element row loads and an unpack, the third component
@@ -673,6 +584,15 @@ impl<V: Lanes> Group<V> {
         self.j.as_mut()[8 * h..8 * h + 8].copy_from_slice(&u32s(j));
         self.valid |= valid << (8 * h);
     }
+}
+
+/// [`crate::domain::nearest_integer`] lane by lane: clamped to ±2⁵¹ keeping NaN (the constant
+/// first: NaN is the second operand of min and max), then shifted and back.
+#[inline(always)]
+fn nearest<V: Lanes>(t: V) -> V {
+    let (limit, shift) = (V::splat(LIMIT), V::splat(SHIFT));
+    let t = limit.min((-limit).max(t));
+    (t + shift) - shift
 }
 
 /// `x` as eight u32 lanes.
@@ -777,13 +697,9 @@ unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: 
         for c in 0..dd {
             d[c] = xj[c] - xi[c];
         }
-        let (limit, shift) = (V::splat(LIMIT), V::splat(SHIFT));
         for c in (0..dd).rev() {
             let dk = d[c];
-            let t = dk * V::splat(image.inverse.get(c));
-            // clamp to ±2⁵¹ keeping NaN (the constant first: NaN is the second operand)
-            let t = limit.min((-limit).max(t));
-            let t = (t + shift) - shift;
+            let t = nearest(dk * V::splat(image.inverse.get(c)));
             d[c] = dk - V::splat(image.length.get(c)) * t;
             if image.sheared {
                 for (a, &(edge, along)) in TILT_AXES.iter().enumerate() {
@@ -1288,7 +1204,6 @@ pub(super) unsafe fn close_filter_wide(
     // SAFETY: the caller's contract; masked loads read pairs inside `pairs` only, and the
     // compressing stores write only the kept lanes, into reserved capacity.
     unsafe {
-        let (limit, shift) = (Wide8::splat(LIMIT), Wide8::splat(SHIFT));
         let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
         for o in out.iter_mut() {
             o.reserve(pairs.len());
@@ -1307,9 +1222,7 @@ pub(super) unsafe fn close_filter_wide(
             let (xi, xj) = (wide_rows(pos, 3, &times(i, 3)), wide_rows(pos, 3, &times(j, 3)));
             let mut d = [xj[0] - xi[0], xj[1] - xi[1], xj[2] - xi[2]];
             for c in (0..3).rev() {
-                let t = d[c] * Wide8::splat(inverse[c]);
-                let t = limit.min((-limit).max(t));
-                let t = (t + shift) - shift;
+                let t = nearest(d[c] * Wide8::splat(inverse[c]));
                 d[c] = d[c] - Wide8::splat(period[c]) * t;
             }
             let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];

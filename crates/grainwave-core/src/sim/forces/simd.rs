@@ -24,9 +24,7 @@ pub(super) fn available() -> bool {
     std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("avx512vl")
 }
 
-/// The constants of [`crate::domain::nearest_integer`].
-const SHIFT: f64 = 6_755_399_441_055_744.0;
-const LIMIT: f64 = 2_251_799_813_685_248.0;
+use crate::domain::{ROUND_LIMIT as LIMIT, ROUND_SHIFT as SHIFT};
 
 /// Mask of the first `n` lanes (n ≤ 8).
 #[inline(always)]
@@ -50,23 +48,35 @@ fn indices(v: __m256i) -> [usize; 8] {
 }
 
 /// Rows of `n` (1, 2 or 3) consecutive f64 at `base + n·idx[l]`, as `n` vectors of eight lanes
-/// (lane l from row `idx[l]`): row loads and a transposition, cheaper than gathers here.
+/// (lane l from row `idx[l]`).
 ///
 /// # Safety
 /// Every row lies in one allocation starting at `base`.
 #[inline]
 #[target_feature(enable = "avx512f,avx512vl")]
 unsafe fn rows(base: *const f64, n: usize, idx: &[usize; 8]) -> [__m512d; 3] {
-    let mut out = [_mm512_setzero_pd(); 3];
     // SAFETY: the caller's contract.
+    unsafe { rows_at(n, |l| base.add(n * idx[l])) }
+}
+
+/// Rows of `n` (1, 2 or 3) consecutive f64 at `at(l)`, as `n` vectors of eight lanes (lane l
+/// from the row at `at(l)`): row loads (three elements masked: nothing past a row is read) and a
+/// transposition, cheaper than gathers. Shared with the fused pass's 512-bit lanes.
+///
+/// # Safety
+/// Every row is readable; AVX-512 F and VL are available (the caller is compiled with them).
+#[inline(always)]
+pub(super) unsafe fn rows_at(n: usize, at: impl Fn(usize) -> *const f64) -> [__m512d; 3] {
+    let mut out = [_mm512_setzero_pd(); 3];
+    // SAFETY: the caller's contract; masked-off elements are not read.
     unsafe {
         match n {
             1 => {
-                let g = |l: usize| *base.add(idx[l]);
+                let g = |l: usize| *at(l);
                 out[0] = _mm512_setr_pd(g(0), g(1), g(2), g(3), g(4), g(5), g(6), g(7));
             }
             2 => {
-                let row = |l: usize| _mm_loadu_pd(base.add(2 * idx[l]));
+                let row = |l: usize| _mm_loadu_pd(at(l));
                 let quad = |l: usize| _mm256_insertf128_pd::<1>(_mm256_castpd128_pd256(row(l)), row(l + 1));
                 let a = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(quad(0)), quad(2));
                 let b = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(quad(4)), quad(6));
@@ -74,7 +84,7 @@ unsafe fn rows(base: *const f64, n: usize, idx: &[usize; 8]) -> [__m512d; 3] {
                 out[1] = _mm512_permutex2var_pd(a, _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15), b);
             }
             _ => {
-                let row = |l: usize| _mm256_maskz_loadu_pd(0b0111, base.add(3 * idx[l]));
+                let row = |l: usize| _mm256_maskz_loadu_pd(0b0111, at(l));
                 let a0 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(0)), row(4));
                 let a1 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(1)), row(5));
                 let a2 = _mm512_insertf64x4::<1>(_mm512_castpd256_pd512(row(2)), row(6));
@@ -113,12 +123,7 @@ unsafe fn contiguous(base: *const f64, n: usize, count: usize) -> [__m512d; 3] {
             out[1] = _mm512_permutex2var_pd(a, _mm512_setr_epi64(1, 3, 5, 7, 9, 11, 13, 15), b);
         } else {
             let c = _mm512_maskz_loadu_pd(first_clamped(total - 16), base.add(16));
-            let x = _mm512_permutex2var_pd(a, _mm512_setr_epi64(0, 3, 6, 9, 12, 15, 0, 0), b);
-            let y = _mm512_permutex2var_pd(a, _mm512_setr_epi64(1, 4, 7, 10, 13, 0, 0, 0), b);
-            let z = _mm512_permutex2var_pd(a, _mm512_setr_epi64(2, 5, 8, 11, 14, 0, 0, 0), b);
-            out[0] = _mm512_permutex2var_pd(x, _mm512_setr_epi64(0, 1, 2, 3, 4, 5, 10, 13), c);
-            out[1] = _mm512_permutex2var_pd(y, _mm512_setr_epi64(0, 1, 2, 3, 4, 8, 11, 14), c);
-            out[2] = _mm512_permutex2var_pd(z, _mm512_setr_epi64(0, 1, 2, 3, 4, 9, 12, 15), c);
+            out = crate::simd512::deinterleave3(a, b, c);
         }
     }
     out
