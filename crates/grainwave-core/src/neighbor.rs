@@ -616,12 +616,39 @@ fn build_list<D: Dim>(pos: &[D::Vector], radius: &[f64], domain: &Domain<D>, ski
         }
     }
     const CHUNK: usize = 256;
+    // 3D cells that are not sheared, on AVX-512: the grains in cell order as coordinate
+    // arrays, and eight candidates at a time (`wide_cells`, the same pairs)
+    #[cfg(target_arch = "x86_64")]
+    let wide = (D::D == 3 && !sheared && half && std::mem::size_of::<D::Vector>() == 24 && n < u32::MAX as usize)
+        .then(|| std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("avx512vl"))
+        .unwrap_or(false)
+        .then(|| {
+            let mut slots = CellOrder { x: Vec::with_capacity(n), y: Vec::with_capacity(n), z: Vec::with_capacity(n), r: Vec::with_capacity(n) };
+            for &g in &items {
+                let (x, g) = (pos[g as usize], g as usize);
+                slots.x.push(x.get(0));
+                slots.y.push(x.get(1));
+                slots.z.push(x.get(2));
+                slots.r.push(radius[g]);
+            }
+            slots
+        });
     let found: Vec<Vec<(u32, u32)>> = (0..n_cells.div_ceil(CHUNK))
         .into_par_iter()
         .map(|chunk| {
             let mut out = Vec::new();
+            let cells_here = chunk * CHUNK..((chunk + 1) * CHUNK).min(n_cells);
+            #[cfg(target_arch = "x86_64")]
+            if let Some(slots) = &wide {
+                let (length, inverse) = image.lengths_and_inverses();
+                let geometry = WideGeometry { counts, periodic, forward: &forward, length, inverse, skin };
+                // SAFETY: AVX-512 F and VL are available (checked above); the slot arrays and
+                // `items` hold the n grains in cell order, `start` the cells' slot ranges.
+                unsafe { wide_cells(cells_here, &geometry, &start, &items, slots, &mut out) };
+                return out;
+            }
             let mut cells = Vec::with_capacity(27);
-            for c in chunk * CHUNK..((chunk + 1) * CHUNK).min(n_cells) {
+            for c in cells_here {
                 let here = &items[start[c]..start[c + 1]];
                 if here.is_empty() {
                     continue;
@@ -713,6 +740,136 @@ fn build_list<D: Dim>(pos: &[D::Vector], radius: &[f64], domain: &Domain<D>, ski
     list
 }
 
+/// Grains in cell order (slot s holds grain `items[s]`): positions and radii as arrays.
+#[cfg(target_arch = "x86_64")]
+struct CellOrder {
+    x: Vec<f64>,
+    y: Vec<f64>,
+    z: Vec<f64>,
+    r: Vec<f64>,
+}
+
+/// What [`wide_cells`] needs of the cell grid and the periodic cell.
+#[cfg(target_arch = "x86_64")]
+struct WideGeometry<'a> {
+    counts: [usize; 3],
+    periodic: [bool; 3],
+    forward: &'a [[i64; 3]],
+    length: [f64; 3],
+    inverse: [f64; 3],
+    skin: f64,
+}
+
+/// The pairs of [`build_list`]'s minimal stencil for the cells `cells` (3D, cell not sheared, at
+/// least three cells along every periodic axis), eight candidates at a time: each grain of a
+/// cell against the later grains of its cell and the grains of its forward cells, read as runs of
+/// consecutive slots (neighbouring cells along x are consecutive in cell order, so the 13 forward
+/// cells make about five runs). Every candidate gets the operations of the element-wise test
+/// (`PeriodicImage::displacement` from the cell's grain to the candidate, |d|² summed x, y, z,
+/// `|d|² < (rᵢ + rⱼ + skin)²`), so the same pairs are found; they are appended to `out` as
+/// (smaller, larger) grain index, in an order the caller does not rely on.
+///
+/// # Safety
+/// AVX-512 F and VL are available; `slots` and `items` have one entry per grain, `start` one
+/// more than cells.
+#[cfg(target_arch = "x86_64")]
+#[target_feature(enable = "avx2,avx512f,avx512vl,popcnt")]
+unsafe fn wide_cells(cells: std::ops::Range<usize>, geo: &WideGeometry<'_>, start: &[usize], items: &[u32], slots: &CellOrder, out: &mut Vec<(u32, u32)>) {
+    use crate::domain::{ROUND_LIMIT, ROUND_SHIFT};
+    use std::arch::x86_64::*;
+    let WideGeometry { counts, periodic, forward, length, inverse, skin } = *geo;
+    // SAFETY: the caller's contract; every slot read lies below n (runs come from `start`).
+    unsafe {
+        let (lx, ly, lz) = (_mm512_set1_pd(length[0]), _mm512_set1_pd(length[1]), _mm512_set1_pd(length[2]));
+        let (ix, iy, iz) = (_mm512_set1_pd(inverse[0]), _mm512_set1_pd(inverse[1]), _mm512_set1_pd(inverse[2]));
+        let (limit, shift, skin_v) = (_mm512_set1_pd(ROUND_LIMIT), _mm512_set1_pd(ROUND_SHIFT), _mm512_set1_pd(skin));
+        // `nearest_integer` lane by lane: the clamp keeps NaN (NaN as second operand)
+        let nearest = |t: __m512d| {
+            let t = _mm512_min_pd(limit, _mm512_max_pd(_mm512_sub_pd(_mm512_setzero_pd(), limit), t));
+            _mm512_sub_pd(_mm512_add_pd(t, shift), shift)
+        };
+        let (sx, sy, sz, sr, sid) = (slots.x.as_ptr(), slots.y.as_ptr(), slots.z.as_ptr(), slots.r.as_ptr(), items.as_ptr());
+        let mut hits = [0u32; 8];
+        for c in cells {
+            let (hs, he) = (start[c], start[c + 1]);
+            if hs == he {
+                continue;
+            }
+            let cc = [c % counts[0], (c / counts[0]) % counts[1], c / (counts[0] * counts[1])];
+            // the forward cells in cell order, then their slots as merged runs
+            let mut nb = [0usize; 13];
+            let mut m = 0;
+            for o in forward {
+                let mut f = 0usize;
+                let mut inside = true;
+                for k in (0..3).rev() {
+                    let v = cc[k] as i64 + o[k];
+                    let w = counts[k] as i64;
+                    let v = if periodic[k] {
+                        v.rem_euclid(w)
+                    } else if (0..w).contains(&v) {
+                        v
+                    } else {
+                        inside = false;
+                        0
+                    };
+                    f = f * counts[k] + v as usize;
+                }
+                if inside {
+                    nb[m] = f;
+                    m += 1;
+                }
+            }
+            nb[..m].sort_unstable();
+            let mut runs = [(0usize, 0usize); 14];
+            let mut nr = 0;
+            for &f in &nb[..m] {
+                let (s, e) = (start[f], start[f + 1]);
+                if s == e {
+                    continue;
+                }
+                if nr > 0 && runs[nr - 1].1 == s {
+                    runs[nr - 1].1 = e;
+                } else {
+                    runs[nr] = (s, e);
+                    nr += 1;
+                }
+            }
+            // the cell's own later grains join the first run when it follows the cell
+            let joined = nr > 0 && runs[0].0 == he;
+            for a in hs..he {
+                let i = *sid.add(a);
+                let (xi, yi, zi, ri) = (_mm512_set1_pd(*sx.add(a)), _mm512_set1_pd(*sy.add(a)), _mm512_set1_pd(*sz.add(a)), _mm512_set1_pd(*sr.add(a)));
+                let own = (a + 1, if joined { runs[0].1 } else { he });
+                let rest = &runs[joined as usize..nr];
+                for &(s, e) in std::iter::once(&own).chain(rest) {
+                    let mut k = s;
+                    while k < e {
+                        let live = (0xffu32 >> (8 - (e - k).min(8))) as __mmask8;
+                        let dx = _mm512_sub_pd(_mm512_maskz_loadu_pd(live, sx.add(k)), xi);
+                        let dy = _mm512_sub_pd(_mm512_maskz_loadu_pd(live, sy.add(k)), yi);
+                        let dz = _mm512_sub_pd(_mm512_maskz_loadu_pd(live, sz.add(k)), zi);
+                        let dx = _mm512_sub_pd(dx, _mm512_mul_pd(lx, nearest(_mm512_mul_pd(dx, ix))));
+                        let dy = _mm512_sub_pd(dy, _mm512_mul_pd(ly, nearest(_mm512_mul_pd(dy, iy))));
+                        let dz = _mm512_sub_pd(dz, _mm512_mul_pd(lz, nearest(_mm512_mul_pd(dz, iz))));
+                        let d2 = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(dx, dx), _mm512_mul_pd(dy, dy)), _mm512_mul_pd(dz, dz));
+                        let reach = _mm512_add_pd(_mm512_add_pd(ri, _mm512_maskz_loadu_pd(live, sr.add(k))), skin_v);
+                        let hit = _mm512_mask_cmp_pd_mask::<_CMP_LT_OQ>(live, d2, _mm512_mul_pd(reach, reach));
+                        if hit != 0 {
+                            let ids = _mm256_maskz_loadu_epi32(live, sid.add(k) as *const i32);
+                            _mm256_mask_compressstoreu_epi32(hits.as_mut_ptr() as *mut i32, hit, ids);
+                            for &j in &hits[..hit.count_ones() as usize] {
+                                out.push((i.min(j), i.max(j)));
+                            }
+                        }
+                        k += 8;
+                    }
+                }
+            }
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -779,6 +936,44 @@ mod tests {
                 .collect();
             let rad: Vec<f64> = (0..400).map(|_| 0.1 + 0.1 * rng.random::<f64>()).collect();
             check(&pos, &rad, &d3, 0.1);
+        }
+    }
+
+    /// 3D boxes with at least three cells along every axis, where the candidates go eight at a
+    /// time through AVX-512 when the processor has it (`wide_cells`): random polydisperse
+    /// grains, periodic and walled axes, and a lattice whose spacing is exactly the reach
+    /// (r_i + r_j + skin), so that every decision at the boundary — across the periodic faces
+    /// too — must be the element-wise one (a `≤` instead of `<`, or a different rounding of the
+    /// image shift, adds or drops pairs).
+    #[test]
+    fn wide_cell_search_matches_brute_force_3d() {
+        let mut rng = ChaCha8Rng::seed_from_u64(11);
+        for periodic in [[true; 3], [true, true, false], [false, true, true]] {
+            let dom: Domain<D3> = Domain::new(DVec3::ZERO, DVec3::new(5.0, 4.5, 6.0), periodic);
+            let pos: Vec<DVec3> = (0..1500)
+                .map(|_| DVec3::new(rng.random::<f64>() * 5.0, rng.random::<f64>() * 4.5, rng.random::<f64>() * 6.0))
+                .collect();
+            let rad: Vec<f64> = (0..1500).map(|_| 0.1 + 0.1 * rng.random::<f64>()).collect();
+            check(&pos, &rad, &dom, 0.1);
+            // simple cubic lattice of spacing 0.5 = 0.2 + 0.2 + 0.1, the box a whole number of
+            // spacings (neighbours across the faces at exactly the reach), plus a slightly
+            // shifted copy of every tenth grain
+            let dom: Domain<D3> = Domain::new(DVec3::ZERO, DVec3::new(4.0, 3.5, 5.0), periodic);
+            let mut pos = Vec::new();
+            for z in 0..10 {
+                for y in 0..7 {
+                    for x in 0..8 {
+                        pos.push(DVec3::new(0.5 * x as f64, 0.5 * y as f64, 0.5 * z as f64));
+                    }
+                }
+            }
+            let extra: Vec<DVec3> = pos.iter().step_by(10).map(|p| *p + DVec3::new(0.25, 1e-12, -0.49999999999)).collect();
+            let mut pos: Vec<DVec3> = pos.into_iter().chain(extra).collect();
+            for p in &mut pos {
+                dom.wrap(p, &mut [0; 3]);
+            }
+            let rad = vec![0.2; pos.len()];
+            check(&pos, &rad, &dom, 0.1);
         }
     }
 
