@@ -182,3 +182,30 @@ fn a_nan_spin_is_caught_through_the_close_list() {
         assert!(e.contains("non-finite"), "general {general}, simd {simd}: {e}");
     }
 }
+
+#[test]
+fn masses_changed_by_hand_reach_the_close_list() {
+    // The close list keeps the radii and reduced masses of its pairs. After masses are changed
+    // by hand and `refresh_forces` is called (as documented), the fused pass damps with the new
+    // ones: the bits of the general kernel, which reads the masses at every step. (Without the
+    // rebuild, the old reduced masses would stay until the grains have moved by the margin.)
+    let law = hooke(1.0e3, Some(0.8), 0.3).build(Partner::Grain, "contact").unwrap();
+    let run = |general: bool, simd: u8| {
+        let mut sim = dense_3d(4, law, 0.3, 22).expected_overlap(0.05).build().unwrap();
+        sim.set_general_kernel(general);
+        sim.set_simd_level(simd);
+        sim.steps(50).unwrap();
+        for k in (0..sim.grains.len()).step_by(3) {
+            sim.grains.mass[k] *= 2.5;
+            sim.grains.inertia[k] *= 2.5;
+        }
+        sim.refresh_forces().unwrap();
+        sim.steps(100).unwrap();
+        assert!(sim.counters.contacts > 0);
+        sim.state_hash()
+    };
+    let reference = run(true, 0);
+    for simd in [1, 3] {
+        assert_eq!(run(false, simd), reference, "simd {simd}");
+    }
+}

@@ -1038,7 +1038,7 @@ impl<D: Dim> Simulation<D> {
         // (3D only: in 2D the list would skip only ≈ 10 % of the pairs, and its displacement
         // check cost two-worker runs 6–15 %, BENCHMARKS.md)
         if D::D == 3 && kernels.fused() && !matches!(specialized, Specialized::General(_)) && n > 0 {
-            work.cross.ensure_close(list, pos, radius, domain, CLOSE_FRACTION * nlist.skin, known, kernels == Path::Fused512);
+            work.cross.ensure_close(list, pos, radius, mass, domain, CLOSE_FRACTION * nlist.skin, known, kernels == Path::Fused512);
         }
         let (gv, gw) = if use_eval { (&mut work.vel_eval, &mut work.omega_eval) } else { (&mut grains.vel, &mut grains.omega) };
         let g = Grain { base: 0, force: &mut grains.force, torque: &mut grains.torque, vel: gv, omega: gw };
@@ -1177,7 +1177,8 @@ impl<D: Dim> CrossIndex<D> {
     /// have moved so far since it was built (2·max|x − x_ref| + Σ|Δtilt| above 0.9 × margin;
     /// the 10 % slack covers rounding in the distances) that an excluded pair could touch.
     /// `known`: max|x − close_ref|² when already measured (by the drift pass).
-    fn ensure_close(&mut self, list: &PairList<D>, pos: &[D::Vector], radius: &[f64], domain: &Domain<D>, margin: f64, known: Option<f64>, wide: bool) {
+    #[allow(clippy::too_many_arguments)]
+    fn ensure_close(&mut self, list: &PairList<D>, pos: &[D::Vector], radius: &[f64], mass: &[f64], domain: &Domain<D>, margin: f64, known: Option<f64>, wide: bool) {
         let tilt = domain.tilt;
         if self.close_ok && self.close_margin == margin && self.close_ref.len() == pos.len() {
             let tilt_change: f64 = tilt.iter().zip(&self.close_tilt).map(|(t, r)| (t - r).abs()).sum();
@@ -1197,7 +1198,15 @@ impl<D: Dim> CrossIndex<D> {
         #[cfg(not(target_arch = "x86_64"))]
         let _ = wide;
         let this = &*self;
-        let parts: Vec<[Vec<u32>; 3]> = (0..blocks)
+        // the radii and reduced mass of each kept pair (as `lanes::contact` computes it)
+        let properties = |out: [Vec<u32>; 3]| {
+            let [_, owner, partner] = &out;
+            let rad_i: Vec<f64> = owner.iter().map(|&i| radius[i as usize]).collect();
+            let rad_j: Vec<f64> = partner.iter().map(|&j| radius[j as usize]).collect();
+            let m_eff: Vec<f64> = owner.iter().zip(partner).map(|(&i, &j)| mass[i as usize] * mass[j as usize] / (mass[i as usize] + mass[j as usize])).collect();
+            (out, [rad_i, rad_j, m_eff])
+        };
+        let parts: Vec<([Vec<u32>; 3], [Vec<f64>; 3])> = (0..blocks)
             .into_par_iter()
             .map(|b| {
                 let (g0, g1) = (b * this.block_len, ((b + 1) * this.block_len).min(this.n));
@@ -1208,7 +1217,7 @@ impl<D: Dim> CrossIndex<D> {
                     // SAFETY: AVX-512 F and VL are available (`wide`); 3D vectors are three
                     // f64; the block's pairs index the list's arrays and their grains `pos`.
                     unsafe { avx2::close_filter_wide(pos.as_ptr() as *const f64, radius, &this.owner, &list.partner, &list.overlap, pairs, g1, margin, period, inverse, &mut out) };
-                    return out;
+                    return properties(out);
                 }
                 for i in g0..g1 {
                     let (xi, ri) = (pos[i], radius[i]);
@@ -1224,18 +1233,24 @@ impl<D: Dim> CrossIndex<D> {
                         }
                     }
                 }
-                out
+                properties(out)
             })
             .collect();
         self.close_start.clear();
         self.close_pair.clear();
         self.close_owner.clear();
         self.close_partner.clear();
-        for [pair, owner, partner] in &parts {
+        self.close_rad_i.clear();
+        self.close_rad_j.clear();
+        self.close_m_eff.clear();
+        for ([pair, owner, partner], [rad_i, rad_j, m_eff]) in &parts {
             self.close_start.push(self.close_pair.len() as u32);
             self.close_pair.extend_from_slice(pair);
             self.close_owner.extend_from_slice(owner);
             self.close_partner.extend_from_slice(partner);
+            self.close_rad_i.extend_from_slice(rad_i);
+            self.close_rad_j.extend_from_slice(rad_j);
+            self.close_m_eff.extend_from_slice(m_eff);
         }
         self.close_start.push(self.close_pair.len() as u32);
         self.close_ref.clear();

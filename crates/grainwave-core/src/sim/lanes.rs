@@ -426,6 +426,9 @@ pub(super) struct ContactIn<R> {
     pub rad_j: R,
     pub mass_i: R,
     pub mass_j: R,
+    /// The reduced mass m_i m_j / (m_i + m_j) when the caller has it already (then `mass_i`
+    /// and `mass_j` are not read).
+    pub m_eff: Option<R>,
     /// Stored tangential history.
     pub spring: [R; 3],
 }
@@ -456,6 +459,7 @@ fn lanes<const DIM: usize, const ROT: usize, L: WindowLaw, P: Dampers>(law: &L, 
             rad_j: w.rad_j[k],
             mass_i: w.mass_i[k],
             mass_j: w.mass_j[k],
+            m_eff: None,
             spring: get(&w.spring),
         };
         let o = contact::<f64, DIM, ROT, L, P>(law, damp, &input, dt);
@@ -512,7 +516,10 @@ pub(super) fn contact<R: Real, const DIM: usize, const ROT: usize, L: WindowLaw,
         v_t[c] = v_c[c] - n[c] * vcn;
     }
     let r_eff = rad_i * rad_j / sum;
-    let m_eff = mass_i * mass_j / (mass_i + mass_j);
+    let m_eff = match x.m_eff {
+        Some(m) => m,
+        None => mass_i * mass_j / (mass_i + mass_j),
+    };
 
     // normal force (clamped) and stiffnesses
     let (f_el, k_n, secant, a) = law.normal(r_eff, overlap);

@@ -213,6 +213,12 @@ struct CrossIndex<D: Dim> {
     close_pair: Vec<u32>,
     close_owner: Vec<u32>,
     close_partner: Vec<u32>,
+    /// Per entry of the close list: the radii of owner and partner and the reduced mass
+    /// m_i m_j / (m_i + m_j), read when the list is built (a group of the fused pass loads them
+    /// as consecutive lanes instead of gathering four values per pair and dividing).
+    close_rad_i: Vec<f64>,
+    close_rad_j: Vec<f64>,
+    close_m_eff: Vec<f64>,
     /// Positions and cell tilt when the close list was built.
     close_ref: Vec<D::Vector>,
     close_tilt: [f64; 3],
@@ -245,6 +251,9 @@ impl<D: Dim> Default for CrossIndex<D> {
             close_pair: Vec::new(),
             close_owner: Vec::new(),
             close_partner: Vec::new(),
+            close_rad_i: Vec::new(),
+            close_rad_j: Vec::new(),
+            close_m_eff: Vec::new(),
             close_ref: Vec::new(),
             close_tilt: [0.0; 3],
             close_margin: 0.0,
@@ -396,6 +405,12 @@ impl<D: Dim> Simulation<D> {
                 h.write(&x.to_le_bytes());
             }
         }
+        for a in [&c.close_rad_i, &c.close_rad_j, &c.close_m_eff] {
+            h.write(&(a.len() as u64).to_le_bytes());
+            for &x in a.iter() {
+                h.write(&x.to_le_bytes());
+            }
+        }
         h.finish()
     }
 
@@ -414,16 +429,18 @@ impl<D: Dim> Simulation<D> {
         self.warnings.push(message);
     }
 
-    /// Marks the neighbor list stale (after changing radii or the domain by hand) and recomputes
-    /// forces without advancing time or histories.
+    /// Marks the neighbor list stale (after changing radii, masses or the domain by hand) and
+    /// recomputes forces without advancing time or histories.
     pub fn refresh(&mut self) -> crate::Result<()> {
         self.nlist.stale = true;
         self.refresh_forces()
     }
 
     /// Recomputes forces and torques at the current state without advancing time or histories
-    /// (use after changing parameters, velocities or loads by hand).
+    /// (use after changing parameters, masses, velocities or loads by hand: the close list,
+    /// which keeps radii and reduced masses of its pairs, is rebuilt).
     pub fn refresh_forces(&mut self) -> crate::Result<()> {
+        self.work.cross.close_ok = false;
         self.prepare_neighbors(None)?;
         self.compute_forces(0.0, false, None)?;
         self.update_piston_accelerations();

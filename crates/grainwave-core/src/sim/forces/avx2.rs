@@ -133,6 +133,12 @@ pub(super) trait Lanes: Real {
     /// # Safety
     /// Every row lies in one allocation (`base` itself may point outside it); AVX2 is available.
     unsafe fn rows(base: *const f64, n: usize, off: &Self::U) -> [Self; 3];
+    /// The `n` (≤ N) consecutive f64 at `p` in the first lanes, zero in the others (nothing
+    /// past them is read).
+    ///
+    /// # Safety
+    /// The `n` values are readable; AVX2 is available.
+    unsafe fn first(p: *const f64, n: usize) -> Self;
     /// The lanes.
     fn array(self) -> Self::F;
     /// Bit l set when lane l of `m` is true.
@@ -313,6 +319,15 @@ impl Lanes for F64x8 {
         }
     }
     #[inline(always)]
+    unsafe fn first(p: *const f64, n: usize) -> Self {
+        // SAFETY: the caller's contract; masked-off elements are not read.
+        unsafe {
+            let lane = _mm256_setr_epi64x(0, 1, 2, 3);
+            let live = |h: i64| _mm256_cmpgt_epi64(_mm256_set1_epi64x(n as i64 - h), lane);
+            Pair(F64x4(_mm256_maskload_pd(p, live(0))), F64x4(_mm256_maskload_pd(p.wrapping_add(4), live(4))))
+        }
+    }
+    #[inline(always)]
     fn array(self) -> [f64; 8] {
         let (a, b) = (lanes_of(self.0 .0), lanes_of(self.1 .0));
         [a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3]]
@@ -429,6 +444,11 @@ impl Lanes for Wide8 {
         unsafe { wide_rows(base, n, off) }
     }
     #[inline(always)]
+    unsafe fn first(p: *const f64, n: usize) -> Self {
+        // SAFETY: the caller's contract; masked-off elements are not read.
+        unsafe { Wide8(_mm512_maskz_loadu_pd((0xffu32 >> (8 - n.min(8))) as __mmask8, p)) }
+    }
+    #[inline(always)]
     fn array(self) -> [f64; 8] {
         let mut a = [0.0; 8];
         // SAFETY: as above; unaligned store into eight f64.
@@ -490,6 +510,11 @@ impl Lanes for Wide16 {
             let (a, b) = (wide_rows(base, n, half(off, 0)), wide_rows(base, n, half(off, 1)));
             [Pair(a[0], b[0]), Pair(a[1], b[1]), Pair(a[2], b[2])]
         }
+    }
+    #[inline(always)]
+    unsafe fn first(p: *const f64, n: usize) -> Self {
+        // SAFETY: the caller's contract.
+        unsafe { Pair(Wide8::first(p, n), Wide8::first(p.wrapping_add(8), n.saturating_sub(8))) }
     }
     #[inline(always)]
     fn array(self) -> [f64; 16] {
@@ -669,7 +694,7 @@ fn arrays<V: Lanes>(v: &[V; 3], n: usize) -> [V::F; 3] {
 /// `v.base`); AVX2 is available.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: P, inp: &Inputs<D>, h: &mut History<D>, v: Velocities<D>, g: &Group<V>, st: &mut ForceStats, out: &mut Out<V>) -> bool {
+unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: P, inp: &Inputs<D>, h: &mut History<D>, v: Velocities<D>, g: &Group<V>, known: Option<[V; 3]>, st: &mut ForceStats, out: &mut Out<V>) -> bool {
     let (dd, rot) = (D::D, <D::AngVector as VectorOps>::LEN);
     // SAFETY: the caller's contract.
     unsafe {
@@ -687,7 +712,11 @@ unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: 
         }
         let pos = inp.pos.as_ptr() as *const f64;
         let (xi, xj) = (V::rows(pos, dd, &oi), V::rows(pos, dd, &oj));
-        let (ri, rj) = (V::rows(inp.radius.as_ptr(), 1, &g.i)[0], V::rows(inp.radius.as_ptr(), 1, &g.j)[0]);
+        // radii (and below the reduced mass) from the close list when it has them
+        let (ri, rj) = match known {
+            Some(k) => (k[0], k[1]),
+            None => (V::rows(inp.radius.as_ptr(), 1, &g.i)[0], V::rows(inp.radius.as_ptr(), 1, &g.j)[0]),
+        };
         // nearest-image vector and, in a shearing cell, the velocity of the image
         // (`PeriodicImage::displacement_velocity`)
         let image = &inp.image;
@@ -748,8 +777,9 @@ unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: 
             w_j: V::rows(omega, rot, if rot == dd { &oj } else { &g.j }),
             rad_i: ri,
             rad_j: rj,
-            mass_i: V::rows(inp.mass.as_ptr(), 1, &g.i)[0],
-            mass_j: V::rows(inp.mass.as_ptr(), 1, &g.j)[0],
+            mass_i: if known.is_some() { zero } else { V::rows(inp.mass.as_ptr(), 1, &g.i)[0] },
+            mass_j: if known.is_some() { zero } else { V::rows(inp.mass.as_ptr(), 1, &g.j)[0] },
+            m_eff: known.map(|k| k[2]),
             spring: V::rows(h.spring.as_ptr() as *const f64, dd, &qd),
         };
         let o = match dd {
@@ -885,7 +915,7 @@ unsafe fn block_plain<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp:
         }
         // SAFETY: the block's pairs are pairs of `h` with owners in the block; intra-block
         // partners lie in the block (cross index); AVX2 is enabled here.
-        let touching = unsafe { eval_group::<D, L, P, V>(law, damp, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &gr, &mut st, &mut out) };
+        let touching = unsafe { eval_group::<D, L, P, V>(law, damp, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &gr, None, &mut st, &mut out) };
         if touching {
             add_group::<D, V>(&out, &gr.i, &gr.j, g0, force, torque);
         }
@@ -967,8 +997,11 @@ unsafe fn block_close_impl<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, 
                 gr.set_half(hf, pair, i, j, _mm256_movemask_ps(_mm256_castsi256_ps(live)) as u32);
             }
         }
+        // the radii and reduced masses of the group's pairs, consecutive in the close list
+        // SAFETY: entries k..k + n exist; AVX2 (and what `V` needs) is enabled here.
+        let known = unsafe { [&cross.close_rad_i, &cross.close_rad_j, &cross.close_m_eff].map(|a| V::first(a.as_ptr().wrapping_add(k), n)) };
         // SAFETY: as below (the close list holds intra-block pairs of the block).
-        let touching = unsafe { eval_group::<D, L, P, V>(law, damp, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &gr, &mut st, &mut out) };
+        let touching = unsafe { eval_group::<D, L, P, V>(law, damp, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &gr, Some(known), &mut st, &mut out) };
         if touching {
             add_group::<D, V>(&out, &gr.i, &gr.j, g0, force, torque);
         }
@@ -995,37 +1028,34 @@ fn add_group<D: Dim, V: Lanes>(out: &Out<V>, gi: &V::U, gj: &V::U, g0: usize, fo
     if V::ROWS && D::D == 3 && rot == 3 {
         // Rows and masked vector updates. The owner's sums stay in registers over its lanes
         // of the group: its terms are still added in list order, as nothing else touches it
-        // meanwhile (its pairs as a partner, i < j, all come before its own).
+        // meanwhile (its pairs as a partner, i < j, all come before its own; owners do not
+        // decrease along the list).
         // SAFETY: `ROWS` lane types run with AVX-512 F and VL; 3D vectors are three
         // consecutive f64; owners and intra-block partners lie in the block.
         unsafe {
             let (fr, tir, tjr) = (V::rows3(out.force), V::rows3(out.torque_i), V::rows3(out.torque_j));
             let (fp, tp) = (force.as_mut_ptr() as *mut f64, torque.as_mut_ptr() as *mut f64);
-            let mut cur = usize::MAX;
-            let (mut acc_f, mut acc_t) = (_mm256_setzero_pd(), _mm256_setzero_pd());
+            // Branch-free: every lane stores the owner's running sums to its row and reloads
+            // the row of its own owner (the same row, forwarded from that store, while the
+            // owner does not change): the terms still arrive in list order.
+            let first = out.touch.trailing_zeros() as usize;
+            let mut cur = gi[first.min(V::N - 1)] as usize - g0;
+            let (mut acc_f, mut acc_t) = (load3(fp.add(3 * cur)), load3(tp.add(3 * cur)));
             while bits != 0 {
                 let l = bits.trailing_zeros() as usize;
                 bits &= bits - 1;
                 let (li, lj) = (gi[l] as usize - g0, gj[l] as usize - g0);
                 debug_assert!(li < force.len() && lj < force.len() && li != lj);
-                if li != cur {
-                    if cur != usize::MAX {
-                        store3(fp.add(3 * cur), acc_f);
-                        store3(tp.add(3 * cur), acc_t);
-                    }
-                    cur = li;
-                    acc_f = load3(fp.add(3 * li));
-                    acc_t = load3(tp.add(3 * li));
-                }
-                acc_f = _mm256_add_pd(acc_f, fr[l]);
-                acc_t = _mm256_add_pd(acc_t, tir[l]);
+                store3(fp.add(3 * cur), acc_f);
+                store3(tp.add(3 * cur), acc_t);
+                cur = li;
+                acc_f = _mm256_add_pd(load3(fp.add(3 * li)), fr[l]);
+                acc_t = _mm256_add_pd(load3(tp.add(3 * li)), tir[l]);
                 store3(fp.add(3 * lj), _mm256_sub_pd(load3(fp.add(3 * lj)), fr[l]));
                 store3(tp.add(3 * lj), _mm256_add_pd(load3(tp.add(3 * lj)), tjr[l]));
             }
-            if cur != usize::MAX {
-                store3(fp.add(3 * cur), acc_f);
-                store3(tp.add(3 * cur), acc_t);
-            }
+            store3(fp.add(3 * cur), acc_f);
+            store3(tp.add(3 * cur), acc_t);
         }
         return;
     }
@@ -1103,7 +1133,7 @@ unsafe fn cross_block_impl<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(
         }
         // SAFETY: the slots of block b hold pairs of `h` (cross index); whole velocity arrays;
         // AVX2 is enabled here.
-        let touching = unsafe { eval_group::<D, L, P, V>(law, damp, inp, &mut h, Velocities { base: 0, vel, omega }, &gr, &mut st, &mut lanes_out) };
+        let touching = unsafe { eval_group::<D, L, P, V>(law, damp, inp, &mut h, Velocities { base: 0, vel, omega }, &gr, None, &mut st, &mut lanes_out) };
         if touching {
             let rot = <D::AngVector as VectorOps>::LEN;
             let (f, ti, tj) = (arrays(&lanes_out.force, D::D), arrays(&lanes_out.torque_i, rot), arrays(&lanes_out.torque_j, rot));
