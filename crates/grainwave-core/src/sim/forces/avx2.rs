@@ -1035,9 +1035,11 @@ fn add_group<D: Dim, V: Lanes>(out: &Out<V>, gi: &V::U, gj: &V::U, g0: usize, fo
         unsafe {
             let (fr, tir, tjr) = (V::rows3(out.force), V::rows3(out.torque_i), V::rows3(out.torque_j));
             let (fp, tp) = (force.as_mut_ptr() as *mut f64, torque.as_mut_ptr() as *mut f64);
-            // Branch-free: every lane stores the owner's running sums to its row and reloads
-            // the row of its own owner (the same row, forwarded from that store, while the
-            // owner does not change): the terms still arrive in list order.
+            // Branch-free: the owner's running sums stay in registers while the owner does not
+            // change; every lane stores them — to the row of the owner it leaves when the owner
+            // changes, to a scratch row otherwise — and blends in the row of its own owner when
+            // that is a new one. The terms still arrive in list order.
+            let mut scratch = [0.0f64; 8];
             let first = out.touch.trailing_zeros() as usize;
             let mut cur = gi[first.min(V::N - 1)] as usize - g0;
             let (mut acc_f, mut acc_t) = (load3(fp.add(3 * cur)), load3(tp.add(3 * cur)));
@@ -1046,14 +1048,18 @@ fn add_group<D: Dim, V: Lanes>(out: &Out<V>, gi: &V::U, gj: &V::U, g0: usize, fo
                 bits &= bits - 1;
                 let (li, lj) = (gi[l] as usize - g0, gj[l] as usize - g0);
                 debug_assert!(li < force.len() && lj < force.len() && li != lj);
-                store3(fp.add(3 * cur), acc_f);
-                store3(tp.add(3 * cur), acc_t);
+                let moved = li != cur;
+                let (df, dt) = if moved { (fp.add(3 * cur), tp.add(3 * cur)) } else { (scratch.as_mut_ptr(), scratch.as_mut_ptr().add(4)) };
+                store3(df, acc_f);
+                store3(dt, acc_t);
+                let k = (moved as u8).wrapping_neg() & 0xf;
+                acc_f = _mm256_add_pd(_mm256_mask_mov_pd(acc_f, k, load3(fp.add(3 * li))), fr[l]);
+                acc_t = _mm256_add_pd(_mm256_mask_mov_pd(acc_t, k, load3(tp.add(3 * li))), tir[l]);
                 cur = li;
-                acc_f = _mm256_add_pd(load3(fp.add(3 * li)), fr[l]);
-                acc_t = _mm256_add_pd(load3(tp.add(3 * li)), tir[l]);
                 store3(fp.add(3 * lj), _mm256_sub_pd(load3(fp.add(3 * lj)), fr[l]));
                 store3(tp.add(3 * lj), _mm256_add_pd(load3(tp.add(3 * lj)), tjr[l]));
             }
+            std::hint::black_box(&scratch);
             store3(fp.add(3 * cur), acc_f);
             store3(tp.add(3 * cur), acc_t);
         }
