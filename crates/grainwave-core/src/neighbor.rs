@@ -803,15 +803,17 @@ unsafe fn wide_cells(cells: std::ops::Range<usize>, geo: &WideGeometry<'_>, star
                 let mut f = 0usize;
                 let mut inside = true;
                 for k in (0..3).rev() {
+                    // one step off the grid at most: wrapped by a comparison, not a division
                     let v = cc[k] as i64 + o[k];
                     let w = counts[k] as i64;
-                    let v = if periodic[k] {
-                        v.rem_euclid(w)
-                    } else if (0..w).contains(&v) {
-                        v
+                    let v = if v < 0 {
+                        inside &= periodic[k];
+                        v + w
+                    } else if v >= w {
+                        inside &= periodic[k];
+                        v - w
                     } else {
-                        inside = false;
-                        0
+                        v
                     };
                     f = f * counts[k] + v as usize;
                 }
