@@ -1198,15 +1198,7 @@ impl<D: Dim> CrossIndex<D> {
         #[cfg(not(target_arch = "x86_64"))]
         let _ = wide;
         let this = &*self;
-        // the radii and reduced mass of each kept pair (as `lanes::contact` computes it)
-        let properties = |out: [Vec<u32>; 3]| {
-            let [_, owner, partner] = &out;
-            let rad_i: Vec<f64> = owner.iter().map(|&i| radius[i as usize]).collect();
-            let rad_j: Vec<f64> = partner.iter().map(|&j| radius[j as usize]).collect();
-            let m_eff: Vec<f64> = owner.iter().zip(partner).map(|(&i, &j)| mass[i as usize] * mass[j as usize] / (mass[i as usize] + mass[j as usize])).collect();
-            (out, [rad_i, rad_j, m_eff])
-        };
-        let parts: Vec<([Vec<u32>; 3], [Vec<f64>; 3])> = (0..blocks)
+        let parts: Vec<[Vec<u32>; 3]> = (0..blocks)
             .into_par_iter()
             .map(|b| {
                 let (g0, g1) = (b * this.block_len, ((b + 1) * this.block_len).min(this.n));
@@ -1217,7 +1209,7 @@ impl<D: Dim> CrossIndex<D> {
                     // SAFETY: AVX-512 F and VL are available (`wide`); 3D vectors are three
                     // f64; the block's pairs index the list's arrays and their grains `pos`.
                     unsafe { avx2::close_filter_wide(pos.as_ptr() as *const f64, radius, &this.owner, &list.partner, &list.overlap, pairs, g1, margin, period, inverse, &mut out) };
-                    return properties(out);
+                    return out;
                 }
                 for i in g0..g1 {
                     let (xi, ri) = (pos[i], radius[i]);
@@ -1233,25 +1225,35 @@ impl<D: Dim> CrossIndex<D> {
                         }
                     }
                 }
-                properties(out)
+                out
             })
             .collect();
         self.close_start.clear();
         self.close_pair.clear();
         self.close_owner.clear();
         self.close_partner.clear();
-        self.close_rad_i.clear();
-        self.close_rad_j.clear();
-        self.close_m_eff.clear();
-        for ([pair, owner, partner], [rad_i, rad_j, m_eff]) in &parts {
+        for [pair, owner, partner] in &parts {
             self.close_start.push(self.close_pair.len() as u32);
             self.close_pair.extend_from_slice(pair);
             self.close_owner.extend_from_slice(owner);
             self.close_partner.extend_from_slice(partner);
-            self.close_rad_i.extend_from_slice(rad_i);
-            self.close_rad_j.extend_from_slice(rad_j);
-            self.close_m_eff.extend_from_slice(m_eff);
         }
+        // the radii and reduced mass of each kept pair (as `lanes::contact` computes it)
+        let m = self.close_pair.len();
+        for a in [&mut self.close_rad_i, &mut self.close_rad_j, &mut self.close_m_eff] {
+            a.resize(m, 0.0);
+        }
+        self.close_rad_i
+            .par_iter_mut()
+            .zip(self.close_rad_j.par_iter_mut())
+            .zip(self.close_m_eff.par_iter_mut())
+            .zip(self.close_owner.par_iter().zip(self.close_partner.par_iter()))
+            .with_min_len(4096)
+            .for_each(|(((ri, rj), me), (&i, &j))| {
+                let (i, j) = (i as usize, j as usize);
+                (*ri, *rj) = (radius[i], radius[j]);
+                *me = mass[i] * mass[j] / (mass[i] + mass[j]);
+            });
         self.close_start.push(self.close_pair.len() as u32);
         self.close_ref.clear();
         self.close_ref.extend_from_slice(pos);

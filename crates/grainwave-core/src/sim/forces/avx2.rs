@@ -999,7 +999,11 @@ unsafe fn block_close_impl<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, 
         }
         // the radii and reduced masses of the group's pairs, consecutive in the close list
         // SAFETY: entries k..k + n exist; AVX2 (and what `V` needs) is enabled here.
-        let known = unsafe { [&cross.close_rad_i, &cross.close_rad_j, &cross.close_m_eff].map(|a| V::first(a.as_ptr().wrapping_add(k), n)) };
+        // (three calls, not an array `map`: its closure was not inlined into the AVX2 build)
+        let known = unsafe {
+            let at = |a: &Vec<f64>| a.as_ptr().wrapping_add(k);
+            [V::first(at(&cross.close_rad_i), n), V::first(at(&cross.close_rad_j), n), V::first(at(&cross.close_m_eff), n)]
+        };
         // SAFETY: as below (the close list holds intra-block pairs of the block).
         let touching = unsafe { eval_group::<D, L, P, V>(law, damp, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &gr, Some(known), &mut st, &mut out) };
         if touching {
