@@ -370,23 +370,18 @@ pub(crate) fn max_displacement2<D: Dim>(image: &PeriodicImage<D>, reference: &[D
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,avx512f")]
 unsafe fn max_displacement2_3d_avx512(period: [f64; 3], inverse: [f64; 3], reference: *const f64, pos: *const f64, n: usize) -> f64 {
-    use crate::domain::{ROUND_LIMIT, ROUND_SHIFT};
-    use crate::simd512::{deinterleave3, per_coordinate};
+    use crate::simd512::{deinterleave3, nearest_integer, per_coordinate};
     use std::arch::x86_64::*;
     debug_assert!(n % 8 == 0);
     // SAFETY: the caller's contract.
     unsafe {
         let (per, inv) = (per_coordinate(period), per_coordinate(inverse));
-        let (limit, shift) = (_mm512_set1_pd(ROUND_LIMIT), _mm512_set1_pd(ROUND_SHIFT));
         let (mut m, mut nan) = (_mm512_setzero_pd(), 0u8);
         for k in (0..3 * n).step_by(24) {
             let mut sq = [_mm512_setzero_pd(); 3];
             for r in 0..3 {
                 let d = _mm512_sub_pd(_mm512_loadu_pd(pos.add(k + 8 * r)), _mm512_loadu_pd(reference.add(k + 8 * r)));
-                // nearest_integer(d / L): the clamp keeps NaN (NaN as second operand)
-                let t = _mm512_mul_pd(d, inv[r]);
-                let t = _mm512_min_pd(limit, _mm512_max_pd(_mm512_sub_pd(_mm512_setzero_pd(), limit), t));
-                let t = _mm512_sub_pd(_mm512_add_pd(t, shift), shift);
+                let t = nearest_integer(_mm512_mul_pd(d, inv[r]));
                 let d = _mm512_sub_pd(d, _mm512_mul_pd(per[r], t));
                 sq[r] = _mm512_mul_pd(d, d);
             }
@@ -466,6 +461,30 @@ impl CellGrid {
 
     fn flat(&self, c: [usize; 3]) -> usize {
         (c[2] * self.n[1] + c[1]) * self.n[0] + c[0]
+    }
+
+    /// The cell at offset `o` (each component −1, 0 or 1) from cell `c`, wrapped along
+    /// periodic axes (by a comparison: one step off the grid at most); `None` past a
+    /// non-periodic edge.
+    #[inline(always)]
+    fn offset_cell(&self, c: [usize; 3], o: [i64; 3]) -> Option<usize> {
+        let mut nc = [0usize; 3];
+        for k in 0..3 {
+            let raw = c[k] as i64 + o[k];
+            let w = self.n[k] as i64;
+            let v = if raw < 0 {
+                raw + w
+            } else if raw >= w {
+                raw - w
+            } else {
+                raw
+            };
+            if v != raw && !self.periodic[k] {
+                return None;
+            }
+            nc[k] = v as usize;
+        }
+        Some(self.flat(nc))
     }
 
     /// Distinct coordinates within one cell of `c` along axis `k` (wrapping periodic axes), sorted.
@@ -641,7 +660,7 @@ fn build_list<D: Dim>(pos: &[D::Vector], radius: &[f64], domain: &Domain<D>, ski
             #[cfg(target_arch = "x86_64")]
             if let Some(slots) = &wide {
                 let (length, inverse) = image.lengths_and_inverses();
-                let geometry = WideGeometry { counts, periodic, forward: &forward, length, inverse, skin };
+                let geometry = WideGeometry { grid: &grid, forward: &forward, length, inverse, skin };
                 // SAFETY: AVX-512 F and VL are available (checked above); the slot arrays and
                 // `items` hold the n grains in cell order, `start` the cells' slot ranges.
                 unsafe { wide_cells(cells_here, &geometry, &start, &items, slots, &mut out) };
@@ -662,25 +681,10 @@ fn build_list<D: Dim>(pos: &[D::Vector], radius: &[f64], domain: &Domain<D>, ski
                             }
                         }
                     }
-                    for o in &forward {
-                        let mut nc = [0usize; 3];
-                        let mut inside = true;
-                        for k in 0..3 {
-                            let v = cc[k] as i64 + o[k];
-                            let m = counts[k] as i64;
-                            nc[k] = if periodic[k] {
-                                v.rem_euclid(m) as usize
-                            } else if (0..m).contains(&v) {
-                                v as usize
-                            } else {
-                                inside = false;
-                                0
-                            };
-                        }
-                        if !inside {
+                    for &o in &forward {
+                        let Some(f) = grid.offset_cell(cc, o) else {
                             continue;
-                        }
-                        let f = grid.flat(nc);
+                        };
                         for &i in here {
                             for &j in &items[start[f]..start[f + 1]] {
                                 if reach(i as usize, j as usize) {
@@ -752,8 +756,7 @@ struct CellOrder {
 /// What [`wide_cells`] needs of the cell grid and the periodic cell.
 #[cfg(target_arch = "x86_64")]
 struct WideGeometry<'a> {
-    counts: [usize; 3],
-    periodic: [bool; 3],
+    grid: &'a CellGrid,
     forward: &'a [[i64; 3]],
     length: [f64; 3],
     inverse: [f64; 3],
@@ -775,19 +778,15 @@ struct WideGeometry<'a> {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,avx512f,avx512vl,popcnt")]
 unsafe fn wide_cells(cells: std::ops::Range<usize>, geo: &WideGeometry<'_>, start: &[usize], items: &[u32], slots: &CellOrder, out: &mut Vec<(u32, u32)>) {
-    use crate::domain::{ROUND_LIMIT, ROUND_SHIFT};
+    use crate::simd512::{first_lanes, nearest_integer as nearest};
     use std::arch::x86_64::*;
-    let WideGeometry { counts, periodic, forward, length, inverse, skin } = *geo;
+    let WideGeometry { grid, forward, length, inverse, skin } = *geo;
+    let counts = grid.n;
     // SAFETY: the caller's contract; every slot read lies below n (runs come from `start`).
     unsafe {
         let (lx, ly, lz) = (_mm512_set1_pd(length[0]), _mm512_set1_pd(length[1]), _mm512_set1_pd(length[2]));
         let (ix, iy, iz) = (_mm512_set1_pd(inverse[0]), _mm512_set1_pd(inverse[1]), _mm512_set1_pd(inverse[2]));
-        let (limit, shift, skin_v) = (_mm512_set1_pd(ROUND_LIMIT), _mm512_set1_pd(ROUND_SHIFT), _mm512_set1_pd(skin));
-        // `nearest_integer` lane by lane: the clamp keeps NaN (NaN as second operand)
-        let nearest = |t: __m512d| {
-            let t = _mm512_min_pd(limit, _mm512_max_pd(_mm512_sub_pd(_mm512_setzero_pd(), limit), t));
-            _mm512_sub_pd(_mm512_add_pd(t, shift), shift)
-        };
+        let skin_v = _mm512_set1_pd(skin);
         let (sx, sy, sz, sr, sid) = (slots.x.as_ptr(), slots.y.as_ptr(), slots.z.as_ptr(), slots.r.as_ptr(), items.as_ptr());
         let mut hits = [0u32; 8];
         for c in cells {
@@ -799,25 +798,8 @@ unsafe fn wide_cells(cells: std::ops::Range<usize>, geo: &WideGeometry<'_>, star
             // the forward cells in cell order, then their slots as merged runs
             let mut nb = [0usize; 13];
             let mut m = 0;
-            for o in forward {
-                let mut f = 0usize;
-                let mut inside = true;
-                for k in (0..3).rev() {
-                    // one step off the grid at most: wrapped by a comparison, not a division
-                    let v = cc[k] as i64 + o[k];
-                    let w = counts[k] as i64;
-                    let v = if v < 0 {
-                        inside &= periodic[k];
-                        v + w
-                    } else if v >= w {
-                        inside &= periodic[k];
-                        v - w
-                    } else {
-                        v
-                    };
-                    f = f * counts[k] + v as usize;
-                }
-                if inside {
+            for &o in forward {
+                if let Some(f) = grid.offset_cell(cc, o) {
                     nb[m] = f;
                     m += 1;
                 }
@@ -847,7 +829,7 @@ unsafe fn wide_cells(cells: std::ops::Range<usize>, geo: &WideGeometry<'_>, star
                 for &(s, e) in std::iter::once(&own).chain(rest) {
                     let mut k = s;
                     while k < e {
-                        let live = (0xffu32 >> (8 - (e - k).min(8))) as __mmask8;
+                        let live = first_lanes(e - k);
                         let dx = _mm512_sub_pd(_mm512_maskz_loadu_pd(live, sx.add(k)), xi);
                         let dy = _mm512_sub_pd(_mm512_maskz_loadu_pd(live, sy.add(k)), yi);
                         let dz = _mm512_sub_pd(_mm512_maskz_loadu_pd(live, sz.add(k)), zi);
@@ -893,6 +875,13 @@ mod tests {
         v
     }
 
+    /// `n` grains uniform in the box [0, size), then their radii uniform in [0.1, 0.2).
+    fn random_3d(rng: &mut ChaCha8Rng, n: usize, size: DVec3) -> (Vec<DVec3>, Vec<f64>) {
+        let pos = (0..n).map(|_| DVec3::new(rng.random::<f64>() * size.x, rng.random::<f64>() * size.y, rng.random::<f64>() * size.z)).collect();
+        let rad = (0..n).map(|_| 0.1 + 0.1 * rng.random::<f64>()).collect();
+        (pos, rad)
+    }
+
     /// Every pair once, sorted.
     fn check<D: Dim>(pos: &[D::Vector], radius: &[f64], domain: &Domain<D>, skin: f64) {
         let list = build_list(pos, radius, domain, skin);
@@ -910,10 +899,7 @@ mod tests {
             check(&pos, &rad, &d2, 0.05);
             // small periodic box: fewer than 3 cells along an axis
             let d3: Domain<D3> = Domain::new(DVec3::ZERO, DVec3::new(1.3, 4.0, 2.0), periodic);
-            let pos: Vec<DVec3> = (0..200)
-                .map(|_| DVec3::new(rng.random::<f64>() * 1.3, rng.random::<f64>() * 4.0, rng.random::<f64>() * 2.0))
-                .collect();
-            let rad: Vec<f64> = (0..200).map(|_| 0.1 + 0.1 * rng.random::<f64>()).collect();
+            let (pos, rad) = random_3d(&mut rng, 200, DVec3::new(1.3, 4.0, 2.0));
             check(&pos, &rad, &d3, 0.1);
         }
         // sheared cells: x–y tilt (2D and 3D), and all three tilts in 3D, beyond half a cell
@@ -952,10 +938,7 @@ mod tests {
         let mut rng = ChaCha8Rng::seed_from_u64(11);
         for periodic in [[true; 3], [true, true, false], [false, true, true]] {
             let dom: Domain<D3> = Domain::new(DVec3::ZERO, DVec3::new(5.0, 4.5, 6.0), periodic);
-            let pos: Vec<DVec3> = (0..1500)
-                .map(|_| DVec3::new(rng.random::<f64>() * 5.0, rng.random::<f64>() * 4.5, rng.random::<f64>() * 6.0))
-                .collect();
-            let rad: Vec<f64> = (0..1500).map(|_| 0.1 + 0.1 * rng.random::<f64>()).collect();
+            let (pos, rad) = random_3d(&mut rng, 1500, DVec3::new(5.0, 4.5, 6.0));
             check(&pos, &rad, &dom, 0.1);
             // simple cubic lattice of spacing 0.5 = 0.2 + 0.2 + 0.1, the box a whole number of
             // spacings (neighbours across the faces at exactly the reach), plus a slightly

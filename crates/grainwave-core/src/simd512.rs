@@ -48,3 +48,25 @@ pub(crate) unsafe fn per_coordinate(v: [f64; 3]) -> [__m512d; 3] {
     // SAFETY: the caller's contract.
     unsafe { std::array::from_fn(|r| _mm512_setr_pd(e(r, 0), e(r, 1), e(r, 2), e(r, 3), e(r, 4), e(r, 5), e(r, 6), e(r, 7))) }
 }
+
+/// Mask of the first `n` of eight lanes (all eight for `n` ≥ 8).
+#[inline(always)]
+pub(crate) fn first_lanes(n: usize) -> __mmask8 {
+    (0xffu32 >> (8 - n.min(8))) as __mmask8
+}
+
+/// [`crate::domain::nearest_integer`] lane by lane: clamped to ±2⁵¹ keeping NaN (the constant
+/// first: NaN is the second operand of min and max), then shifted and back.
+///
+/// # Safety
+/// AVX-512 F is available.
+#[inline(always)]
+pub(crate) unsafe fn nearest_integer(t: __m512d) -> __m512d {
+    use crate::domain::{ROUND_LIMIT, ROUND_SHIFT};
+    // SAFETY: the caller's contract.
+    unsafe {
+        let (limit, shift) = (_mm512_set1_pd(ROUND_LIMIT), _mm512_set1_pd(ROUND_SHIFT));
+        let t = _mm512_min_pd(limit, _mm512_max_pd(_mm512_set1_pd(-ROUND_LIMIT), t));
+        _mm512_sub_pd(_mm512_add_pd(t, shift), shift)
+    }
+}

@@ -446,7 +446,7 @@ impl Lanes for Wide8 {
     #[inline(always)]
     unsafe fn first(p: *const f64, n: usize) -> Self {
         // SAFETY: the caller's contract; masked-off elements are not read.
-        unsafe { Wide8(_mm512_maskz_loadu_pd((0xffu32 >> (8 - n.min(8))) as __mmask8, p)) }
+        unsafe { Wide8(_mm512_maskz_loadu_pd(crate::simd512::first_lanes(n), p)) }
     }
     #[inline(always)]
     fn array(self) -> [f64; 8] {

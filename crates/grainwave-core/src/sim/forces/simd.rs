@@ -26,11 +26,7 @@ pub(super) fn available() -> bool {
 
 use crate::domain::{ROUND_LIMIT as LIMIT, ROUND_SHIFT as SHIFT};
 
-/// Mask of the first `n` lanes (n ≤ 8).
-#[inline(always)]
-fn first(n: usize) -> __mmask8 {
-    (0xffu32 >> (8 - n.min(8))) as __mmask8
-}
+use crate::simd512::first_lanes as first;
 
 /// Mask of the first `n` lanes, `n` clamped to 0..=8.
 #[inline(always)]
