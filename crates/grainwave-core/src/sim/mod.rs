@@ -389,8 +389,8 @@ impl<D: Dim> Simulation<D> {
         self.work.simd = level;
     }
 
-    /// A fingerprint of the force pass's close list as it stands (pairs, owners, partners and
-    /// block starts; 0 when there is none). Not part of the state: it exists to test that the
+    /// A fingerprint of the force pass's close list as it stands (pairs, owners, partners, block
+    /// starts, radii and reduced masses; 0 when there is none). Not part of the state: it exists to test that the
     /// element-wise and AVX-512 filters build the same list.
     #[doc(hidden)]
     pub fn close_list_fingerprint(&self) -> u64 {
