@@ -153,6 +153,15 @@ pub fn prepare(
             info.packing_fraction = packing_fraction(sim);
             info.seconds = base + started.elapsed().as_secs_f64();
             if info.max_force < pc.max_force && info.max_piston_force < pc.max_force {
+                // stiff walls while the pistons compress the gas; then the bottom, left and top
+                // walls become absorbing (SPEC §6.7) and the packing relaxes into them before
+                // the loading starts
+                if model::make_walls_absorbing(sim, &cfg.material) {
+                    // a full refresh (neighbour lists and forces), as a reloaded checkpoint does,
+                    // so that a run resumed after this point continues with the same bits
+                    sim.refresh()?;
+                    continue;
+                }
                 info.converged = true;
                 return Ok(true);
             }
@@ -197,8 +206,8 @@ pub fn prepare(
     }
 }
 
-/// Switches friction on and sets up the loading: the top wall moves at ε̇ H₀, the right wall is a
-/// piston under p* × height.
+/// Switches friction on and sets up the loading: the top wall moves at ε̇ H₀, the right wall
+/// is a piston under p* × height.
 pub fn start_loading(sim: &mut Simulation<D2>, cfg: &E2Config) -> Result<Loading> {
     sim.law = model::grain_law(&cfg.material, cfg.material.friction);
     let (_, h) = model::box_size(sim);

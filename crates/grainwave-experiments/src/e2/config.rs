@@ -95,7 +95,9 @@ pub struct MaterialConfig {
     pub rolling_friction: f64,
     /// Absorbing walls (SPEC §6.7): the bottom, left and top walls get soft, damped contacts
     /// (stiffness K_n/√N, dashpot `absorbing_damping` √(m̄ K_n)); the pulse-emitting right wall stays
-    /// stiff. For the whole run.
+    /// stiff. The preparation compresses the gas with stiff walls, then relaxes the packing into
+    /// the absorbing ones; the loading and every replay run with them. On by default, as in the
+    /// canonical protocol (false: stiff reflecting walls, a deviation).
     pub absorbing_walls: bool,
     /// Dashpot of an absorbing-wall contact [√(m̄ K_n)]. The default 0.85 makes the dashpots per unit
     /// wall length equal to the packing's acoustic impedance ρ* c ≈ (4Φ/π)(c/v_a)√(m̄K_n)/d̄ for
@@ -113,7 +115,7 @@ impl Default for MaterialConfig {
             friction: 0.2,
             rolling_stiffness: 1e-4,
             rolling_friction: 0.01,
-            absorbing_walls: false,
+            absorbing_walls: true,
             absorbing_damping: 0.85,
         }
     }
@@ -174,7 +176,9 @@ impl Direction {
 pub struct LoadingConfig {
     /// `compression` (top wall down) or `extension` (top wall up).
     pub direction: Direction,
-    /// Strain rate |ε̇_yy|: the top wall moves at ε̇ × (initial height) [1/t*].
+    /// Strain rate |ε̇_yy|: the top wall moves at ε̇ × (initial height) [1/t*]. The published rate
+    /// is 2e-5 (SPEC §6.2); a faster one is a deviation whose static-limit chain must slow down to
+    /// the published final rate (`velocity_scale` replays with `rate = 2e-8`).
     pub strain_rate: f64,
     /// Stop when |ε_yy| (from grain displacements) reaches this.
     pub final_strain: f64,
@@ -191,7 +195,7 @@ impl Default for LoadingConfig {
     fn default() -> Self {
         LoadingConfig {
             direction: Direction::Compression,
-            strain_rate: 1e-3,
+            strain_rate: 2e-5,
             final_strain: 0.01,
             checkpoint_strain: 1e-5,
             reference_strain: 1e-5,
@@ -213,7 +217,7 @@ pub struct SourceConfig {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
 #[serde(rename_all = "snake_case")]
 pub enum PulseShape {
-    /// f = p_a δ(t − t₀): an impulse p_a p* L_wall delivered in one step.
+    /// f = p_a δ(t − t₀), p_a a time in t*: the impulse p_a · p* · L_wall · t* delivered in one step.
     #[default]
     Delta,
     /// f(t) = p_a (3 − 6τ² + τ⁴) e^{−τ²/2}, τ = (t − t₀)/T.
@@ -307,8 +311,10 @@ pub struct ReplayConfig {
     /// `wall_pulse`: the wall that emits it, `right` (propagation along x) or `top` (along y; the
     /// top wall must be a piston: start `from` a `top_piston` replay).
     pub pulse_wall: PulseWall,
-    /// Amplitudes p_a of `wall_pulse` (positive: compression, negative: rarefaction), or relative
-    /// radius changes of `radius`; each gives its own paired replay.
+    /// Amplitudes of the paired replay, each its own pair. `wall_pulse` with `shape = "delta"`:
+    /// p_a, a time in t* (SPEC §6.4: p(t) = p*[1 + p_a δ(t)], the impulse p_a · p* · L_wall · t*
+    /// delivered in one step) [t*]; with `shape = "wavelet"`: the dimensionless peak of f(t).
+    /// Positive: compression, negative: rarefaction. `radius`: the relative radius change.
     pub amplitudes: Vec<f64>,
     /// Wavelet width T [t_a].
     pub width: f64,
@@ -316,6 +322,13 @@ pub struct ReplayConfig {
     pub delay: Option<f64>,
     /// `velocity_scale`: the factor γ.
     pub factor: f64,
+    /// `velocity_scale`: instead of `factor`, the strain rate to reach [1/t*]: γ = `rate` / the
+    /// current rate |v_top|/H of the top wall (SPEC §6.6: the final rates 2e-6, 2e-7, 2e-8 of the
+    /// published loading at 2e-5 × γ = 0.1, 0.01, 0.001, whatever rate the loading ran at).
+    pub rate: Option<f64>,
+    /// `velocity_scale`: instead of `duration`, run for the time of this extra strain Δε at the
+    /// reduced rate (SPEC §6.6: 2e-6, which restores the sliding contacts the scaling released).
+    pub extra_strain: Option<f64>,
     /// `friction`: the new μ.
     pub friction: f64,
     /// `wall_stop`: the stopping time t_s [t_a].
@@ -352,6 +365,8 @@ impl Default for ReplayConfig {
             width: 0.05,
             delay: None,
             factor: 0.1,
+            rate: None,
+            extra_strain: None,
             friction: 2.0,
             stop_time: 1.0,
             duration: 2.0,

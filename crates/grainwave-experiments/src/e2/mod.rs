@@ -164,6 +164,10 @@ pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
         if !(r.lobe_threshold > 0.0 && r.lobe_threshold <= 1.0) {
             return Err(src.error_at_key(&key("lobe_threshold"), format!("{} (allowed: a fraction 0 < f ≤ 1)", r.lobe_threshold)));
         }
+        if r.modification != config::Modification::VelocityScale && (r.rate.is_some() || r.extra_strain.is_some()) {
+            let k2 = if r.rate.is_some() { "rate" } else { "extra_strain" };
+            return Err(src.error_at_key(&key(k2), format!("given for a `{}` replay (allowed: only with modification = \"velocity_scale\")", r.modification.name())));
+        }
         match r.modification {
             config::Modification::WallPulse | config::Modification::Radius => {
                 if r.amplitudes.is_empty() {
@@ -179,7 +183,15 @@ pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
                     non_negative(src, &key("delay"), d)?;
                 }
             }
-            config::Modification::VelocityScale => non_negative(src, &key("factor"), r.factor)?,
+            config::Modification::VelocityScale => {
+                non_negative(src, &key("factor"), r.factor)?;
+                if let Some(v) = r.rate {
+                    positive(src, &key("rate"), v)?;
+                }
+                if let Some(v) = r.extra_strain {
+                    positive(src, &key("extra_strain"), v)?;
+                }
+            }
             config::Modification::Friction => non_negative(src, &key("friction"), r.friction)?,
             config::Modification::WallStop => positive(src, &key("stop_time"), r.stop_time)?,
             config::Modification::TopPiston => {}
@@ -258,12 +270,16 @@ pub fn describe(cfg: &E2Config) -> Vec<String> {
             ));
             let l = &cfg.loading;
             v.push(format!(
-                "loading      {} at |ε̇| = {} /t* to |ε_yy| = {}, checkpoints every {}",
+                "loading      {} at |ε̇| = {} /t* to |ε_yy| = {}, checkpoints every {}{}",
                 l.direction.name(),
                 l.strain_rate,
                 l.final_strain,
-                l.checkpoint_strain
+                l.checkpoint_strain,
+                if l.strain_rate != 2e-5 { " (published: 2e-5 /t*; slow down to the published final rate with `velocity_scale` `rate`)" } else { "" }
             ));
+            if !m.absorbing_walls {
+                v.push("walls        stiff, reflecting (the canonical protocol has absorbing top, left and bottom walls, SPEC §6.7)".into());
+            }
         }
     }
     for (k, r) in cfg.replays.iter().enumerate() {
@@ -374,7 +390,9 @@ impl E2State {
                     return Err(ctx.interrupted_error(TAG, self));
                 }
                 let k = self.replays.len();
-                let report = outputs::run_replay(ctx, &cfg, k, &source)?;
+                let Some(report) = outputs::run_replay(ctx, &cfg, k, &source)? else {
+                    return Err(ctx.interrupted_error(TAG, self));
+                };
                 if self.units.is_none() {
                     self.units = Some(report.units);
                 }

@@ -130,10 +130,33 @@ pub fn absorbing_wall_law(m: &MaterialConfig, grains: usize, mean_mass: f64) -> 
     }
 }
 
+/// Gives the bottom, left and top walls the absorbing law (SPEC §6.7) when
+/// `material.absorbing_walls` and they do not have it yet; returns whether it changed them. Called
+/// when the preparation with stiff walls has converged: the packing then relaxes into the soft
+/// walls (overlap ≈ p* d̄/(K_n/√N)) before the loading, which and every replay of it run with
+/// them. (Not from the start: pistons driving a gas into walls of stiffness K_n/√N overshoot them
+/// — at 64 × 64 the top wall's overlap reached 0.3 R; nor at the start of the loading: settling
+/// into the soft walls moves the grains by ≈ 0.03 d̄ at 64 × 64, a strain far above Δε = 1e−5.)
+pub fn make_walls_absorbing(sim: &mut Simulation<D2>, m: &MaterialConfig) -> bool {
+    if !m.absorbing_walls {
+        return false;
+    }
+    let n = sim.grains.len();
+    let law = absorbing_wall_law(m, n, sim.grains.total_mass() / n as f64);
+    if sim.domain.walls[BOTTOM].law == law {
+        return false;
+    }
+    for k in [BOTTOM, LEFT, TOP] {
+        sim.domain.walls[k].law = law;
+    }
+    true
+}
+
 /// The granular gas in its box (SPEC §6.2): N = columns × rows disks with diameters uniform in
 /// [1 − a, 1 + a], at random non-overlapping positions in a square of area Σπ R²/gas_fraction, at
 /// rest; walls bottom (fixed), left (fixed), right and top (pistons of mass `wall_mass` M* under
-/// p* × their length; all but the right one absorbing with `absorbing_walls`), gravity g (−1, −1)/√2 with M* g = `gravity` p* L*.
+/// p* × their length; all stiff: the absorbing walls of SPEC §6.7 are for the biaxial test and the
+/// replays, see [`make_walls_absorbing`]), gravity g (−1, −1)/√2 with M* g = `gravity` p* L*.
 pub fn build_gas(pk: &PackingConfig, m: &MaterialConfig, pc: &PreparationConfig, seed: u64) -> Result<Simulation<D2>> {
     let n = pk.columns * pk.rows;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -151,7 +174,7 @@ pub fn build_gas(pk: &PackingConfig, m: &MaterialConfig, pc: &PreparationConfig,
     }
     let total_mass = grains.total_mass();
     let wl = wall_law(m);
-    let soft = if m.absorbing_walls { absorbing_wall_law(m, n, total_mass / n as f64) } else { wl };
+    let soft = wl;
     let piston = |f: f64| WallMotion::Piston { mass: pc.wall_mass * total_mass, force: TimeFunction::constant(f) };
     let domain = Domain::new(glam::DVec2::new(0.0, 0.0), glam::DVec2::new(w, h), [false; 3])
         .with_wall(Wall::axis_aligned("bottom", 1, 0.0, true, soft))
@@ -172,7 +195,8 @@ pub fn build_gas(pk: &PackingConfig, m: &MaterialConfig, pc: &PreparationConfig,
 pub struct Pulse {
     /// δ or wavelet.
     pub shape: PulseShape,
-    /// p_a.
+    /// p_a in engine units: for a δ pulse a time [engine time] (the replay converts the
+    /// configured p_a, a time in t*, by t*), for a wavelet a dimensionless pressure fraction.
     pub amplitude: f64,
     /// Simulated time the pulse clock starts at.
     pub start: f64,
@@ -262,6 +286,32 @@ impl Drive {
         self.set_forces(sim);
         sim.step()
     }
+}
+
+/// Relative tolerance of [`mobilised_contacts`]: a contact counts as sliding at rest when
+/// |F_t| ≥ (1 − `MOBILISATION_TOLERANCE`) μ F_n (SPEC §6.2).
+pub const MOBILISATION_TOLERANCE: f64 = 1e-6;
+
+/// M_s at rest (SPEC §6.2): the grain–grain contacts whose friction is fully mobilised,
+/// |F_t| ≥ (1 − 1e−6) μ F_n, with μ the current grain–grain friction (0 when μ = 0). In a static
+/// state this is the count that matters: the engine's cap flag ([`Simulation::counters`]`.sliding`)
+/// is set only in the steps where the trial force exceeds the cap, which at rest depends on the
+/// last bit of the trial force (a contact held exactly at the Coulomb limit flips in and out of
+/// the flag). During motion the two counts agree to within the contacts that are just leaving or
+/// reaching the limit.
+pub fn mobilised_contacts(sim: &Simulation<D2>) -> u64 {
+    let mu = sim.law.friction;
+    if !(mu > 0.0) {
+        return 0;
+    }
+    sim.contact_records()
+        .iter()
+        .filter(|c| {
+            matches!(c.j, grainwave_core::snapshot::Counterpart::Grain(_))
+                && c.normal_force > 0.0
+                && c.tangential_force.length() >= (1.0 - MOBILISATION_TOLERANCE) * mu * c.normal_force
+        })
+        .count() as u64
 }
 
 /// Wall stresses [p*]: σ_xx = load on the right wall / height, σ_yy = load on the top wall / width

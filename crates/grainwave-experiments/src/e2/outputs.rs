@@ -68,6 +68,12 @@ pub struct PairReport {
     pub max_sliding_difference: i64,
     /// M_s(with) − M_s(without) at the end.
     pub final_sliding_difference: i64,
+    /// M_s at rest by mobilisation, |F_t| ≥ (1 − 1e−6) μ F_n (SPEC §6.2): at the start, and at
+    /// the end with and without the perturbation.
+    pub mobilised: [u64; 3],
+    /// The engine's cap flag count M_s at the start, and at the end with and without the
+    /// perturbation (differs from `mobilised` at rest; see docs/e2.md).
+    pub flagged: [u64; 3],
     /// Samples of the field.
     pub samples: usize,
     /// Files of this amplitude (relative to the output directory).
@@ -81,10 +87,17 @@ pub struct SingleReport {
     pub final_stress_yy: f64,
     /// σ_xx at the end [p*].
     pub final_stress_xx: f64,
-    /// M_s at the start and at the end.
+    /// M_s by the engine's cap flag at the start and at the end.
     pub sliding: [u64; 2],
+    /// M_s at rest by mobilisation, |F_t| ≥ (1 − 1e−6) μ F_n (SPEC §6.2), at the start and at the
+    /// end (the count to use for static states; see docs/e2.md).
+    pub mobilised: [u64; 2],
     /// Kinetic energy at the start and at the end [p* L*²].
     pub kinetic_energy: [f64; 2],
+    /// Velocity factor γ applied (`velocity_scale`; 1 otherwise).
+    pub factor: f64,
+    /// Duration of the replay [t_a].
+    pub duration: f64,
 }
 
 /// One `[[replays]]` entry.
@@ -237,7 +250,33 @@ fn write_csv(path: &Path, header: &str, rows: impl Iterator<Item = String>) -> R
 }
 
 /// Runs replay `k` of the config on the checkpoints of `source`, writing `replays/<name>/`.
-pub fn run_replay(ctx: &mut RunContext<'_>, cfg: &E2Config, k: usize, source: &Path) -> Result<ReplayReport> {
+/// Content tag of the progress file of a single replay.
+pub const PARTIAL_TAG: &str = "e2-single-replay-progress";
+
+/// The progress of a single replay (`replays/<name>/partial.gwck`).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct SinglePartial {
+    /// The engine state.
+    pub sim: Simulation<D2>,
+    /// The wall drive.
+    pub drive: model::Drive,
+    /// The series so far (time [t_a], σ_yy, σ_xx [p*], M_s, KE [p* L*²]).
+    pub rows: Vec<[f64; 5]>,
+    /// Steps done.
+    pub done: u64,
+    /// Simulated time at the start [engine time].
+    pub t0: f64,
+    /// Kinetic energy at the start [p* L*²].
+    pub ke0: f64,
+    /// M_s (cap flag) at the start.
+    pub m0: u64,
+    /// M_s (mobilised) at the start.
+    pub mob0: u64,
+}
+
+/// Runs replay `k` of `cfg` (checkpoints from `source`); None when interrupted (a single replay
+/// then leaves its progress in `replays/<name>/partial.gwck` for the resume).
+pub fn run_replay(ctx: &mut RunContext<'_>, cfg: &E2Config, k: usize, source: &Path) -> Result<Option<ReplayReport>> {
     let started = std::time::Instant::now();
     let rc = &cfg.replays[k];
     let name = rc.name.clone().unwrap_or(format!("r{k}"));
@@ -251,6 +290,31 @@ pub fn run_replay(ctx: &mut RunContext<'_>, cfg: &E2Config, k: usize, source: &P
     let u = ck.units;
     ctx.reporter.stage(&format!("replay {name}"), None);
     ctx.log(&format!("replay {name}: checkpoint {} (ε_yy = {:.4e}), {}", ck.index, ck.strain.1, rc.modification.name()));
+    // velocity_scale by a target rate and for an extra strain (SPEC §6.6)
+    let mut rc_eff = rc.clone();
+    if rc.modification == super::config::Modification::VelocityScale && (rc.rate.is_some() || rc.extra_strain.is_some()) {
+        let (_, h) = model::box_size(&ck.sim);
+        let rate = ck.sim.domain.walls[model::TOP].speed.abs() / h * u.time;
+        if !(rate > 0.0) {
+            return Err(ExperimentError::Resume {
+                path: source.to_path_buf(),
+                reason: format!("replay `{name}`: `rate`/`extra_strain` need a moving top wall, but it is at rest in the start state"),
+            });
+        }
+        if let Some(target) = rc.rate {
+            rc_eff.factor = target / rate;
+        }
+        if let Some(de) = rc.extra_strain {
+            rc_eff.duration = de / (rate * rc_eff.factor) * u.time / u.acoustic_time;
+        }
+        ctx.log(&format!(
+            "replay {name}: strain rate {rate:.4e} /t* × γ = {:.4e} → {:.4e} /t*, for {:.2} t_a",
+            rc_eff.factor,
+            rate * rc_eff.factor,
+            rc_eff.duration
+        ));
+    }
+    let rc = &rc_eff;
     let steps = (rc.duration * u.acoustic_time / ck.sim.dt).round().max(1.0) as u64;
     let sample_every = (rc.sample_interval * u.acoustic_time / ck.sim.dt).round().max(1.0) as u64;
     let mut report = ReplayReport {
@@ -372,6 +436,12 @@ pub fn run_replay(ctx: &mut RunContext<'_>, cfg: &E2Config, k: usize, source: &P
                 max_difference: r.max_difference / u.acoustic_velocity,
                 max_sliding_difference: max_sd,
                 final_sliding_difference: diff.last().copied().unwrap_or(0.0) as i64,
+                mobilised: r.mobilised,
+                flagged: [
+                    r.sliding.first().copied().unwrap_or(0),
+                    r.sliding.last().copied().unwrap_or(0),
+                    r.sliding_reference.last().copied().unwrap_or(0),
+                ],
                 samples: r.times.len(),
                 files,
             });
@@ -416,25 +486,58 @@ pub fn run_replay(ctx: &mut RunContext<'_>, cfg: &E2Config, k: usize, source: &P
             }
         }
     } else {
-        let mut sim = ck.sim.clone();
-        let mut drive = ck.drive.clone();
         let energy = u.pressure * u.length * u.length;
-        let ke0 = sim.kinetic_energy() / energy;
-        let m0 = sim.counters.sliding;
-        replay::apply_single(rc, &mut sim, &mut drive, &u, cfg)?;
-        let mut rows: Vec<[f64; 5]> = Vec::new();
-        let t0 = sim.time;
+        // a long single replay (the 100 t* of the slow-down at 128 × 128 take hours) saves its
+        // progress in `partial.gwck` every `output.save_every` seconds and when interrupted, and
+        // continues from it bit for bit on resume
+        let partial_path = dir.join("partial.gwck");
+        let mut p: SinglePartial = if partial_path.exists() {
+            let p: SinglePartial = grainwave_core::checkpoint::load(&partial_path, PARTIAL_TAG)?;
+            ctx.log(&format!("replay {name}: continuing from step {} of {steps} (partial.gwck)", p.done));
+            p
+        } else {
+            let mut sim = ck.sim.clone();
+            let mut drive = ck.drive.clone();
+            let ke0 = sim.kinetic_energy() / energy;
+            let m0 = sim.counters.sliding;
+            let mob0 = model::mobilised_contacts(&sim);
+            replay::apply_single(rc, &mut sim, &mut drive, &u, cfg)?;
+            let t0 = sim.time;
+            SinglePartial { sim, drive, rows: Vec::new(), done: 0, t0, ke0, m0, mob0 }
+        };
+        let t0 = p.t0;
         let record = |sim: &Simulation<D2>, rows: &mut Vec<[f64; 5]>| {
             let (sxx, syy) = model::wall_stresses(sim);
             rows.push([(sim.time - t0) / u.acoustic_time, syy / u.pressure, sxx / u.pressure, sim.counters.sliding as f64, sim.kinetic_energy() / energy]);
         };
-        record(&sim, &mut rows);
-        for s in 1..=steps {
-            drive.step(&mut sim)?;
-            if s % sample_every == 0 {
-                record(&sim, &mut rows);
+        if p.done == 0 && p.rows.is_empty() {
+            record(&p.sim, &mut p.rows);
+        }
+        let mut last_save = std::time::Instant::now();
+        // the series of a long single replay (the slow-down lasts 100 t* ≈ 4500 t_a) keeps at
+        // most ≈ 20 000 rows: sample_interval, or duration/20 000 if longer
+        let sample_every = sample_every.max(steps / 20_000);
+        while p.done < steps {
+            p.drive.step(&mut p.sim)?;
+            p.done += 1;
+            if p.done % sample_every == 0 {
+                record(&p.sim, &mut p.rows);
+            }
+            if p.done % 1000 == 0 && p.done < steps {
+                let interrupted = ctx.interrupted();
+                if interrupted || last_save.elapsed().as_secs_f64() >= cfg.output.save_every {
+                    grainwave_core::checkpoint::save(&partial_path, PARTIAL_TAG, &p)?;
+                    last_save = std::time::Instant::now();
+                }
+                if interrupted {
+                    return Ok(None);
+                }
+                if p.done % 100_000 == 0 {
+                    ctx.log_quiet(&format!("replay {name}: step {} of {steps}, KE {:.3e} p* L*²", p.done, p.sim.kinetic_energy() / energy));
+                }
             }
         }
+        let SinglePartial { sim, drive, rows, ke0, m0, mob0, .. } = p;
         let col = |k: usize| rows.iter().map(|r| r[k]).collect::<Vec<f64>>();
         let series =
             Series::from_columns(["time", "stress_yy", "stress_xx", "sliding", "kinetic_energy"].iter().enumerate().map(|(k, n)| (n.to_string(), col(k))))?;
@@ -456,19 +559,41 @@ pub fn run_replay(ctx: &mut RunContext<'_>, cfg: &E2Config, k: usize, source: &P
                 .save(&dir, "sliding")?;
         }
         let last = rows.last().expect("rows");
+        let mob1 = model::mobilised_contacts(&sim);
+        ctx.log(&format!(
+            "replay {name}: M_s (cap flag) {} → {}, M_s (mobilised, |F_t| ≥ (1 − 1e−6) μ F_n) {} → {}, KE {:.3e} → {:.3e} p* L*², over {:.1} t_a",
+            m0,
+            sim.counters.sliding,
+            mob0,
+            mob1,
+            ke0,
+            last[4],
+            last[0]
+        ));
         let end = StrainCheckpoint { index: ck.index, sim: sim.clone(), drive, strain: ck.strain, units: u };
         grainwave_core::checkpoint::save(&dir.join("final.gwck"), biaxial::CHECKPOINT_TAG, &end)?;
+        let _ = std::fs::remove_file(&partial_path);
         report.single =
-            Some(SingleReport { final_stress_yy: last[1], final_stress_xx: last[2], sliding: [m0, sim.counters.sliding], kinetic_energy: [ke0, last[4]] });
+            Some(SingleReport {
+            final_stress_yy: last[1],
+            final_stress_xx: last[2],
+            sliding: [m0, sim.counters.sliding],
+            mobilised: [mob0, mob1],
+            kinetic_energy: [ke0, last[4]],
+            factor: if rc.modification == super::config::Modification::VelocityScale { rc.factor } else { 1.0 },
+            duration: last[0],
+        });
     }
     report.seconds = started.elapsed().as_secs_f64();
-    Ok(report)
+    Ok(Some(report))
 }
 
 /// One amplitude of the Δc/c₀ decomposition (speeds in v_a of each replay's own source run).
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct StaticLimitRow {
-    /// p_a.
+    /// `compression` or `extension` (the sign of ε_yy of the deforming state's checkpoint).
+    pub direction: String,
+    /// p_a [t* for δ pulses] (its sign: compression > 0, rarefaction < 0).
     pub amplitude: f64,
     /// c₀ (undeformed) [v_a].
     pub undeformed: Option<f64>,
@@ -486,6 +611,8 @@ pub struct StaticLimitRow {
     pub strain_rate: Option<f64>,
     /// (c₀ − c_d)/c₀.
     pub total: Option<f64>,
+    /// M_s at rest (mobilised) of the static state before the pulse, and after it (with, without).
+    pub static_mobilised: [u64; 3],
 }
 
 /// One amplitude of the anisotropy table.
@@ -545,6 +672,7 @@ pub fn static_limit_rows(cfg: &E2Config, replays: &[ReplayReport]) -> Vec<Static
                 _ => None,
             };
             StaticLimitRow {
+                direction: if d.strain_yy >= 0.0 { "compression" } else { "extension" }.into(),
                 amplitude: u.pairs[k].amplitude,
                 undeformed: c0,
                 non_sliding: cns,
@@ -554,6 +682,7 @@ pub fn static_limit_rows(cfg: &E2Config, replays: &[ReplayReport]) -> Vec<Static
                 sliding: rel(cns, cs),
                 strain_rate: rel(cs, cd),
                 total: rel(c0, cd),
+                static_mobilised: st.pairs.get(k).map(|p| p.mobilised).unwrap_or_default(),
             }
         })
         .collect()
@@ -566,10 +695,11 @@ fn write_static_limit(dir: &Path, cfg: &E2Config, rows: &[StaticLimitRow]) -> Re
     let f = |x: Option<f64>| x.map(|v| format!("{v:.9e}")).unwrap_or_default();
     write_csv(
         &dir.join("static_limit.csv"),
-        "amplitude,undeformed,non_sliding,static,deforming,contact_loss,sliding,strain_rate,total",
+        "direction,amplitude,undeformed,non_sliding,static,deforming,contact_loss,sliding,strain_rate,total,static_mobilised_before,static_mobilised_after",
         rows.iter().map(|r| {
             format!(
-                "{:e},{},{},{},{},{},{},{},{}",
+                "{},{:e},{},{},{},{},{},{},{},{},{},{}",
+                r.direction,
                 r.amplitude,
                 f(r.undeformed),
                 f(r.non_sliding),
@@ -578,7 +708,9 @@ fn write_static_limit(dir: &Path, cfg: &E2Config, rows: &[StaticLimitRow]) -> Re
                 f(r.contact_loss),
                 f(r.sliding),
                 f(r.strain_rate),
-                f(r.total)
+                f(r.total),
+                r.static_mobilised[0],
+                r.static_mobilised[1]
             )
         }),
     )?;
@@ -616,6 +748,11 @@ fn unit_system() -> BTreeMap<String, String> {
         ("loading.*stress*", "p*"),
         ("loading.time", "t*"),
         ("replays.*.pairs.*.speed", "v_a"),
+        (
+            "replays.*.pairs.*.amplitude",
+            "wall_pulse delta: p_a, a time in t* (impulse p_a p* L_wall t*, SPEC §6.4); wall_pulse wavelet: dimensionless; radius: relative change",
+        ),
+        ("replays.*.pairs.*.mobilised / flagged", "contacts: M_s by |F_t| ≥ (1 − 1e−6) μ F_n / by the engine's cap flag"),
         ("static_limit.*", "v_a (speeds), fractions of c₀ (losses)"),
         ("replays.*.pairs.*.max_difference", "v_a"),
         ("replays.*.single.kinetic_energy", "p* L*²"),

@@ -24,6 +24,10 @@ pub enum Perturbation {
     WallPulse {
         /// δ or wavelet.
         shape: PulseShape,
+        /// The engine time of one t* (SPEC §6.4): a δ pulse of amplitude p_a (a time in t*)
+        /// delivers the impulse p_a · p* · L_wall · `time_unit` [engine time]. Unused by the
+        /// wavelet, whose p_a is a dimensionless pressure fraction.
+        time_unit: f64,
         /// t₀ after the start of the replay [engine time].
         delay: f64,
         /// Wavelet width T [engine time].
@@ -38,9 +42,15 @@ pub enum Perturbation {
 
 impl Perturbation {
     /// Applies the perturbation with `amplitude` to `sim` and `drive` at the start of a replay.
-    fn apply(&self, sim: &mut Simulation<D2>, drive: &mut Drive, amplitude: f64) -> Result<()> {
+    /// A δ pulse's p_a is converted from t* to engine time here, so that [`Pulse`] delivers the
+    /// impulse p_a · p* · L_wall · t* (SPEC §6.4).
+    pub fn apply(&self, sim: &mut Simulation<D2>, drive: &mut Drive, amplitude: f64) -> Result<()> {
         match *self {
-            Perturbation::WallPulse { shape, delay, width } => {
+            Perturbation::WallPulse { shape, time_unit, delay, width } => {
+                let amplitude = match shape {
+                    PulseShape::Delta => amplitude * time_unit,
+                    PulseShape::Wavelet => amplitude,
+                };
                 drive.pulse = Some(Pulse { shape, amplitude, start: sim.time, delay, width });
                 Ok(())
             }
@@ -72,6 +82,9 @@ pub struct PairResult {
     pub positions: Vec<DVec2>,
     /// State fingerprints of the two copies at the end.
     pub hashes: (u64, u64),
+    /// M_s at rest by mobilisation ([`model::mobilised_contacts`]): at the start (both copies),
+    /// and at the end of the perturbed and of the unperturbed copy.
+    pub mobilised: [u64; 3],
 }
 
 /// Runs the paired replay of `base` driven by `drive` for `steps` steps (see the module docs).
@@ -101,6 +114,7 @@ pub fn paired_replay(base: &Simulation<D2>, drive: &Drive, perturbation: &Pertur
         out.sliding.push(a.counters.sliding);
         out.sliding_reference.push(b.counters.sliding);
     };
+    out.mobilised[0] = model::mobilised_contacts(&with);
     sample(&with, &without, &mut out);
     grainwave_core::util::in_pool(|| -> Result<()> {
         for s in 1..=steps {
@@ -113,6 +127,8 @@ pub fn paired_replay(base: &Simulation<D2>, drive: &Drive, perturbation: &Pertur
         Ok(())
     })?;
     out.hashes = (with.state_hash(), without.state_hash());
+    out.mobilised[1] = model::mobilised_contacts(&with);
+    out.mobilised[2] = model::mobilised_contacts(&without);
     Ok(out)
 }
 
@@ -170,7 +186,7 @@ pub fn resolution_floor(positions: &[DVec2], u: &Units) -> f64 {
 pub fn arrivals(result: &PairResult, base: &Simulation<D2>, drive: &Drive, perturbation: &Perturbation, amplitude: f64, rc: &ReplayConfig, u: &Units) -> Arrivals {
     let (strips, fit_range) = (rc.strips, rc.fit_range);
     match perturbation {
-        Perturbation::WallPulse { shape, delay, width } => {
+        Perturbation::WallPulse { shape, delay, width, .. } => {
             let wall = &base.domain.walls[drive.pulse_wall];
             let component = if wall.normal.x.abs() >= wall.normal.y.abs() { 0 } else { 1 };
             let inward = if component == 0 { wall.normal.x } else { wall.normal.y };
@@ -220,7 +236,7 @@ pub fn perturbation_of(rc: &ReplayConfig, sim: &Simulation<D2>, u: &Units) -> Op
                 PulseShape::Delta => sim.dt,
                 PulseShape::Wavelet => 6.0 * width,
             });
-            Some(Perturbation::WallPulse { shape: rc.shape, delay, width })
+            Some(Perturbation::WallPulse { shape: rc.shape, time_unit: u.time, delay, width })
         }
         Modification::Radius => Some(Perturbation::Radius { grain: central_grain(sim) }),
         _ => None,
