@@ -370,3 +370,56 @@ fn config_errors_point_at_the_key() {
     let lines = registry::check(&ConfigSource::from_text("ok.toml", &base)).unwrap();
     assert!(lines.iter().any(|l| l.contains("37 grains")), "{lines:?}");
 }
+
+// ---------------------------------------------------------------------------------------------
+// Physics regressions of the published-comparison protocol (issue 18): the paper's lattice, the
+// first opening below the load, the raw-force verdict. An 8 × 20 slab (160 grains) with
+// frictionless walls, as in the published sweeps.
+
+fn paper_slab(rows: &str, friction: f64, ratio: f64, extra: &str) -> String {
+    format!(
+        r#"
+experiment = "e3"
+mode = "slab"
+
+[slab]
+layers = 8
+grains_per_layer = 20
+rows = "{rows}"
+
+[material]
+friction = {friction}
+tangential_stiffness_ratio = {ratio}
+wall_friction = 0.0
+
+[response]
+stress_field = false
+
+[output]
+vtk = false
+plots = false
+{extra}
+"#
+    )
+}
+
+/// Mean normal force of the horizontal grain–grain contacts of the reference state, rows 1 … L − 2
+/// (the floor row and the top row left out).
+fn mean_horizontal_force(out: &Path) -> (f64, usize) {
+    let units = out.join("units");
+    let case = std::fs::read_dir(&units).unwrap().next().unwrap().unwrap().path();
+    let r: e3::units::ReferenceResult = grainwave_core::checkpoint::load(&case.join("reference.gwck"), e3::units::REFERENCE_TAG).unwrap();
+    let snap = r.sim.snapshot();
+    let index = snap.index_by_id();
+    let mut forces = Vec::new();
+    for c in &snap.contacts {
+        if let grainwave_core::snapshot::Counterpart::Grain(_) = c.j {
+            let z = snap.pos[index[c.i as usize]].y;
+            let row = ((z - 1.0) / 3f64.sqrt()).round();
+            if c.normal.y.abs() < 0.1 && row >= 1.0 && row <= 6.0 {
+                forces.push(c.normal_force);
+            }
+        }
+    }
+    (forces.iter().sum::<f64>() / forces.len() as f64, forces.len())
+}
