@@ -114,8 +114,8 @@ pub struct ModuliReport {
 /// no smoothing, a central dip of any depth counts.
 ///
 /// With ΔF_z,k the floor-force changes of the floor contacts sorted by x (relative to the load),
-/// p₀ that of the contact nearest x = 0 (the one under the load), p_L and p_R the largest on its
-/// left and on its right: **double** when p₀ < min(p_L, p_R) (the centre is below a higher contact
+/// p₀ that of the contact under the load (see [`raw_floor_verdict`] for a load between two floor
+/// contacts), p_L and p_R the largest on its left and on its right: **double** when p₀ < min(p_L, p_R) (the centre is below a higher contact
 /// on each side), **single** when p₀ ≥ max(p_L, p_R) (the centre is the maximum), otherwise
 /// **irregular** (higher on one side only, e.g. an inclined force). The dip depth
 /// 1 − p₀/min(p_L, p_R) is reported signed: > 0 is the depth of the central dip, < 0 says by how
@@ -136,17 +136,23 @@ pub struct RawVerdict {
     pub right: [f64; 2],
 }
 
-/// The raw-force verdict of `floor` (see [`RawVerdict`]); None with fewer than three contacts.
+/// The raw-force verdict of `floor` (see [`RawVerdict`]); None without a contact on each side of
+/// the centre.
+///
+/// The centre is the floor contact nearest x = 0 — or, when the load stands between two floor
+/// contacts (slabs with an even number of rows: the bottom row is shifted by R̄ from the top row),
+/// both contacts within 0.5 R̄ of that distance, p₀ being the larger of them; "left" and "right"
+/// are the contacts beyond the central ones.
 pub fn raw_floor_verdict(floor: &[FloorContact]) -> Option<RawVerdict> {
     use grainwave_analysis::peaks::PeakShape;
     let mut pts: Vec<(f64, f64)> = floor.iter().map(|c| (c.x, c.after - c.reference)).collect();
     pts.sort_by(|a, b| a.0.total_cmp(&b.0));
-    if pts.len() < 3 {
-        return None;
-    }
-    let c = (0..pts.len()).min_by(|&a, &b| pts[a].0.abs().total_cmp(&pts[b].0.abs()))?;
+    let nearest = pts.iter().map(|p| p.0.abs()).fold(f64::INFINITY, f64::min);
+    let central: Vec<usize> = (0..pts.len()).filter(|&k| pts[k].0.abs() <= nearest + 0.5).collect();
+    let (&first, &last) = (central.first()?, central.last()?);
+    let c = central.iter().copied().max_by(|&a, &b| pts[a].1.total_cmp(&pts[b].1))?;
     let best = |r: &[(f64, f64)]| r.iter().copied().max_by(|a, b| a.1.total_cmp(&b.1));
-    let (left, right) = (best(&pts[..c])?, best(&pts[c + 1..])?);
+    let (left, right) = (best(&pts[..first])?, best(&pts[last + 1..])?);
     let p0 = pts[c].1;
     let low = left.1.min(right.1);
     let shape = if p0 < low {
@@ -464,5 +470,11 @@ mod tests {
         let v = raw_floor_verdict(&floor(&[(2.0, 1.2), (-2.0, 0.5), (0.0, 1.0), (4.0, 0.3)])).unwrap();
         assert_eq!(v.shape, PeakShape::Irregular);
         assert!(raw_floor_verdict(&floor(&[(0.0, 1.0), (2.0, 0.5)])).is_none());
+        // a load between two floor contacts (x = ±1): both are central, the larger is p₀
+        let v = raw_floor_verdict(&floor(&[(-5.0, 0.3), (-3.0, 0.9), (-1.0, 1.0), (1.0, 1.01), (3.0, 0.9), (5.0, 0.3)])).unwrap();
+        assert_eq!((v.shape, v.centre_x), (PeakShape::Single, 1.0));
+        let v = raw_floor_verdict(&floor(&[(-5.0, 0.3), (-3.0, 1.1), (-1.0, 1.0), (1.0, 0.98), (3.0, 1.05), (5.0, 0.3)])).unwrap();
+        assert_eq!(v.shape, PeakShape::Double);
+        assert!((v.dip - (1.0 - 1.0 / 1.05)).abs() < 1e-12);
     }
 }
