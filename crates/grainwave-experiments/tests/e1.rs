@@ -56,6 +56,8 @@ fn preparation_reaches_the_pressure_and_equilibrium() {
     let check = |name: &str, snap_stress: f64, p: f64, acc: f64, piston: f64, info: &PreparationInfo| {
         eprintln!("{name}: σ_axial/p − 1 = {:.2e}, max acceleration {acc:.2e}, piston {piston:.2e}, {} steps, {} quenches, {:.1} s", snap_stress / p - 1.0, info.steps, info.quenches, info.seconds);
         assert!(info.converged && acc < tol && piston < tol, "{name}: not in equilibrium");
+        // SPEC §5.1: plain damped MD by default — no velocity was ever zeroed
+        assert_eq!(info.quenches, 0, "{name}: the default preparation quenched");
         assert!((snap_stress / p - 1.0).abs() < 0.01, "{name}: σ_axial = {snap_stress:e} for p = {p:e}");
     };
     for (friction, pressure) in [(0.5, 1e-4), (0.0, 1e-5)] {
