@@ -105,6 +105,11 @@ fn pressures(src: &ConfigSource, key: &str, p: &[f64]) -> Result<(), ConfigError
     }
     for (k, &x) in p.iter().enumerate() {
         positive(src, &format!("{key}[{k}]"), x)?;
+        // pressures are in units of the contact modulus E*: a Hertz contact needs p ≪ E*, and
+        // p ≥ E* would overlap grains by more than their size (every sample would fail)
+        if x >= 1.0 {
+            return Err(err(src, &format!("{key}[{k}]"), format!("{x} (allowed: 0 < p < 1 in units of E*; Hertz contacts need p ≪ E*)")));
+        }
         if p[..k].contains(&x) {
             return Err(err(src, &format!("{key}[{k}]"), format!("{x} appears twice")));
         }
