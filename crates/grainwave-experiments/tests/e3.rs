@@ -182,9 +182,9 @@ plots = false
 #[test]
 fn lattice_elasticity_mode_matches_the_closed_form() {
     // Triangular lattice, spacing ℓ, cell area √3ℓ²/2; with x = kᵗ/kⁿ for every bond and
-    // horizontal bonds present, in units of kⁿℓ²/(8A): a = 9 + 3x, b = 9 + 3x, c = 3(1 − x),
-    // d = 3 + 3x (the horizontal bond adds 8 to a and 2x to d; the oblique ones give
-    // a = 1 + 3x, b = 9 + 3x, c = 3(1 − x), d = 3 + x).
+    // horizontal bonds present, in units of kⁿℓ²/(8A) (SPEC §7.3, d = 2 C_xzxz): a = 9 + 3x,
+    // b = 9 + 3x, c = 3(1 − x), d = 6 + 6x (the horizontal bond adds 8 to a and 4x to d; the
+    // oblique ones give a = 1 + 3x, b = 9 + 3x, c = 3(1 − x), d = 6 + 2x). Isotropic: r = 1.
     let text = r#"
 experiment = "e3"
 mode = "lattice_elasticity"
@@ -203,16 +203,24 @@ plots = false
     let m = &r["lattice"]["moduli"];
     let (k, l, x) = (3000.0, 2.0f64, 0.8);
     let unit = k * l * l / (8.0 * 3f64.sqrt() / 2.0 * l * l);
-    let (a, b, c, d) = (unit * (9.0 + 3.0 * x), unit * (9.0 + 3.0 * x), unit * 3.0 * (1.0 - x), unit * (3.0 + 3.0 * x));
+    let (a, b, c, d) = (unit * (9.0 + 3.0 * x), unit * (9.0 + 3.0 * x), unit * 3.0 * (1.0 - x), unit * (6.0 + 6.0 * x));
     for (key, v) in [("a", a), ("b", b), ("c", c), ("d", d)] {
         let got = m[key].as_f64().unwrap();
         assert!((got / v - 1.0).abs() < 1e-12, "{key}: {got} vs {v}");
     }
     let rr = (a * b - c * (d + c)) / (b * d);
     assert!((m["r"].as_f64().unwrap() - rr).abs() < 1e-12);
+    assert!((rr - 1.0).abs() < 1e-12, "isotropic network: r = {rr}");
     assert_eq!(r["lattice"]["verdict"], "single");
-    // the scan: without horizontal bonds, x = 0.1 is double-peaked (crossover at √84 − 9 = 0.165)
+    // the scan: with horizontal bonds r = 1; without, r = (x² + 10x − 3)/(x² + 6x + 9): x = 0.1 is
+    // double-peaked, 0.8 single (crossover at √28 − 5 = 0.2915)
     let scan = r["lattice"]["scan"].as_array().unwrap();
+    for row in scan {
+        let (x, with, without) = (row[0].as_f64().unwrap(), row[1].as_f64().unwrap(), row[2].as_f64().unwrap());
+        assert!((with - 1.0).abs() < 1e-12, "x = {x}: r with horizontals = {with}");
+        let closed = (x * x + 10.0 * x - 3.0) / (x * x + 6.0 * x + 9.0);
+        assert!((without - closed).abs() < 1e-12, "x = {x}: r without horizontals = {without} vs {closed}");
+    }
     assert!(scan[0][2].as_f64().unwrap() < 0.0 && scan[1][2].as_f64().unwrap() > 0.0);
 }
 

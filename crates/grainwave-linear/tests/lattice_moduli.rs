@@ -38,28 +38,31 @@ fn triangular_spring_network_has_textbook_lame_constants() {
                 assert!((c[i][j] - expected[i][j]).abs() < 1e-14, "k = ({k_n}, {k_t}): C[{i}][{j}] = {} vs {}", c[i][j], expected[i][j]);
             }
         }
-        // isotropic half-plane: r = (3λ + 4μ)/(λ + 2μ) > 0, single-peaked response
+        // isotropic half-plane: d = 2μ, r = 1, single-peaked response
         let m = net.moduli();
-        assert!((m.r() - (3.0 * lambda + 4.0 * mu) / (lambda + 2.0 * mu)).abs() < 1e-13);
+        assert!((m.d - 2.0 * mu).abs() < 1e-14);
+        assert!((m.r() - 1.0).abs() < 1e-13);
         assert!(!m.double_peaked());
     }
 }
 
 /// Opening the horizontal contacts (k₁ = 0) of a central-force lattice gives, from the two oblique
-/// bonds alone, a = k/(4√3), b = 9k/(4√3), c = d = 3k/(4√3), hence r = (9 − 18)/27 = −1/3: a
-/// double-peaked response (SPEC §7.3).
+/// bonds alone, a = k/(4√3), b = 9k/(4√3), c = 3k/(4√3), d = 2 C_xzxz = 6k/(4√3), hence
+/// r = (9 − 3·9)/54 = −1/3: a double-peaked response (SPEC §7.3).
 #[test]
 fn open_horizontal_contacts_give_a_double_peaked_response() {
     let m = SpringNetwork::triangular(1.0, (0.0, 0.0), (1.0, 0.0)).moduli();
     let u = 1.0 / (4.0 * 3f64.sqrt());
-    for (got, want) in [(m.a, u), (m.b, 9.0 * u), (m.c, 3.0 * u), (m.d, 3.0 * u)] {
+    for (got, want) in [(m.a, u), (m.b, 9.0 * u), (m.c, 3.0 * u), (m.d, 6.0 * u)] {
         assert!((got - want).abs() < 1e-15, "{m:?}");
     }
     assert!((m.r() + 1.0 / 3.0).abs() < 1e-14 && m.double_peaked());
     // r as a function of the horizontal stiffness changes sign in between
     let r_of = |k1: f64| SpringNetwork::triangular(1.0, (k1, 0.0), (1.0, 0.0)).moduli().r();
     assert!(r_of(0.0) < 0.0 && r_of(1.0) > 0.0);
-    let _ = AnisotropicModuli::from_voigt(&[vec![1.0, 0.0, 0.0], vec![0.0, 1.0, 0.0], vec![0.0, 0.0, 1.0]]);
+    // d is twice the Voigt shear entry
+    let m = AnisotropicModuli::from_voigt(&[vec![1.0, 0.0, 0.0], vec![0.0, 1.0, 0.0], vec![0.0, 0.0, 1.0]]);
+    assert_eq!(m.d, 2.0);
 }
 
 /// A perfect, periodic triangular packing of equal disks (Hooke contacts, spacing 1): moduli from
