@@ -258,3 +258,31 @@ fn static_solves_honour_imposed_displacements() {
     let scale = f.iter().fold(0.0_f64, |a, b| a.max(b.abs()));
     assert!(err < 1e-9 * scale, "{err:e}");
 }
+
+/// SPEC §5.6 closed forms of the lattice speed against the lattice's own stiffnesses: the
+/// equilibrium geometry (spacing a, bond force F, Hertz overlap ξ) gives k_n = (3/2)F/ξ and, with
+/// friction, the Mindlin k_t = k_n (ν = 0); the continuum speed of the triangular spring network,
+/// c² = (λ + 2μ)/ρ₂ with ρ₂ = m/(√3a²/2), must approach the closed form as p → 0: the closed form
+/// sets a = d̄ and neglects the overlap, a relative error O(ξ) ~ (√3 p)^(2/3) (≈ 1.4e-4 at
+/// p = 1e-6, 3e-3 at 1e-4), so the tolerance is 2 ξ. The frictional/frictionless ratio is √(4/3)
+/// exactly.
+#[test]
+fn lattice_speed_closed_forms_match_the_spring_network() {
+    for p in [1e-7, 1e-6, 1e-5, 1e-4] {
+        for friction in [0.0, 0.5] {
+            let spec = TriangularLatticeSpec { pressure: p, friction, ..Default::default() };
+            let g = spec.geometry();
+            let k_n = 1.5 * g.contact_force / g.overlap;
+            let k_t = if friction > 0.0 { k_n } else { 0.0 };
+            let net = SpringNetwork::triangular(g.spacing, (k_n, k_t), (k_n, k_t));
+            let c22 = net.affine_voigt()[1][1];
+            let m = std::f64::consts::PI / 6.0;
+            let rho = m / (3f64.sqrt() / 2.0 * g.spacing * g.spacing);
+            let c = (c22 / rho).sqrt();
+            let closed = spec.closed_form_speed();
+            assert!((c / closed - 1.0).abs() < 2.0 * g.overlap, "p = {p}, μ = {friction}: network {c} vs closed form {closed}");
+        }
+        let ratio = TriangularLatticeSpec { pressure: p, friction: 0.5, ..Default::default() }.closed_form_speed() / TriangularLatticeSpec { pressure: p, friction: 0.0, ..Default::default() }.closed_form_speed();
+        assert!((ratio - (4.0f64 / 3.0).sqrt()).abs() < 1e-14);
+    }
+}

@@ -56,6 +56,7 @@ fn non_negative(src: &ConfigSource, key: &str, v: f64) -> Result<(), ConfigError
 /// Parses and validates an `e3` config.
 pub fn prepare(src: &ConfigSource) -> Result<E3Config, ConfigError> {
     let cfg: E3Config = src.parse()?;
+    crate::limits::e3(src, &cfg)?;
     if cfg.experiment != "e3" {
         return Err(src.error_at_key("experiment", format!("this protocol is `e3`, not `{}`", cfg.experiment)));
     }
