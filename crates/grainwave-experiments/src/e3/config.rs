@@ -124,7 +124,7 @@ pub struct SlabConfig {
     /// shifted by R̄, box (2M + 1)R̄ wide, each row touching one side wall; 900 grains for 15 × 60)
     /// or `alternating_m_and_m_minus_1` (rows of M and M − 1 grains in turn, box 2MR̄ wide,
     /// mirror-symmetric, both walls touched by the long rows only; 892 grains for 15 × 60 — a
-    /// different system: under friction its horizontal contacts carry almost no force).
+    /// different system).
     pub rows: RowLayout,
 }
 
