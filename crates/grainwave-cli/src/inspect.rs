@@ -222,7 +222,14 @@ fn describe_dir(dir: &Path) -> Result<Vec<String>> {
                 ));
             }
         }
-    } else if dir.join("checkpoint.gwck").exists() {
+    }
+    if let Some(why) = grainwave_experiments::protocol::failure_of(dir) {
+        v.push(format!("  FAILED: {}", why.lines().next().unwrap_or("")));
+        for l in why.lines().skip(1).take(20) {
+            v.push(format!("    {l}"));
+        }
+        v.push(format!("  (`grainwave resume --retry {}` tries again after a change; `run --overwrite` starts afresh)", dir.display()));
+    } else if !dir.join("summary.json").exists() && dir.join("checkpoint.gwck").exists() {
         v.push("  no summary.json yet: the run is in progress or was interrupted (`grainwave resume` continues it)".into());
     }
     let mut entries: Vec<_> = std::fs::read_dir(dir)?.filter_map(|e| e.ok()).collect();

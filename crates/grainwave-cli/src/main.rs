@@ -12,7 +12,7 @@ mod progress;
 use anyhow::{Context, Result};
 use clap::{Args, CommandFactory, Parser, Subcommand};
 use grainwave_experiments::config::ConfigSource;
-use grainwave_experiments::protocol::RunContext;
+use grainwave_experiments::protocol::{RunContext, UsedDirectory};
 use grainwave_experiments::registry::{self, RunSummary};
 use grainwave_experiments::ExperimentError;
 use progress::CliReporter;
@@ -34,6 +34,11 @@ struct Cli {
     #[arg(long, short, global = true)]
     quiet: bool,
 
+    /// Lift the soft limits on sizes (grains, samples, points; see docs/config.md). Sizes that
+    /// need more memory than the machine has available stay refused.
+    #[arg(long, global = true)]
+    allow_large: bool,
+
     #[command(subcommand)]
     command: Command,
 }
@@ -53,6 +58,10 @@ enum Command {
     Resume {
         /// The output directory of the run.
         dir: PathBuf,
+        /// Resume a run that failed (its directory holds `run.failed`), after changing what made
+        /// it fail.
+        #[arg(long)]
+        retry: bool,
     },
     /// Say what a checkpoint, config or output directory holds
     Inspect {
@@ -80,9 +89,13 @@ enum Command {
 struct RunArgs {
     /// The config file (TOML).
     config: PathBuf,
-    /// Output directory (default: grainwave-out/<config file name>).
+    /// Output directory (default: grainwave-out/<config file name>). A directory holding the
+    /// outputs of an earlier run is refused unless `--overwrite` is given.
     #[arg(long, value_name = "DIR")]
     out: Option<PathBuf>,
+    /// Remove the outputs of an earlier run from the output directory before running.
+    #[arg(long)]
+    overwrite: bool,
 }
 
 #[derive(Debug, Args)]
@@ -163,6 +176,7 @@ fn error_chain(err: &anyhow::Error) -> String {
 }
 
 fn run(cli: &Cli) -> Result<()> {
+    grainwave_experiments::limits::set_allow_large(cli.allow_large);
     if let Some(n) = cli.threads {
         rayon::ThreadPoolBuilder::new()
             .num_threads(n)
@@ -173,14 +187,30 @@ fn run(cli: &Cli) -> Result<()> {
         Command::Run(args) => {
             let src = ConfigSource::from_file(&args.config).map_err(ExperimentError::from)?;
             let out = args.out.clone().unwrap_or_else(|| default_out(&args.config));
-            execute(cli.quiet, &out, |ctx| registry::run(&src, ctx))
+            // validate before touching the output directory: a refused config changes nothing there
+            registry::check(&src).map_err(ExperimentError::from)?;
+            let mode = if args.overwrite { UsedDirectory::Overwrite } else { UsedDirectory::Refuse };
+            execute(cli.quiet, &out, mode, |ctx| registry::run(&src, ctx))
         }
-        Command::Demo(args) => execute(cli.quiet, &args.out, |ctx| grainwave_experiments::demo::run_demo(ctx)),
-        Command::Resume { dir } => {
+        Command::Demo(args) => execute(cli.quiet, &args.out, UsedDirectory::Keep, |ctx| grainwave_experiments::demo::run_demo(ctx)),
+        Command::Resume { dir, retry } => {
             if !dir.is_dir() {
                 return Err(BadInput(format!("`{}` is not a directory (give the output directory of the run)", dir.display())).into());
             }
-            execute(cli.quiet, dir, |ctx| registry::resume(dir, ctx))
+            if let Some(why) = grainwave_experiments::protocol::failure_of(dir) {
+                if !retry {
+                    let first = why.lines().next().unwrap_or("").to_string();
+                    return Err(ExperimentError::Resume {
+                        path: dir.clone(),
+                        reason: format!("the run failed: {first} (see run.log; `grainwave resume --retry {}` tries again)", dir.display()),
+                    }
+                    .into());
+                }
+            }
+            execute(cli.quiet, dir, UsedDirectory::Keep, |ctx| {
+                ctx.clear_failed();
+                registry::resume(dir, ctx)
+            })
         }
         Command::Check { config } => {
             let src = ConfigSource::from_file(config).map_err(ExperimentError::from)?;
@@ -229,7 +259,7 @@ fn default_out(config: &Path) -> PathBuf {
 }
 
 /// Runs a protocol with progress display and Ctrl-C handling, then prints its summary.
-fn execute(quiet: bool, out: &Path, work: impl FnOnce(&mut RunContext<'_>) -> grainwave_experiments::Result<RunSummary> + Send) -> Result<()> {
+fn execute(quiet: bool, out: &Path, mode: UsedDirectory, work: impl FnOnce(&mut RunContext<'_>) -> grainwave_experiments::Result<RunSummary> + Send) -> Result<()> {
     let interrupt = Arc::new(AtomicBool::new(false));
     {
         let flag = interrupt.clone();
@@ -246,9 +276,18 @@ fn execute(quiet: bool, out: &Path, work: impl FnOnce(&mut RunContext<'_>) -> gr
     let mut reporter = CliReporter::new(quiet);
     let started = std::time::Instant::now();
     let result = {
-        let mut ctx = RunContext::new(out, &mut reporter, interrupt).map_err(|e| BadInput(format!("cannot use `{}`: {e}", out.display())))?;
+        let mut ctx = match RunContext::open(out, &mut reporter, interrupt, mode) {
+            Ok(ctx) => ctx,
+            Err(e) if e.is_input_error() => return Err(e.into()),
+            // an output directory that cannot be created or written is the user's to fix: exit 2
+            Err(e) => return Err(BadInput(format!("cannot use `{}`: {}", out.display(), error_chain(&anyhow::Error::new(e)).trim_start_matches("error: "))).into()),
+        };
         // Enter the thread pool once for the whole run (parallel loops then start in place).
-        rayon::scope(|_| work(&mut ctx))
+        let result = rayon::scope(|_| work(&mut ctx));
+        if let Err(e) = &result {
+            ctx.mark_failed(e);
+        }
+        result
     };
     reporter.finish();
     let summary = result?;

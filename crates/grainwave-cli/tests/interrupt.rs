@@ -44,7 +44,7 @@ fn resume(dir: &Path) {
     assert!(st.success(), "resume failed: {st}");
 }
 
-/// The result files of a run, by name (the log is excluded: it records wall-clock times).
+/// The result files of a run, by name (the log and the lock file are excluded).
 fn results(dir: &Path) -> Vec<(String, Vec<u8>)> {
     let mut files = Vec::new();
     let mut stack = vec![dir.to_path_buf()];
@@ -56,7 +56,8 @@ fn results(dir: &Path) -> Vec<(String, Vec<u8>)> {
             } else {
                 let name = p.strip_prefix(dir).unwrap().display().to_string();
                 assert!(!name.contains(".tmp"), "a temporary file was left behind: {name}");
-                if name != "run.log" {
+                // the log records wall-clock times, the lock file the pid of its last holder
+                if name != "run.log" && name != ".grainwave.lock" {
                     files.push((name, std::fs::read(&p).unwrap()));
                 }
             }

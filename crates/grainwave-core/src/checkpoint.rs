@@ -101,6 +101,10 @@ pub fn verify<'a>(bytes: &'a [u8], path: &str) -> Result<(String, &'a [u8])> {
         return Err(bad(format!("format version {version}, but this grainwave reads version {FORMAT_VERSION}")));
     }
     let tag_len = u32::from_le_bytes(bytes[12..16].try_into().unwrap()) as usize;
+    if tag_len > 256 {
+        // content tags are short names; a long one is a corrupted header (and is not echoed)
+        return Err(bad(format!("corrupted header (content tag of {tag_len} bytes)")));
+    }
     let head = 16 + tag_len + 12;
     if bytes.len() < head {
         return Err(bad("truncated header".into()));
@@ -109,8 +113,11 @@ pub fn verify<'a>(bytes: &'a [u8], path: &str) -> Result<(String, &'a [u8])> {
     let len = u64::from_le_bytes(bytes[16 + tag_len..24 + tag_len].try_into().unwrap()) as usize;
     let crc = u32::from_le_bytes(bytes[24 + tag_len..28 + tag_len].try_into().unwrap());
     let body = &bytes[head..];
-    if body.len() != len {
+    if body.len() < len {
         return Err(bad(format!("truncated: payload has {} bytes, header says {len}", body.len())));
+    }
+    if body.len() > len {
+        return Err(bad(format!("{} bytes after the end of the payload (header says {len}): the file was appended to or corrupted", body.len() - len)));
     }
     let mut h = crc32fast::Hasher::new();
     h.update(tag.as_bytes());
@@ -127,7 +134,16 @@ pub fn decode<T: DeserializeOwned>(bytes: &[u8], tag: &str, path: &str) -> Resul
     if found != tag {
         return Err(CoreError::Checkpoint { path: path.into(), reason: format!("holds `{found}`, expected `{tag}`") });
     }
-    bincode::deserialize(body).map_err(|e| CoreError::Checkpoint { path: path.into(), reason: format!("cannot decode state: {e}") })
+    // bincode's own defaults (fixed-width integers, trailing bytes allowed) with a size limit:
+    // no length field inside the payload can make the decoder allocate more than the payload's
+    // own size, whatever the bytes
+    use bincode::Options;
+    bincode::DefaultOptions::new()
+        .with_fixint_encoding()
+        .allow_trailing_bytes()
+        .with_limit(body.len() as u64)
+        .deserialize(body)
+        .map_err(|e| CoreError::Checkpoint { path: path.into(), reason: format!("cannot decode state: {e}") })
 }
 
 /// Writes any serializable state atomically as a checkpoint with content tag `tag`.
@@ -204,5 +220,39 @@ mod tests {
         atomic_write(&dir.join("out.bin"), b"abc").unwrap();
         assert_eq!(std::fs::read(dir.join("out.bin")).unwrap(), b"abc");
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn appended_bytes_huge_lengths_and_long_tags_are_refused_by_name() {
+        let bytes = encode("state", &vec![1.5f64, 2.5]).unwrap();
+        assert_eq!(decode::<Vec<f64>>(&bytes, "state", "c").unwrap(), vec![1.5, 2.5]);
+        // before: bytes appended were reported as "truncated"
+        let mut longer = bytes.clone();
+        longer.extend_from_slice(b"junk");
+        let e = decode::<Vec<f64>>(&longer, "state", "c").unwrap_err().to_string();
+        assert!(e.contains("4 bytes after the end of the payload"), "{e}");
+        let e = decode::<Vec<f64>>(&bytes[..bytes.len() - 3], "state", "c").unwrap_err().to_string();
+        assert!(e.contains("truncated"), "{e}");
+        // a payload whose vector length claims 2^60 elements, with a valid checksum: refused by
+        // the size limit, nothing allocated for the claim
+        let mut body = (1u64 << 60).to_le_bytes().to_vec();
+        body.extend_from_slice(&1.0f64.to_le_bytes());
+        let mut crc = crc32fast::Hasher::new();
+        crc.update(b"state");
+        crc.update(&body);
+        let mut forged = MAGIC.to_vec();
+        forged.extend_from_slice(&FORMAT_VERSION.to_le_bytes());
+        forged.extend_from_slice(&5u32.to_le_bytes());
+        forged.extend_from_slice(b"state");
+        forged.extend_from_slice(&(body.len() as u64).to_le_bytes());
+        forged.extend_from_slice(&crc.finalize().to_le_bytes());
+        forged.extend_from_slice(&body);
+        let e = decode::<Vec<f64>>(&forged, "state", "c").unwrap_err().to_string();
+        assert!(e.contains("cannot decode state"), "{e}");
+        // a content tag length of 3 GB is not echoed
+        let mut long_tag = bytes.clone();
+        long_tag[12..16].copy_from_slice(&3_000_000_000u32.to_le_bytes());
+        let e = decode::<Vec<f64>>(&long_tag, "state", "c").unwrap_err().to_string();
+        assert!(e.contains("content tag of 3000000000 bytes"), "{e}");
     }
 }

@@ -19,8 +19,6 @@ pub fn random_gas<D: Dim>(
 ) -> Result<Vec<D::Vector>> {
     let n = radii.len();
     let r_max = radii.iter().cloned().fold(0.0, f64::max);
-    let cell = 2.0 * r_max;
-    let mut dims = [1usize; 3];
     for k in 0..D::D {
         let l = hi.get(k) - lo.get(k);
         if !(l > 0.0) {
@@ -29,7 +27,25 @@ pub fn random_gas<D: Dim>(
         if !periodic[k] && l < 2.0 * r_max {
             return Err(CoreError::invalid(format!("box size[{k}]"), l, format!("at least the largest diameter {}", 2.0 * r_max)));
         }
-        dims[k] = ((l / cell).floor() as usize).max(1);
+    }
+    // Cell edge ≥ the largest diameter (so the search reaches one cell in every direction); in
+    // a sparse box the edge grows until there are at most a few cells per grain, so the grid's
+    // size is bounded by the grain count whatever the box size. The overlap test is exact, so
+    // the cell size does not change which positions are accepted.
+    let mut cell = 2.0 * r_max;
+    let cap = (4 * n).max(27);
+    let mut dims = [1usize; 3];
+    loop {
+        let mut total = 1usize;
+        for k in 0..D::D {
+            let l = hi.get(k) - lo.get(k);
+            dims[k] = ((l / cell).floor().min(usize::MAX as f64) as usize).max(1);
+            total = total.saturating_mul(dims[k]);
+        }
+        if total <= cap {
+            break;
+        }
+        cell *= 1.26;
     }
     let size: Vec<f64> = (0..3).map(|k| if k < D::D { (hi.get(k) - lo.get(k)) / dims[k] as f64 } else { 1.0 }).collect();
     let mut grid: Vec<Vec<u32>> = vec![Vec::new(); dims[0] * dims[1] * dims[2]];

@@ -28,6 +28,31 @@ pub enum ExperimentError {
         /// The output directory.
         dir: PathBuf,
     },
+    /// Every unit of work (sample, run) failed: there is nothing to aggregate. The failures are
+    /// listed (and written to `run.log`).
+    #[error("every one of the {} {what} failed; nothing to aggregate:{}", .failures.len(), .failures.iter().map(|f| format!("\n    {f}")).collect::<String>())]
+    AllFailed {
+        /// What failed, in the plural ("samples").
+        what: String,
+        /// One line per failure: name and reason.
+        failures: Vec<String>,
+    },
+    /// Another process is running in the output directory (it holds the directory's lock).
+    #[error("`{}` is in use by another grainwave process ({holder}); wait for it to end or give another output directory", .dir.display())]
+    Busy {
+        /// The directory.
+        dir: PathBuf,
+        /// What the lock file says about its holder (`pid N`).
+        holder: String,
+    },
+    /// A new run cannot use the output directory.
+    #[error("cannot run into `{}`: {reason}", .dir.display())]
+    UsedDirectory {
+        /// The directory.
+        dir: PathBuf,
+        /// Why, and what to do.
+        reason: String,
+    },
     /// A directory or checkpoint cannot be resumed.
     #[error("cannot resume `{}`: {reason}", .path.display())]
     Resume {
@@ -52,7 +77,9 @@ impl ExperimentError {
             self,
             ExperimentError::Config(_)
                 | ExperimentError::Resume { .. }
-                | ExperimentError::Core(CoreError::InvalidParameter { .. } | CoreError::UnknownName { .. } | CoreError::Inconsistent(_))
+                | ExperimentError::Busy { .. }
+                | ExperimentError::UsedDirectory { .. }
+                | ExperimentError::Core(CoreError::InvalidParameter { .. } | CoreError::UnknownName { .. } | CoreError::Inconsistent(_) | CoreError::InitialOverlap { .. })
         )
     }
 }

@@ -19,6 +19,89 @@ use std::sync::Arc;
 pub const CHECKPOINT_FILE: &str = "checkpoint.gwck";
 /// Name of the log file in an output directory.
 pub const LOG_FILE: &str = "run.log";
+/// Name of the lock file in an output directory: held (an advisory `flock`-style lock) by the
+/// process running in the directory, released by the system when that process ends in any way,
+/// so a lock is never stale.
+pub const LOCK_FILE: &str = ".grainwave.lock";
+/// Name of the marker of a failed run (a numerical blow-up, every sample failed…): it holds the
+/// diagnosis. `grainwave inspect` reports it; `grainwave resume` refuses the directory unless
+/// told `--retry`.
+pub const FAILED_FILE: &str = "run.failed";
+/// Files whose presence marks a directory as a grainwave output directory.
+pub const OUTPUT_MARKERS: &[&str] = &[CHECKPOINT_FILE, LOG_FILE, FAILED_FILE, "config.resolved.toml", "summary.json"];
+
+/// The diagnosis recorded in `dir`'s failure marker, if the run there failed.
+pub fn failure_of(dir: &Path) -> Option<String> {
+    std::fs::read_to_string(dir.join(FAILED_FILE)).ok().map(|t| crate::config::clip(t.trim(), 2000))
+}
+
+/// What a new run does with a directory that holds the outputs of an earlier run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum UsedDirectory {
+    /// Use it as it is: files of the same name are replaced (the demo; a resume).
+    Keep,
+    /// Refuse (exit code 2), naming `--overwrite` and `resume`.
+    Refuse,
+    /// Remove its contents first.
+    Overwrite,
+}
+
+/// Takes the lock of output directory `out` (which exists): refused with
+/// [`ExperimentError::Busy`] while another process holds it.
+fn lock_directory(out: &Path) -> Result<std::fs::File> {
+    let path = out.join(LOCK_FILE);
+    let io = |action: &str, e| grainwave_core::CoreError::Io { action: action.into(), path: path.display().to_string(), error: e };
+    let mut f = std::fs::OpenOptions::new().create(true).truncate(false).read(true).write(true).open(&path).map_err(|e| io("cannot create the lock file", e))?;
+    match f.try_lock() {
+        Ok(()) => {}
+        Err(std::fs::TryLockError::WouldBlock) => {
+            let mut holder = String::new();
+            let _ = std::io::Read::read_to_string(&mut f, &mut holder);
+            let holder = holder.trim().chars().take(40).collect::<String>();
+            return Err(ExperimentError::Busy { dir: out.to_path_buf(), holder });
+        }
+        // a file system without locks: run unguarded rather than not at all
+        Err(std::fs::TryLockError::Error(_)) => return Ok(f),
+    }
+    let _ = f.set_len(0);
+    let _ = write!(f, "pid {}", std::process::id());
+    Ok(f)
+}
+
+/// Applies `mode` to the locked directory `out`.
+fn prepare_directory(out: &Path, mode: UsedDirectory) -> Result<()> {
+    if mode == UsedDirectory::Keep {
+        return Ok(());
+    }
+    let io = |e| grainwave_core::CoreError::Io { action: "cannot list".into(), path: out.display().to_string(), error: e };
+    let entries: Vec<std::fs::DirEntry> = std::fs::read_dir(out).map_err(io)?.collect::<std::io::Result<_>>().map_err(io)?;
+    let others: Vec<&std::fs::DirEntry> = entries.iter().filter(|e| e.file_name() != LOCK_FILE).collect();
+    if others.is_empty() {
+        return Ok(());
+    }
+    let ours = OUTPUT_MARKERS.iter().any(|m| out.join(m).exists());
+    if !ours {
+        return Err(ExperimentError::UsedDirectory {
+            dir: out.to_path_buf(),
+            reason: format!("it holds {} file(s) that are not grainwave outputs; give a new or empty directory (`--overwrite` clears only grainwave output directories)", others.len()),
+        });
+    }
+    if mode == UsedDirectory::Refuse {
+        return Err(ExperimentError::UsedDirectory {
+            dir: out.to_path_buf(),
+            reason: format!(
+                "it holds the outputs of an earlier run; continue that run with `grainwave resume {0}`, replace it with `--overwrite`, or give another `--out`",
+                out.display()
+            ),
+        });
+    }
+    for e in others {
+        let p = e.path();
+        let removed = if e.file_type().map(|t| t.is_dir()).unwrap_or(false) { std::fs::remove_dir_all(&p) } else { std::fs::remove_file(&p) };
+        removed.map_err(|e| grainwave_core::CoreError::Io { action: "cannot remove (for --overwrite)".into(), path: p.display().to_string(), error: e })?;
+    }
+    Ok(())
+}
 
 /// Receives progress; the CLI draws bars, a library user can do anything (or nothing).
 pub trait Reporter: Send {
@@ -54,20 +137,33 @@ pub struct RunContext<'a> {
     pub report_every: u64,
     log: Option<std::fs::File>,
     started: std::time::Instant,
+    /// The directory's lock, held while the context lives.
+    _lock: std::fs::File,
 }
 
 impl<'a> RunContext<'a> {
     /// A context writing into `out` (created if needed), reporting to `reporter`, stopping when
     /// `interrupt` becomes true.
+    /// `interrupt` becomes true. Files of the same name in `out` are replaced
+    /// ([`UsedDirectory::Keep`]); the directory is locked while the context lives.
     pub fn new(out: &Path, reporter: &'a mut dyn Reporter, interrupt: Arc<AtomicBool>) -> Result<Self> {
+        Self::open(out, reporter, interrupt, UsedDirectory::Keep)
+    }
+
+    /// A context for a new run into `out`: the directory is created if needed and locked (a
+    /// second process is refused with [`ExperimentError::Busy`]), then `mode` says what happens
+    /// to the outputs of an earlier run found there.
+    pub fn open(out: &Path, reporter: &'a mut dyn Reporter, interrupt: Arc<AtomicBool>, mode: UsedDirectory) -> Result<Self> {
         std::fs::create_dir_all(out).map_err(|e| grainwave_core::CoreError::Io {
             action: "cannot create the output directory".into(),
             path: out.display().to_string(),
             error: e,
         })?;
+        let lock = lock_directory(out)?;
+        prepare_directory(out, mode)?;
         let log_path = out.join(LOG_FILE);
         let log = std::fs::OpenOptions::new().create(true).append(true).open(&log_path).ok();
-        Ok(RunContext { out: out.to_path_buf(), reporter, interrupt, report_every: 1000, log, started: std::time::Instant::now() })
+        Ok(RunContext { out: out.to_path_buf(), reporter, interrupt, report_every: 1000, log, started: std::time::Instant::now(), _lock: lock })
     }
 
     /// The output directory.
@@ -92,6 +188,33 @@ impl<'a> RunContext<'a> {
             let _ = writeln!(f, "[{:9.2} s] {text}", self.started.elapsed().as_secs_f64());
         }
         self.reporter.message(text);
+    }
+
+    /// Records that the run failed with `error`: the diagnosis goes to `run.log` and into the
+    /// failure marker [`FAILED_FILE`] (written atomically). Interruptions and bad input are not
+    /// failures of the run and leave no marker.
+    pub fn mark_failed(&mut self, error: &ExperimentError) {
+        if matches!(error, ExperimentError::Interrupted { .. }) || error.is_input_error() {
+            return;
+        }
+        let mut text = error.to_string();
+        let mut source = std::error::Error::source(error);
+        while let Some(s) = source {
+            let t = s.to_string();
+            if !text.ends_with(&t) {
+                text.push_str(&format!("\n  caused by: {t}"));
+            }
+            source = s.source();
+        }
+        self.log_quiet(&format!("failed: {text}"));
+        let _ = grainwave_core::checkpoint::atomic_write(&self.path(FAILED_FILE), format!("{text}\n").as_bytes());
+    }
+
+    /// Removes the failure marker (a retried run).
+    pub fn clear_failed(&mut self) {
+        if std::fs::remove_file(self.path(FAILED_FILE)).is_ok() {
+            self.log_quiet("retrying a failed run: failure marker removed");
+        }
     }
 
     /// Appends a line to `run.log` only.
@@ -143,6 +266,25 @@ impl<'a> RunContext<'a> {
             Err(e) => e,
         }
     }
+}
+
+/// When every unit of a study failed (`failures` yields one entry per unit: `Some(reason)` for a
+/// failure), logs them and returns [`ExperimentError::AllFailed`]: the run then ends with exit
+/// code 1 and the list, instead of failing in the output stage on empty data.
+pub fn refuse_all_failed(ctx: &mut RunContext<'_>, what: &str, failures: impl Iterator<Item = Option<String>>) -> Result<()> {
+    let mut list = Vec::new();
+    for f in failures {
+        match f {
+            Some(reason) => list.push(crate::config::clip(&reason, 2 * crate::config::MAX_ECHO_CHARS)),
+            None => return Ok(()),
+        }
+    }
+    if list.is_empty() {
+        return Ok(());
+    }
+    let e = ExperimentError::AllFailed { what: what.to_string(), failures: list };
+    ctx.log(&e.to_string());
+    Err(e)
 }
 
 /// Reads the content tag of the checkpoint of output directory `dir` (or of a checkpoint file).

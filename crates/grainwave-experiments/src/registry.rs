@@ -28,9 +28,25 @@ pub fn experiment_name(src: &ConfigSource) -> Result<String, ConfigError> {
     }
 }
 
+/// Checks the shapes of the file's values against the schema of protocol `name`
+/// ([`crate::config::check_shapes`]).
+pub fn check_shapes(src: &ConfigSource, name: &str) -> Result<(), ConfigError> {
+    let schema = match name {
+        "simulation" => serde_json::to_value(schema_for!(simulation::SimulationConfig)),
+        "e1" => serde_json::to_value(schema_for!(e1::E1Config)),
+        "e2" => serde_json::to_value(schema_for!(e2::E2Config)),
+        "e3" => serde_json::to_value(schema_for!(e3::E3Config)),
+        _ => return Ok(()),
+    }
+    .expect("schema serializes");
+    crate::config::check_shapes(src, &schema)
+}
+
 /// What `grainwave check` prints about a valid config.
 pub fn check(src: &ConfigSource) -> Result<Vec<String>, ConfigError> {
-    match experiment_name(src)?.as_str() {
+    let name = experiment_name(src)?;
+    check_shapes(src, &name)?;
+    match name.as_str() {
         "simulation" => {
             let p = simulation::prepare(src)?;
             Ok(describe(&p))
@@ -146,7 +162,9 @@ fn summarize_e3(r: &e3::E3Summary, out: &Path) -> RunSummary {
 
 /// Parses, validates and runs a config.
 pub fn run(src: &ConfigSource, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
-    match experiment_name(src)?.as_str() {
+    let name = experiment_name(src)?;
+    check_shapes(src, &name)?;
+    match name.as_str() {
         "simulation" => {
             let out = ctx.out_dir().to_path_buf();
             Ok(summarize(&simulation::run_config(src, ctx)?, &out))
@@ -177,29 +195,84 @@ pub fn resume(dir: &Path, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
     match tag.as_str() {
         simulation::TAG => {
             let mut state: simulation::SimulationState = load_state(&file, &tag)?;
+            belongs_to(dir, &state.config)?;
             ctx.log(&format!("resuming from {}", file.display()));
             let out = ctx.out_dir().to_path_buf();
             Ok(summarize(&state.run(ctx)?, &out))
         }
         e1::TAG => {
             let mut state: e1::E1State = load_state(&file, &tag)?;
+            belongs_to(dir, &state.config)?;
             ctx.log(&format!("resuming from {}", file.display()));
             let out = ctx.out_dir().to_path_buf();
             Ok(summarize_e1(&state.run(ctx)?, &out))
         }
         e2::TAG => {
             let mut state: e2::E2State = load_state(&file, &tag)?;
+            belongs_to(dir, &state.config)?;
             ctx.log(&format!("resuming from {}", file.display()));
             let out = ctx.out_dir().to_path_buf();
             Ok(summarize_e2(&state.run(ctx)?, &out))
         }
         e3::TAG => {
             let mut state: e3::E3State = load_state(&file, &tag)?;
+            belongs_to(dir, &state.config)?;
             ctx.log(&format!("resuming from {}", file.display()));
             let out = ctx.out_dir().to_path_buf();
             Ok(summarize_e3(&state.run(ctx)?, &out))
         }
         other => Err(ExperimentError::Resume { path: dir.to_path_buf(), reason: format!("its checkpoint holds `{other}`, which is not a protocol state") }),
+    }
+}
+
+/// Checks that a checkpoint belongs to output directory `dir`: the config it carries (every
+/// state holds its resolved config) must be the one in the directory's `config.resolved.toml`
+/// (experiment, seed and every other key). A checkpoint copied from another run is refused,
+/// naming the first key that differs.
+pub fn belongs_to<C: serde::Serialize>(dir: &Path, config: &C) -> Result<()> {
+    let path = dir.join("config.resolved.toml");
+    let Ok(text) = std::fs::read_to_string(&path) else { return Ok(()) }; // written at the start of a run; absent before
+    let refuse = |reason: String| ExperimentError::Resume { path: dir.to_path_buf(), reason };
+    let on_disk: toml::Table = toml::from_str(&text).map_err(|e| refuse(format!("its config.resolved.toml cannot be read: {}", crate::config::clip(e.message(), 200))))?;
+    let carried = toml::Value::try_from(config).map_err(|e| refuse(format!("the checkpoint's config cannot be compared: {e}")))?;
+    if let Some((key, a, b)) = first_difference(&carried, &toml::Value::Table(on_disk), "") {
+        return Err(refuse(format!(
+            "its checkpoint belongs to another run: key `{key}` is {} in the checkpoint but {} in the directory's config.resolved.toml \
+             (copy a run's whole directory, or start a new run)",
+            crate::config::clip(&a, 60),
+            crate::config::clip(&b, 60)
+        )));
+    }
+    Ok(())
+}
+
+/// The first key path where `a` and `b` differ, with both values as text.
+fn first_difference(a: &toml::Value, b: &toml::Value, path: &str) -> Option<(String, String, String)> {
+    let show = |v: Option<&toml::Value>| v.map_or("absent".to_string(), |v| v.to_string());
+    match (a, b) {
+        (toml::Value::Table(x), toml::Value::Table(y)) => {
+            let mut keys: Vec<&String> = x.keys().chain(y.keys()).collect();
+            keys.sort();
+            keys.dedup();
+            for k in keys {
+                let p = if path.is_empty() { k.clone() } else { format!("{path}.{k}") };
+                match (x.get(k), y.get(k)) {
+                    (Some(u), Some(v)) => {
+                        if let Some(d) = first_difference(u, v, &p) {
+                            return Some(d);
+                        }
+                    }
+                    (u, v) => return Some((p, show(u), show(v))),
+                }
+            }
+            None
+        }
+        (toml::Value::Array(x), toml::Value::Array(y)) if x.len() == y.len() => {
+            x.iter().zip(y).enumerate().find_map(|(i, (u, v))| first_difference(u, v, &format!("{path}[{i}]")))
+        }
+        (toml::Value::Float(x), toml::Value::Float(y)) if x == y || (x.is_nan() && y.is_nan()) => None,
+        _ if a == b => None,
+        _ => Some((path.to_string(), a.to_string(), b.to_string())),
     }
 }
 

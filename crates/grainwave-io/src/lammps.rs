@@ -159,17 +159,77 @@ pub fn read_data(path: &Path) -> Result<LammpsData> {
     parse_data(&read_text(path)?, &path.display().to_string())
 }
 
+/// Longest line of a data file [bytes]: an atom line of 10 numbers at full precision is under
+/// 300 bytes; a longer line means the file is not a data file (and is not read further).
+pub const MAX_LINE_BYTES: usize = 4096;
+
+/// Largest decompression ratio of a gzip file accepted (deflate's own maximum is about 1032:1).
+pub const MAX_GZIP_RATIO: u64 = 1100;
+
+/// Longest excerpt of the file that an error message quotes [characters].
+pub const MAX_ECHO_CHARS: usize = 200;
+
+/// `text` cut to [`MAX_ECHO_CHARS`] characters, with a note of what was left out.
+pub fn clip(text: &str) -> String {
+    match text.char_indices().nth(MAX_ECHO_CHARS) {
+        None => text.to_string(),
+        Some((cut, _)) => format!("{}… ({} more bytes)", &text[..cut], text.len() - cut),
+    }
+}
+
 /// The text of a file, decompressed when it is gzip-compressed (recognised by its first bytes).
+///
+/// Memory is bounded by the file's size: the decompressed text may be at most
+/// [`MAX_GZIP_RATIO`] times the compressed size, and reading stops at the first line longer
+/// than [`MAX_LINE_BYTES`].
 pub fn read_text(path: &Path) -> Result<String> {
     let io = |error| LammpsDataError::Io { path: path.display().to_string(), error };
-    let bytes = std::fs::read(path).map_err(io)?;
-    if bytes.starts_with(&[0x1f, 0x8b]) {
-        let mut s = String::new();
-        flate2::read::MultiGzDecoder::new(&bytes[..]).read_to_string(&mut s).map_err(io)?;
-        Ok(s)
+    let mut file = std::fs::File::open(path).map_err(io)?;
+    let mut magic = [0u8; 2];
+    let got = file.read(&mut magic).map_err(io)?;
+    let len = file.metadata().map_err(io)?.len();
+    let head = std::io::Cursor::new(magic[..got].to_vec());
+    let gz = got == 2 && magic == [0x1f, 0x8b];
+    let reader: Box<dyn Read> = if gz {
+        Box::new(flate2::read::MultiGzDecoder::new(head.chain(file)).take(len.saturating_mul(MAX_GZIP_RATIO)))
     } else {
-        String::from_utf8(bytes).map_err(|e| io(std::io::Error::new(std::io::ErrorKind::InvalidData, e)))
+        Box::new(head.chain(file))
+    };
+    bounded_text(reader, &path.display().to_string())
+}
+
+/// Reads `reader` to its end as UTF-8, refusing a line longer than [`MAX_LINE_BYTES`] as soon
+/// as it is seen (so a huge line is never held in memory).
+pub fn bounded_text(mut reader: impl Read, source: &str) -> Result<String> {
+    let io = |error| LammpsDataError::Io { path: source.to_string(), error };
+    let mut bytes = Vec::new();
+    let mut chunk = vec![0u8; 1 << 16];
+    let (mut line, mut line_len) = (1usize, 0usize);
+    loop {
+        let n = match reader.read(&mut chunk) {
+            Ok(0) => break,
+            Ok(n) => n,
+            Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(e) => return Err(io(e)),
+        };
+        for &b in &chunk[..n] {
+            if b == b'\n' {
+                line += 1;
+                line_len = 0;
+            } else {
+                line_len += 1;
+                if line_len > MAX_LINE_BYTES {
+                    return Err(LammpsDataError::Parse {
+                        path: source.to_string(),
+                        line,
+                        message: format!("line longer than {MAX_LINE_BYTES} bytes (the lines of a LAMMPS data file are short): not a data file"),
+                    });
+                }
+            }
+        }
+        bytes.extend_from_slice(&chunk[..n]);
     }
+    String::from_utf8(bytes).map_err(|e| io(std::io::Error::new(std::io::ErrorKind::InvalidData, e)))
 }
 
 /// Header keywords whose count line is understood (others, such as `bonds`, must be zero).
@@ -198,11 +258,11 @@ pub fn parse_data(text: &str, source: &str) -> Result<LammpsData> {
             break;
         }
         let number = |k: usize| -> Result<f64> {
-            words.get(k).and_then(|w| w.parse::<f64>().ok()).ok_or_else(|| err(no, format!("expected a number in `{line}`")))
+            words.get(k).and_then(|w| w.parse::<f64>().ok()).ok_or_else(|| err(no, format!("expected a number in `{}`", clip(line))))
         };
         match &words[1..] {
             ["atoms"] => {
-                atoms = Some(words[0].parse().map_err(|_| err(no, format!("bad atom count `{}`", words[0])))?);
+                atoms = Some(words[0].parse().map_err(|_| err(no, format!("bad atom count `{}`", clip(words[0]))))?);
             }
             ["xlo", "xhi"] | ["ylo", "yhi"] | ["zlo", "zhi"] | [_, "xlo", "xhi"] | [_, "ylo", "yhi"] | [_, "zlo", "zhi"] => {
                 let axis = match words[words.len() - 1] {
@@ -221,14 +281,19 @@ pub fn parse_data(text: &str, source: &str) -> Result<LammpsData> {
                 .contains(kind) =>
             {
                 if words[0] != "0" {
-                    return Err(err(no, format!("{} {kind}: only atoms of `atom_style sphere` can be imported", words[0])));
+                    return Err(err(no, format!("{} {kind}: only atoms of `atom_style sphere` can be imported", clip(words[0]))));
                 }
             }
             _ if words.len() >= 2 && words[words.len() - 1] == "types" => {}
-            _ => return Err(err(no, format!("unknown header line `{line}`"))),
+            _ => return Err(err(no, format!("unknown header line `{}`", clip(line)))),
         }
     }
     let n = atoms.ok_or_else(|| err(0, "the header gives no atom count (`N atoms`)".into()))?;
+    // every atom needs a line of at least 7 numbers ("1 1 1 1 0 0 0\n", 14 bytes): a count the
+    // text cannot hold is refused before anything is allocated for it
+    if n > text.len() / 14 {
+        return Err(err(0, format!("the header announces {n} atoms, but the file ({} bytes) cannot hold that many atom lines", text.len())));
+    }
     for (axis, name) in ["x", "y", "z"].iter().enumerate() {
         let [lo, hi] = bounds[axis];
         if !(lo.is_finite() && hi.is_finite() && hi > lo) {
@@ -258,7 +323,7 @@ pub fn parse_data(text: &str, source: &str) -> Result<LammpsData> {
         let name = line.split_whitespace().next().unwrap_or_default().to_string();
         let style = header.split_once('#').map(|(_, s)| s.trim().to_string()).unwrap_or_default();
         if name == "Atoms" && !style.is_empty() && style != "sphere" {
-            return Err(err(no, format!("atom style `{style}`: only `atom_style sphere` files can be imported")));
+            return Err(err(no, format!("atom style `{}`: only `atom_style sphere` files can be imported", clip(&style))));
         }
         // Section body: until the next keyword; atom sections must have one line per atom.
         let mut body = Vec::new();
@@ -289,8 +354,8 @@ pub fn parse_data(text: &str, source: &str) -> Result<LammpsData> {
                             format!("expected `id type diameter density x y z [ix iy iz]` (7 or 10 columns), found {}", w.len()),
                         ));
                     }
-                    let int = |k: usize| w[k].parse::<i64>().map_err(|_| err(no, format!("column {} is not an integer: `{}`", k + 1, w[k])));
-                    let real = |k: usize| w[k].parse::<f64>().map_err(|_| err(no, format!("column {} is not a number: `{}`", k + 1, w[k])));
+                    let int = |k: usize| w[k].parse::<i64>().map_err(|_| err(no, format!("column {} is not an integer: `{}`", k + 1, clip(w[k]))));
+                    let real = |k: usize| w[k].parse::<f64>().map_err(|_| err(no, format!("column {} is not a number: `{}`", k + 1, clip(w[k]))));
                     let id = int(0)?;
                     let id = u32::try_from(id).map_err(|_| err(no, format!("atom id {id} is outside 0..{}", u32::MAX)))?;
                     let ty = int(1)?;
@@ -321,10 +386,10 @@ pub fn parse_data(text: &str, source: &str) -> Result<LammpsData> {
                     if w.len() != 7 {
                         return Err(err(no, format!("expected `id vx vy vz wx wy wz` (7 columns), found {}", w.len())));
                     }
-                    let id = w[0].parse::<u32>().map_err(|_| err(no, format!("bad atom id `{}`", w[0])))?;
+                    let id = w[0].parse::<u32>().map_err(|_| err(no, format!("bad atom id `{}`", clip(w[0]))))?;
                     let mut v = [0.0; 6];
                     for (k, slot) in v.iter_mut().enumerate() {
-                        *slot = w[k + 1].parse().map_err(|_| err(no, format!("column {} is not a number: `{}`", k + 2, w[k + 1])))?;
+                        *slot = w[k + 1].parse().map_err(|_| err(no, format!("column {} is not a number: `{}`", k + 2, clip(w[k + 1]))))?;
                     }
                     velocities.push((no, id, v));
                 }

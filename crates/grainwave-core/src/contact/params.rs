@@ -170,7 +170,7 @@ impl ContactParams {
                     )));
                 }
                 let young = self.young.ok_or_else(|| CoreError::invalid(key("young"), "(missing)", "Young's modulus E > 0, required by hertz_mindlin"))?;
-                require_positive(&key("young"), young)?;
+                require_modulus(&key("young"), young)?;
                 let nu = self.poisson.unwrap_or(0.0);
                 if !(nu.is_finite() && (-1.0..0.5).contains(&nu)) {
                     return Err(CoreError::invalid(key("poisson"), nu, "a Poisson ratio in [-1, 0.5)"));
@@ -219,7 +219,7 @@ impl ContactParams {
                 let k_n = self
                     .normal_stiffness
                     .ok_or_else(|| CoreError::invalid(key("normal_stiffness"), "(missing)", "k_n > 0, required by hooke_cundall_strack"))?;
-                require_positive(&key("normal_stiffness"), k_n)?;
+                require_modulus(&key("normal_stiffness"), k_n)?;
                 let ratio = self.tangential_stiffness_ratio.unwrap_or(2.0 / 7.0);
                 require_positive(&key("tangential_stiffness_ratio"), ratio)?;
                 let given: Vec<&str> = [
@@ -307,6 +307,19 @@ impl ContactParams {
         };
         law.validate(field)?;
         Ok(law)
+    }
+}
+
+
+/// Checks a stiffness or modulus: finite and within [1e-100, 1e100]. Every other stiffness,
+/// damping and time step follows from it by ratios and square roots; outside this range (far
+/// beyond any unit system) the derived values underflow or overflow, and the error would name a
+/// derived key the config does not have.
+fn require_modulus(field: &str, value: f64) -> Result<()> {
+    if value.is_finite() && (1e-100..=1e100).contains(&value) {
+        Ok(())
+    } else {
+        Err(CoreError::invalid(field, value, "a finite number in [1e-100, 1e100] (stiffnesses derived from it must stay representable)"))
     }
 }
 

@@ -51,7 +51,18 @@ impl ConfigSource {
 
     /// Parses the text into the raw struct `T`; errors carry positions and suggestions.
     pub fn parse<T: DeserializeOwned>(&self) -> Result<T, ConfigError> {
-        let doc = toml_edit::Document::parse(self.text.as_str()).map_err(|e| self.error_at_span(e.span(), None, e.message().to_string()))?;
+        let doc = toml_edit::Document::parse(self.text.as_str()).map_err(|e| {
+            let mut message = e.message().trim_end().to_string();
+            // the parser's "duplicate key" names nothing: quote the line that repeats it
+            if message.contains("duplicate key") && !message.contains('`') {
+                if let Some(at) = e.span().map(|s| s.start.min(self.text.len())) {
+                    let start = self.text[..at].rfind('\n').map_or(0, |k| k + 1);
+                    let end = self.text[at..].find('\n').map_or(self.text.len(), |k| at + k);
+                    message = format!("duplicate key: `{}` repeats a key or table given earlier (each may appear once)", clip(self.text[start..end].trim(), 100));
+                }
+            }
+            self.error_at_span(e.span(), None, message)
+        })?;
         match toml::from_str::<T>(&self.text) {
             Ok(v) => Ok(v),
             Err(e) => {
@@ -101,6 +112,8 @@ impl ConfigSource {
 
     fn error_at_span(&self, span: Option<Range<usize>>, key: Option<String>, message: String) -> ConfigError {
         let (line, column) = span.as_ref().map(|s| line_column(&self.text, s.start)).unwrap_or((0, 0));
+        // a message quotes values from the file: keep it readable whatever their size
+        let message = clip(&message, 5 * MAX_ECHO_CHARS);
         ConfigError { file: self.name.clone(), line, column, key, message, span, text: self.text.clone() }
     }
 }
@@ -144,7 +157,13 @@ impl miette::Diagnostic for ConfigError {
         Some(Box::new("grainwave::config"))
     }
     fn source_code(&self) -> Option<&dyn miette::SourceCode> {
-        if self.span.is_some() {
+        // the excerpt shows whole lines: leave it out when the offending line is too long to quote
+        let long_line = self.span.as_ref().is_some_and(|s| {
+            let start = self.text[..s.start.min(self.text.len())].rfind('\n').map_or(0, |k| k + 1);
+            let end = self.text[s.start.min(self.text.len())..].find('\n').map_or(self.text.len(), |k| s.start + k);
+            end - start > 2 * MAX_ECHO_CHARS || s.end.saturating_sub(s.start) > 2 * MAX_ECHO_CHARS
+        });
+        if self.span.is_some() && !long_line {
             Some(self.text.as_ref() as &String)
         } else {
             None
@@ -188,6 +207,100 @@ pub mod toml_text {
     }
 }
 
+/// Checks the shape of every value of the file against the JSON schema of its config struct:
+/// an array where a table is expected (`pulse = []` for `[pulse]`), or a table where a number,
+/// text or boolean is expected (`[samples]`), is refused at its key. Serde alone would accept
+/// the first (an empty sequence fills a struct with its defaults) and name no key for the second.
+pub fn check_shapes(src: &ConfigSource, schema: &serde_json::Value) -> Result<(), ConfigError> {
+    use serde_json::Value as J;
+    fn resolve<'a>(v: &'a J, root: &'a J) -> &'a J {
+        if let Some(r) = v.get("$ref").and_then(J::as_str) {
+            let name = r.rsplit('/').next().unwrap_or("");
+            if let Some(d) = root.get("$defs").and_then(|d| d.get(name)) {
+                return resolve(d, root);
+            }
+        }
+        v
+    }
+    /// The JSON types a schema allows (empty: unknown / anything).
+    fn types<'a>(v: &'a J, root: &'a J) -> Vec<&'a str> {
+        let v = resolve(v, root);
+        let mut out = Vec::new();
+        match v.get("type") {
+            Some(J::String(t)) => out.push(t.as_str()),
+            Some(J::Array(ts)) => out.extend(ts.iter().filter_map(J::as_str)),
+            _ => {}
+        }
+        for key in ["anyOf", "oneOf"] {
+            if let Some(alts) = v.get(key).and_then(J::as_array) {
+                for a in alts {
+                    let t = types(a, root);
+                    if t.is_empty() {
+                        return Vec::new();
+                    }
+                    out.extend(t);
+                }
+            }
+        }
+        if out.is_empty() && v.get("properties").is_some() {
+            out.push("object");
+        }
+        out
+    }
+    fn walk(src: &ConfigSource, value: &toml::Value, schema: &J, root: &J, path: &str) -> Result<(), ConfigError> {
+        let allowed = types(schema, root);
+        let s = resolve(schema, root);
+        if !allowed.is_empty() {
+            let scalar = ["number", "integer", "string", "boolean"];
+            if let toml::Value::Array(_) = value {
+                if !allowed.contains(&"array") && allowed.contains(&"object") {
+                    return Err(src.error_at_key(path, format!("an array, but `{path}` is a table (allowed: a `[{path}]` section with its keys, or `{path} = {{ … }}`)")));
+                }
+            }
+            if let toml::Value::Table(_) = value {
+                if !allowed.contains(&"object") && allowed.iter().any(|t| scalar.contains(t) || *t == "array") {
+                    let what = allowed.iter().filter(|t| **t != "null").cloned().collect::<Vec<_>>().join(" or ");
+                    return Err(src.error_at_key(path, format!("a table, but `{path}` is a value (allowed: {what}, written `{path} = …`)")));
+                }
+            }
+        }
+        match value {
+            toml::Value::Table(t) => {
+                if let Some(props) = s.get("properties").and_then(J::as_object) {
+                    for (k, v) in t {
+                        if let Some(sub) = props.get(k) {
+                            let p = if path.is_empty() { k.clone() } else { format!("{path}.{k}") };
+                            walk(src, v, sub, root, &p)?;
+                        }
+                    }
+                }
+            }
+            toml::Value::Array(a) => {
+                if let Some(items) = s.get("items") {
+                    for (i, v) in a.iter().enumerate() {
+                        walk(src, v, items, root, &format!("{path}[{i}]"))?;
+                    }
+                }
+            }
+            _ => {}
+        }
+        Ok(())
+    }
+    let table: toml::Table = src.parse()?;
+    walk(src, &toml::Value::Table(table), schema, schema, "")
+}
+
+/// Longest quotation of a value from the file in an error message [characters].
+pub const MAX_ECHO_CHARS: usize = 200;
+
+/// `text` cut to `max` characters, with a note of how much was left out.
+pub fn clip(text: &str, max: usize) -> String {
+    match text.char_indices().nth(max) {
+        None => text.to_string(),
+        Some((cut, _)) => format!("{}… ({} more bytes)", &text[..cut], text.len() - cut),
+    }
+}
+
 /// 1-based line and column (in characters) of byte offset `at`.
 pub fn line_column(text: &str, at: usize) -> (usize, usize) {
     let at = at.min(text.len());
@@ -201,7 +314,8 @@ pub fn line_column(text: &str, at: usize) -> (usize, usize) {
 fn improve_message(msg: &str) -> String {
     for (marker, what) in [("unknown field `", "key"), ("unknown variant `", "value")] {
         if let Some(rest) = msg.strip_prefix(marker) {
-            let bad = rest.split('`').next().unwrap_or("");
+            let bad = clip(rest.split('`').next().unwrap_or(""), MAX_ECHO_CHARS);
+            let bad = bad.as_str();
             let candidates: Vec<&str> = msg.split('`').skip(3).step_by(2).collect();
             let mut out = format!("unknown {what} `{bad}`");
             if let Some(best) = did_you_mean(bad, &candidates) {

@@ -53,7 +53,10 @@ pub struct E1State {
 /// Parses and validates an `e1` config.
 pub fn prepare(src: &ConfigSource) -> Result<Plan, ConfigError> {
     let config: E1Config = src.parse()?;
-    plan::plan(src, &config)
+    crate::limits::e1_config(src, &config)?;
+    let plan = plan::plan(src, &config)?;
+    crate::limits::e1_plan(src, &plan)?;
+    Ok(plan)
 }
 
 /// What `grainwave check` says about a valid plan.
@@ -117,6 +120,12 @@ impl E1State {
             EnsembleStatus::Interrupted => return Err(ctx.interrupted_error(TAG, self)),
             EnsembleStatus::Complete => {}
         }
+        let results = outputs::collect(ctx.out_dir(), &plan);
+        crate::protocol::refuse_all_failed(
+            ctx,
+            "samples",
+            results.iter().zip(&plan.tasks).map(|(r, t)| r.as_ref().and_then(|r| r.failure.clone()).map(|f| format!("{} seed {}: {f}", plan.groups[t.group].name, t.seed))),
+        )?;
         ctx.log("writing the outputs");
         let report = outputs::write_outputs(ctx.out_dir(), &plan, started.elapsed().as_secs_f64())?;
         self.finished = true;
@@ -172,6 +181,11 @@ pub fn summary_lines(r: &E1Report, out: &std::path::Path) -> Vec<String> {
             }
             if s.heights.len() >= 2 {
                 lines.push(l);
+            }
+            if let Some(e) = &h.exponent_intervals {
+                for v in e.verdicts.iter().filter(|v| !v.starts_with("effective")) {
+                    lines.push(format!("  {v}"));
+                }
             }
         }
     }

@@ -75,6 +75,7 @@ fn non_negative(src: &ConfigSource, key: &str, v: f64) -> Result<(), ConfigError
 /// Parses and validates an `e2` config.
 pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
     let cfg: E2Config = src.parse()?;
+    crate::limits::e2(src, &cfg)?;
     if cfg.experiment != "e2" {
         return Err(src.error_at_key("experiment", format!("this protocol is `e2`, not `{}`", cfg.experiment)));
     }

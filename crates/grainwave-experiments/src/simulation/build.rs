@@ -115,6 +115,13 @@ fn build_dim<D: Dim>(src: &ConfigSource, cfg: &SimulationConfig) -> Result<Simul
 
     for (w, wc) in cfg.walls.iter().enumerate() {
         let key = |k: &str| format!("walls[{w}].{k}");
+        // names label the wall's output columns and files: they must be unique and non-empty
+        if wc.name.trim().is_empty() {
+            return Err(err(src, &key("name"), "empty (allowed: a name, unique among the walls)"));
+        }
+        if let Some(first) = cfg.walls[..w].iter().position(|o| o.name == wc.name) {
+            return Err(err(src, &key("name"), format!("`{}` is already the name of walls[{first}] (allowed: a name unique among the walls)", crate::config::clip(&wc.name, crate::config::MAX_ECHO_CHARS))));
+        }
         let axis = wc.axis.index();
         if axis >= D::D {
             return Err(err(src, &key("axis"), format!("`{:?}` does not exist in {}D", wc.axis, D::D)));
@@ -179,7 +186,12 @@ fn build_dim<D: Dim>(src: &ConfigSource, cfg: &SimulationConfig) -> Result<Simul
         }
         wall.validate(w).map_err(|e| match e {
             CoreError::InvalidParameter { field, value, allowed } => {
-                let sub = field.rsplit('.').next().unwrap_or("").to_string();
+                // the whole path below the wall (`speed.times`, not `times`); a piston given by
+                // `pressure` has its force computed from it: name the key the file has
+                let mut sub = field.strip_prefix(&format!("walls[{w}].")).unwrap_or_else(|| field.rsplit('.').next().unwrap_or("")).to_string();
+                if sub.starts_with("force") && wc.force.is_none() && wc.pressure.is_some() {
+                    sub = "pressure".into();
+                }
                 err(src, &key(&sub), format!("{value} (allowed: {allowed})"))
             }
             other => core(other),

@@ -93,6 +93,7 @@ pub struct Prepared {
 /// Parses and validates a config; builds the simulation without stepping it.
 pub fn prepare(src: &ConfigSource) -> Result<Prepared, ConfigError> {
     let mut config: SimulationConfig = src.parse()?;
+    crate::limits::simulation(src, &config)?;
     let sim = build::build(src, &config)?;
     // resolved values: the time step and skin actually used
     let (dt, skin) = match &sim {

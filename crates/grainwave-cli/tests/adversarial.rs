@@ -1,0 +1,254 @@
+//! Adversarial inputs through the real program: each config in `tests/adversarial/` reproduces a
+//! failure found by probing (an abort on a size, a check that passed what the run rejected, an
+//! unguarded output directory…). Each must now be refused cleanly: the expected exit code, a
+//! first line naming the key, a short message, and no allocation sized from the input first.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+
+const BIN: &str = env!("CARGO_BIN_EXE_grainwave");
+
+fn fixture(name: &str) -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/adversarial").join(name)
+}
+
+fn out(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("grainwave-adv-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+/// Runs the program with `args` (one worker thread, quiet) and returns (exit code, stderr).
+fn gw(args: &[&str]) -> (i32, String) {
+    let o = Command::new(BIN).args(["--threads", "1", "--quiet"]).args(args).output().expect("the program starts");
+    (o.status.code().unwrap_or(-1), String::from_utf8_lossy(&o.stderr).into_owned())
+}
+
+/// `check` (and `run`, which validates the same way before computing) refuses `name` with exit
+/// code 2 and a message naming `key`, of bounded length.
+fn refused(name: &str, key: &str, words: &str) {
+    let cfg = fixture(name);
+    let cfg = cfg.to_str().unwrap();
+    let dir = out(name);
+    for args in [vec!["check", cfg], vec!["run", cfg, "--out", dir.to_str().unwrap()]] {
+        let (code, err) = gw(&args);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert!(err.contains(&format!("`{key}`")), "{args:?}: the message does not name `{key}`: {err}");
+        assert!(err.contains(words), "{args:?}: the message does not say `{words}`: {err}");
+        assert!(err.len() < 4000, "{args:?}: {} bytes of message", err.len());
+        assert!(!err.contains("memory allocation"), "{err}");
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_grain_count_beyond_32_bit_ids_and_memory_is_refused() {
+    // before: SIGABRT (exit 134) "memory allocation of 32000000000 bytes failed"
+    refused("sim-grains-4e9.toml", "grains.count", "grains");
+}
+
+#[test]
+fn a_huge_box_does_not_size_the_placement_grid() {
+    // before: SIGABRT "memory allocation of 1375899741312 bytes failed" (the placement grid
+    // had one cell per diameter of the box). Now the grid is bounded by the grain count and the
+    // 300 grains are placed: check passes.
+    let (code, err) = gw(&["check", fixture("sim-domain-2e32.toml").to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+}
+
+#[test]
+fn a_billion_samples_are_refused_before_planning() {
+    // before: check grew without bound (killed by a 30 s timeout under a 4 GB memory limit)
+    refused("e1-samples-1e9.toml", "samples", "--allow-large");
+}
+
+#[test]
+fn a_height_of_1e9_is_refused_by_check() {
+    // before: check passed (1.03e10 grains) and run aborted
+    refused("e1-heights-1e9.toml", "packing.heights[0]", "grains");
+}
+
+#[test]
+fn a_tiny_profile_step_is_refused_by_check() {
+    // before: check passed; run aborted in the output stage, after the computation
+    refused("e3-profile-step-1e-12.toml", "response.profile_step", "profile points");
+}
+
+#[test]
+fn allow_large_lifts_only_the_soft_limits() {
+    let cfg = fixture("e1-samples-1e9.toml");
+    // 1e9 samples: the soft limit is lifted, but the plan's tasks still need more memory than any
+    // machine of today has (1e9 tasks × 2 sizes × 2 pressures × 32 kB of signals)
+    let (code, err) = gw(&["--allow-large", "check", cfg.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("of memory"), "{err}");
+    let (code, err) = gw(&["--allow-large", "check", fixture("sim-grains-4e9.toml").to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+}
+
+// ---- `check` catches what `run` would reject (issue list 2) ----
+
+#[test]
+fn a_duplicate_wall_name_is_refused_by_check() {
+    // before: check passed, the run went to convergence and failed writing a CSV (exit 1)
+    refused("sim-duplicate-wall.toml", "walls[1].name", "already the name of walls[0]");
+}
+
+#[test]
+fn an_absurd_pressure_is_refused_by_check() {
+    // before: check passed, every sample failed, exit 0, the message named `walls[1].force.value`
+    refused("e1-pressure-1e308.toml", "packing.pressures[0]", "units of E*");
+}
+
+#[test]
+fn a_subnormal_stiffness_is_blamed_on_the_key_the_file_has() {
+    // before: `contact.tangential_stiffness` (a derived key) was blamed
+    refused("sim-normal-stiffness-5e-324.toml", "contact.normal_stiffness", "[1e-100, 1e100]");
+}
+
+#[test]
+fn an_array_for_a_table_is_refused() {
+    // before: `pulse = []` was accepted silently (all defaults)
+    refused("e1-pulse-array.toml", "pulse", "is a table");
+}
+
+#[test]
+fn a_table_for_a_number_names_the_key() {
+    // before: "invalid type: map, expected usize" (no key)
+    refused("e1-samples-table.toml", "samples", "is a value");
+}
+
+#[test]
+fn a_repeated_table_header_is_quoted() {
+    // before: "duplicate key" (no name)
+    let (code, err) = gw(&["check", fixture("e1-repeated-table.toml").to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("duplicate key: `[pulse]`"), "{err}");
+}
+
+#[test]
+fn a_huge_bad_value_is_not_echoed_in_full() {
+    // before: a 1 MB bad enum value gave 3.5 MB of error
+    let dir = out("huge-value");
+    std::fs::create_dir_all(&dir).unwrap();
+    let cfg = dir.join("c.toml");
+    let text = std::fs::read_to_string(fixture("e1-pressure-1e308.toml")).unwrap().replace("kind = \"sphere2d\"", &format!("kind = \"{}\"", "q".repeat(1 << 20)));
+    std::fs::write(&cfg, text).unwrap();
+    let (code, err) = gw(&["check", cfg.to_str().unwrap()]);
+    assert_eq!(code, 2, "{}", &err[..err.len().min(2000)]);
+    assert!(err.contains("packing.kind"), "{}", &err[..err.len().min(2000)]);
+    assert!(err.len() < 3000, "{} bytes of message", err.len());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+// ---- one run per directory (issue list 3) ----
+
+const QUICK: &str = "tests/adversarial/quick.toml";
+
+fn quick() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join(QUICK)
+}
+
+#[test]
+fn a_used_directory_is_refused_unless_overwrite_which_clears_it() {
+    let dir = out("used");
+    let d = dir.to_str().unwrap();
+    let cfg = quick();
+    let (code, err) = gw(&["run", cfg.to_str().unwrap(), "--out", d]);
+    assert_eq!(code, 0, "{err}");
+    // before: a second run into the directory exited 0 and left the first run's files beside its own
+    let (code, err) = gw(&["run", cfg.to_str().unwrap(), "--out", d]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--overwrite") && err.contains("resume"), "{err}");
+    let stale = dir.join("snapshot-from-an-earlier-run.vtp");
+    std::fs::write(&stale, b"x").unwrap();
+    let (code, err) = gw(&["run", cfg.to_str().unwrap(), "--out", d, "--overwrite"]);
+    assert_eq!(code, 0, "{err}");
+    assert!(!stale.exists(), "--overwrite leaves the earlier run's files");
+    // a directory of other files is never cleared
+    let other = out("other");
+    std::fs::create_dir_all(&other).unwrap();
+    std::fs::write(other.join("notes.txt"), b"mine").unwrap();
+    let (code, err) = gw(&["run", cfg.to_str().unwrap(), "--out", other.to_str().unwrap(), "--overwrite"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(other.join("notes.txt").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_dir_all(&other);
+}
+
+#[test]
+fn a_busy_directory_is_refused() {
+    // before: two runs into one directory both exited 0 and interleaved their files. Here this
+    // test process holds the directory's lock, as a running grainwave does (an advisory lock
+    // on `.grainwave.lock`, released by the system when its holder ends).
+    let dir = out("busy");
+    std::fs::create_dir_all(&dir).unwrap();
+    let d = dir.to_str().unwrap();
+    let cfg = quick();
+    let lock = std::fs::OpenOptions::new().create(true).truncate(false).write(true).open(dir.join(".grainwave.lock")).unwrap();
+    lock.try_lock().unwrap();
+    for args in [vec!["run", cfg.to_str().unwrap(), "--out", d], vec!["resume", d], vec!["demo", "--out", d]] {
+        let (code, err) = gw(&args);
+        assert_eq!(code, 2, "{args:?}: {err}");
+        assert!(err.contains("in use by another grainwave process"), "{args:?}: {err}");
+    }
+    drop(lock);
+    // released: the run proceeds
+    let (code, err) = gw(&["run", cfg.to_str().unwrap(), "--out", d]);
+    assert_eq!(code, 0, "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_checkpoint_of_another_run_is_refused_by_resume() {
+    let (a, b) = (out("seed-a"), out("seed-b"));
+    let cfg = quick();
+    let text = std::fs::read_to_string(&cfg).unwrap();
+    let other = out("seed-b-config");
+    std::fs::create_dir_all(&other).unwrap();
+    let cfg_b = other.join("b.toml");
+    std::fs::write(&cfg_b, text.replacen("seed = ", "seed = 1000", 1)).unwrap();
+    assert_eq!(gw(&["run", cfg.to_str().unwrap(), "--out", a.to_str().unwrap()]).0, 0);
+    assert_eq!(gw(&["run", cfg_b.to_str().unwrap(), "--out", b.to_str().unwrap()]).0, 0);
+    std::fs::copy(b.join("checkpoint.gwck"), a.join("checkpoint.gwck")).unwrap();
+    // before: resumed without complaint
+    let (code, err) = gw(&["resume", a.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("belongs to another run") && err.contains("config.resolved.toml"), "{err}");
+    for d in [a, b, other] {
+        let _ = std::fs::remove_dir_all(d);
+    }
+}
+
+#[test]
+fn a_wall_time_function_error_names_the_whole_key() {
+    // before: `walls[3].times` for `walls[3].speed.times`
+    refused("sim-wall-speed-times.toml", "walls[3].speed.times", "strictly increasing");
+}
+
+// ---- blow-ups mark the directory as failed (issue list 4) ----
+
+#[test]
+fn a_blow_up_is_logged_marked_and_not_resumed_without_retry() {
+    let dir = out("blow-up");
+    let d = dir.to_str().unwrap();
+    let (code, err) = gw(&["run", fixture("sim-blow-up.toml").to_str().unwrap(), "--out", d]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("numerical blow-up"), "{err}");
+    let log = std::fs::read_to_string(dir.join("run.log")).unwrap();
+    assert!(log.contains("failed: numerical blow-up"), "{log}");
+    assert!(std::fs::read_to_string(dir.join("run.failed")).unwrap().starts_with("numerical blow-up"));
+    // before: inspect called the directory "in progress or interrupted"
+    let o = Command::new(BIN).args(["inspect", d]).output().unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("FAILED: numerical blow-up") && !text.contains("in progress"), "{text}");
+    // before: resume blew up again
+    let (code, err) = gw(&["resume", d]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("the run failed: numerical blow-up") && err.contains("--retry"), "{err}");
+    // --retry gets past the marker (here the run blew up before its first checkpoint: nothing to resume)
+    let (code, err) = gw(&["resume", "--retry", d]);
+    assert_ne!(code, 0, "{err}");
+    assert!(!err.contains("the run failed"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -1,0 +1,166 @@
+//! Resource bounds, checked when a config is validated (by `grainwave check` and before `run`
+//! computes anything): the sizes a config asks for — grains per simulation, samples and runs,
+//! points per signal or profile — and an estimate of the memory they need.
+//!
+//! Two kinds of limit:
+//!
+//! * **hard**: a size that cannot be represented (grain ids are 32-bit), or a memory estimate
+//!   larger than the memory this machine has available (`MemAvailable` of `/proc/meminfo`; no
+//!   memory check where that is unknown). Always refused.
+//! * **soft**: the documented limits below ([`MAX_GRAINS`], [`MAX_UNITS`], [`MAX_POINTS`]),
+//!   far above every published study but below sizes that are almost always typing mistakes.
+//!   `grainwave run --allow-large` / `check --allow-large` lift them ([`set_allow_large`]).
+//!
+//! A refusal is a [`ConfigError`] at the key that asks for the size (exit code 2).
+
+use crate::config::{ConfigError, ConfigSource};
+use std::sync::atomic::{AtomicBool, Ordering};
+
+/// Soft limit on the grains of one simulation.
+pub const MAX_GRAINS: f64 = 1.0e7;
+/// Soft limit on the units of work of one study (samples, groups × samples, runs).
+pub const MAX_UNITS: f64 = 1.0e5;
+/// Soft limit on the points of one signal, profile or time grid.
+pub const MAX_POINTS: f64 = 1.0e7;
+/// Hard limit on the grains of one simulation: grain ids are 32-bit.
+pub const HARD_MAX_GRAINS: f64 = u32::MAX as f64;
+/// Estimated memory per grain of a running simulation, neighbor lists, contacts and (E1) the
+/// linear-response matrices included [bytes]. An upper estimate: the 3D Hertz–Mindlin runs of
+/// the benchmarks use about half of it.
+pub const BYTES_PER_GRAIN: f64 = 2048.0;
+
+static ALLOW_LARGE: AtomicBool = AtomicBool::new(false);
+
+/// Lifts (true) or restores (false) the soft limits for this process.
+pub fn set_allow_large(on: bool) {
+    ALLOW_LARGE.store(on, Ordering::SeqCst);
+}
+
+/// True when the soft limits are lifted.
+pub fn allow_large() -> bool {
+    ALLOW_LARGE.load(Ordering::SeqCst)
+}
+
+/// Memory available to a new process [bytes], when the system says (Linux `MemAvailable`).
+pub fn available_memory() -> Option<f64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: f64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024.0)
+}
+
+fn gib(bytes: f64) -> String {
+    format!("{:.3} GiB", bytes / (1u64 << 30) as f64)
+}
+
+/// Checks one size: `n` items (of `what`) asked for by `key`, soft limit `soft`, hard limit
+/// `hard`, `bytes_each` bytes each (0: not counted in the memory estimate).
+pub fn check(src: &ConfigSource, key: &str, what: &str, n: f64, soft: f64, hard: f64, bytes_each: f64) -> Result<(), ConfigError> {
+    if n.is_nan() || n > hard {
+        return Err(src.error_at_key(key, format!("{n:.4e} {what} (allowed: at most {hard:.4e}; not representable)")));
+    }
+    let bytes = n * bytes_each;
+    if let Some(avail) = available_memory() {
+        if bytes > avail {
+            return Err(src.error_at_key(
+                key,
+                format!("{n:.4e} {what} need about {} of memory; this machine has {} available (allowed: what fits)", gib(bytes), gib(avail)),
+            ));
+        }
+    }
+    if n > soft && !allow_large() {
+        return Err(src.error_at_key(
+            key,
+            format!("{n:.4e} {what} exceed the limit of {soft:.0e} (allowed: at most {soft:.0e}; `--allow-large` lifts this limit, see docs/config.md)"),
+        ));
+    }
+    Ok(())
+}
+
+/// The sizes of an `experiment = "simulation"` config.
+pub fn simulation(src: &ConfigSource, cfg: &crate::simulation::SimulationConfig) -> Result<(), ConfigError> {
+    check(src, "grains.count", "grains", cfg.grains.count as f64, MAX_GRAINS, HARD_MAX_GRAINS, BYTES_PER_GRAIN)
+}
+
+/// The sizes of an `e1` config that the plan would allocate (before planning).
+pub fn e1_config(src: &ConfigSource, cfg: &crate::e1::E1Config) -> Result<(), ConfigError> {
+    let (sizes, pressures, grains_key) = if let Some(p) = &cfg.packing {
+        let sizes = p.heights.as_ref().map(Vec::len).or(p.grains.as_ref().map(Vec::len)).unwrap_or(0);
+        if let Some(g) = &p.grains {
+            for (k, n) in g.iter().enumerate() {
+                check(src, &format!("packing.grains[{k}]"), "grains", *n as f64, MAX_GRAINS, HARD_MAX_GRAINS, BYTES_PER_GRAIN)?;
+            }
+        }
+        (sizes, p.pressures.len(), "packing")
+    } else if let Some(l) = &cfg.lattice {
+        for (k, r) in l.rows.iter().enumerate() {
+            check(src, &format!("lattice.rows[{k}]"), "grains", *r as f64 * l.columns as f64, MAX_GRAINS, HARD_MAX_GRAINS, BYTES_PER_GRAIN)?;
+        }
+        (l.rows.len(), l.pressures.len(), "lattice")
+    } else if let Some(c) = &cfg.chain {
+        for (k, n) in c.grains.iter().enumerate() {
+            check(src, &format!("chain.grains[{k}]"), "grains", *n as f64, MAX_GRAINS, HARD_MAX_GRAINS, BYTES_PER_GRAIN)?;
+        }
+        (c.grains.len(), 1, "chain")
+    } else {
+        (0, 0, "")
+    };
+    let _ = grains_key;
+    let groups = (sizes * pressures.max(1)) as f64;
+    // every task keeps its signals (two per time sample) until the outputs are written
+    let per_task = 64.0 + 16.0 * cfg.pulse.time_samples as f64;
+    check(src, "samples", "samples", cfg.samples as f64, MAX_UNITS, f64::INFINITY, 0.0)?;
+    check(src, "pulse.time_samples", "time samples", cfg.pulse.time_samples as f64, MAX_POINTS, f64::INFINITY, 16.0 * groups.max(1.0))?;
+    check(src, "samples", "tasks (samples × sizes × pressures)", cfg.samples as f64 * groups.max(1.0), MAX_UNITS, f64::INFINITY, per_task)
+}
+
+/// The grain counts an `e1` plan computed (from `heights`).
+pub fn e1_plan(src: &ConfigSource, plan: &crate::e1::plan::Plan) -> Result<(), ConfigError> {
+    for g in &plan.groups {
+        let key = match (&plan.config.packing, &plan.kind) {
+            (Some(p), crate::e1::plan::StudyKind::Packing) if p.heights.is_some() => format!("packing.heights[{}]", g.size_index),
+            (Some(_), crate::e1::plan::StudyKind::Packing) => format!("packing.grains[{}]", g.size_index),
+            (_, crate::e1::plan::StudyKind::Lattice) => format!("lattice.rows[{}]", g.size_index),
+            _ => format!("chain.grains[{}]", g.size_index),
+        };
+        let parallel = plan.config.parallel_samples.unwrap_or(1).max(1) as f64;
+        check(src, &key, "grains", g.grains as f64, MAX_GRAINS, HARD_MAX_GRAINS, BYTES_PER_GRAIN * parallel)?;
+    }
+    Ok(())
+}
+
+/// The sizes of an `e2` config.
+pub fn e2(src: &ConfigSource, cfg: &crate::e2::E2Config) -> Result<(), ConfigError> {
+    let p = &cfg.packing;
+    check(src, "packing.columns", "grains (columns × rows)", p.columns as f64 * p.rows as f64, MAX_GRAINS, HARD_MAX_GRAINS, BYTES_PER_GRAIN)
+}
+
+/// The sizes of an `e3` config: slab grains, samples and points of the response profiles.
+pub fn e3(src: &ConfigSource, cfg: &crate::e3::E3Config) -> Result<(), ConfigError> {
+    use crate::e3::config::Mode;
+    let s = &cfg.slab;
+    let sweep = cfg.mode == Mode::Sweep && !cfg.sweep.sizes.is_empty();
+    let sizes: Vec<[usize; 2]> = if sweep { cfg.sweep.sizes.clone() } else { vec![[s.layers, s.grains_per_layer]] };
+    let key = if sweep { "sweep.sizes" } else { "slab.layers" };
+    check(src, "samples", "samples", cfg.samples as f64, MAX_UNITS, f64::INFINITY, 0.0)?;
+    let mut widest = 0.0f64;
+    for [l, m] in &sizes {
+        check(src, key, "grains (layers × grains per layer)", *l as f64 * *m as f64, MAX_GRAINS, HARD_MAX_GRAINS, BYTES_PER_GRAIN)?;
+        widest = widest.max(2.0 * *m as f64 + 1.0);
+    }
+    if cfg.mode == Mode::Pile {
+        let p = &cfg.pile;
+        let n = p.layers as f64 * (p.top_grains as f64 + p.layers as f64);
+        check(src, "pile.layers", "grains", n, MAX_GRAINS, HARD_MAX_GRAINS, BYTES_PER_GRAIN)?;
+        widest = widest.max(2.0 * (p.top_grains as f64 + p.layers as f64));
+    }
+    let rc = &cfg.response;
+    // a profile holds one point per step across the slab, for every width and sample
+    let per_point = 8.0 * (rc.widths.len().max(1) as f64) * 4.0;
+    for (k, step) in [("response.profile_step", rc.profile_step), ("response.stress_step", rc.stress_step)] {
+        if step.is_finite() && step > 0.0 {
+            check(src, k, "profile points (slab width / step)", widest / step + 1.0, MAX_POINTS, f64::INFINITY, per_point)?;
+        }
+    }
+    Ok(())
+}

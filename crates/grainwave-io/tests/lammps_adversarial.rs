@@ -1,0 +1,64 @@
+//! Adversarial LAMMPS data files: sizes declared or contained that would exhaust memory, and
+//! values that would be echoed at full length. Each is refused with a short message, without
+//! allocating more than a small multiple of the file's size.
+
+use grainwave_io::lammps::{parse_data, read_data, LammpsDataError, MAX_ECHO_CHARS, MAX_LINE_BYTES};
+use std::io::Write;
+
+const HEADER: &str = "LAMMPS data file\n\n1000000000000 atoms\n1 atom types\n\n0 4 xlo xhi\n0 4 ylo yhi\n0 4 zlo zhi\n\nAtoms # sphere\n\n";
+
+fn temp(name: &str) -> std::path::PathBuf {
+    std::env::temp_dir().join(format!("grainwave-lammps-adv-{}-{name}", std::process::id()))
+}
+
+#[test]
+fn an_atom_count_the_file_cannot_hold_is_refused_before_allocating() {
+    // before: SIGABRT "memory allocation failed" (vectors reserved for 1e12 atoms)
+    let e = parse_data(HEADER, "t.data").unwrap_err();
+    let msg = e.to_string();
+    assert!(matches!(e, LammpsDataError::Parse { .. }), "{msg}");
+    assert!(msg.contains("1000000000000 atoms") && msg.contains("cannot hold"), "{msg}");
+    // the same count with a few atom lines behind it
+    let text = format!("{HEADER}1 1 1 1 1 1 1\n2 1 1 1 2 2 2\n");
+    assert!(parse_data(&text, "t.data").unwrap_err().to_string().contains("cannot hold"));
+    // a count the file can hold is still checked against the lines
+    let ok = HEADER.replace("1000000000000 atoms", "3 atoms") + "1 1 1 1 1 1 1\n2 1 1 1 2 2 2\n";
+    let msg = parse_data(&ok, "t.data").unwrap_err().to_string();
+    assert!(msg.contains("has 2 lines, the header announces 3 atoms"), "{msg}");
+}
+
+#[test]
+fn a_gzip_file_with_one_huge_line_is_refused_at_the_line_limit() {
+    // before: a gzip file holding one 200 MB line took 605 MB of memory and echoed the whole
+    // line. Here 16 MB (the limit is reached after 4 kB whatever the length).
+    let path = temp("long.data.gz");
+    {
+        let f = std::fs::File::create(&path).unwrap();
+        let mut gz = flate2::write::GzEncoder::new(f, flate2::Compression::fast());
+        gz.write_all(b"LAMMPS data file\n\n2 atoms\n").unwrap();
+        let chunk = vec![b'7'; 1 << 20];
+        for _ in 0..16 {
+            gz.write_all(&chunk).unwrap();
+        }
+        gz.finish().unwrap();
+    }
+    let e = read_data(&path).unwrap_err();
+    let msg = e.to_string();
+    let _ = std::fs::remove_file(&path);
+    assert!(msg.contains(&format!("longer than {MAX_LINE_BYTES} bytes")), "{msg}");
+    assert!(msg.contains("line 4"), "{msg}");
+    assert!(msg.len() < 400, "{} bytes of message", msg.len());
+}
+
+#[test]
+fn long_values_are_echoed_at_most_200_characters() {
+    let long = "x".repeat(3000);
+    for text in [
+        format!("LAMMPS data file\n\n2 atoms\n{long} frobs\n"),
+        HEADER.replace("1000000000000", "2") + &format!("1 1 1 1 {long} 1 1\n2 1 1 1 2 2 2\n"),
+    ] {
+        let msg = parse_data(&text, "t.data").unwrap_err().to_string();
+        assert!(msg.contains("more bytes)"), "{msg}");
+        assert!(msg.len() < MAX_ECHO_CHARS + 200, "{} bytes of message", msg.len());
+    }
+}
