@@ -4,8 +4,16 @@
 //!
 //! Given samples F(t_k) of a pulse signal (times strictly increasing), [`pulse_metrics`] finds
 //!
-//! * the **first (coherent) peak**: the first local maximum whose value is at least
-//!   `peak_threshold` × max_k F(t_k) (default ½ — small precursor wiggles are skipped); its time and
+//! * the **first (coherent) peak** (SPEC §5.5): the first local maximum F(t_k) that
+//!   1. reaches `peak_threshold` × max_j F(t_j) (default 0.1 — a floor for precursor wiggles and
+//!      rounding noise, not a competition with later peaks), and
+//!   2. is a lobe: after it the signal falls to half its value, F ≤ F(t_k)/2, before it ever
+//!      exceeds F(t_k) again (or the record ends first) — a ripple on the rising front is not a
+//!      peak.
+//!
+//!   It is *not* the largest peak: in lattices and chains the first (Airy) lobe of the front is
+//!   smaller than the oscillations behind it (≈ 40 % of the record's maximum in the triangular
+//!   lattice), and a detector that demands a large fraction of the maximum skips it. Its time and
 //!   amplitude A are refined by the parabola through the maximum sample and its two neighbours;
 //! * the **leading edge**: the first time F reaches `edge_fraction` × A (default 10 %), by linear
 //!   interpolation between the bracketing samples;
@@ -96,14 +104,17 @@ pub enum SignalError {
 pub struct PulseOptions {
     /// Fraction of the first peak that defines the leading edge (default 0.1).
     pub edge_fraction: f64,
-    /// A local maximum counts as the first coherent peak when it reaches this fraction of the
-    /// signal's largest value (default 0.5).
+    /// Floor for the first coherent peak: the first lobe (a local maximum followed by a fall to
+    /// half its value) reaching this fraction of the signal's largest value (default 0.1).
     pub peak_threshold: f64,
 }
 
+/// Default floor of the first coherent peak, relative to the record's largest value.
+pub const DEFAULT_PEAK_THRESHOLD: f64 = 0.1;
+
 impl Default for PulseOptions {
     fn default() -> Self {
-        PulseOptions { edge_fraction: 0.1, peak_threshold: 0.5 }
+        PulseOptions { edge_fraction: 0.1, peak_threshold: DEFAULT_PEAK_THRESHOLD }
     }
 }
 
@@ -150,6 +161,21 @@ fn interpolate(times: &[f64], values: &[f64], a: usize, b: usize, level: f64) ->
     times[a] + (level - fa) / (fb - fa) * (times[b] - times[a])
 }
 
+/// Whether the local maximum at `k` (its plateau ending before `j`) is a lobe: after it the signal
+/// reaches half of it before exceeding it, or the record ends first.
+fn is_lobe(values: &[f64], k: usize, j: usize) -> bool {
+    let top = values[k];
+    for &v in &values[j..] {
+        if v > top {
+            return false;
+        }
+        if v <= 0.5 * top {
+            return true;
+        }
+    }
+    true
+}
+
 /// Metrics of the first coherent peak of F(t) (see the module docs).
 pub fn pulse_metrics(times: &[f64], values: &[f64], options: &PulseOptions) -> Result<PulseMetrics, SignalError> {
     check(times, values)?;
@@ -168,7 +194,8 @@ pub fn pulse_metrics(times: &[f64], values: &[f64], options: &PulseOptions) -> R
         return Err(SignalError::NoPeak { threshold: options.peak_threshold, max });
     }
     let level = options.peak_threshold * max;
-    // first local maximum above the level (plateaus: the first sample of the plateau)
+    // first local maximum above the level (plateaus: the first sample of the plateau) that is a
+    // lobe: the signal falls to half of it before exceeding it (or the record ends)
     let mut peak = None;
     for k in 0..n {
         if values[k] < level {
@@ -180,7 +207,7 @@ pub fn pulse_metrics(times: &[f64], values: &[f64], options: &PulseOptions) -> R
             j += 1;
         }
         let right_ok = j == n || values[j] < values[k];
-        if left_ok && right_ok {
+        if left_ok && right_ok && is_lobe(values, k, j) {
             peak = Some(k);
             break;
         }
@@ -352,6 +379,31 @@ mod tests {
         // with no threshold the first wiggle is taken
         let m = pulse_metrics(&t, &f, &PulseOptions { peak_threshold: 1e-3, ..Default::default() }).unwrap();
         assert!(m.peak_time < 1.0);
+    }
+
+    /// A front whose first lobe is smaller than the oscillations behind it (as the Airy front of
+    /// a lattice: first lobe ≈ 40 % of the maximum): the first lobe is the peak, not the largest
+    /// one and not the first one reaching half the maximum. A ripple on the rising front (a local
+    /// maximum that does not fall to half before the front climbs higher) is not a peak either.
+    #[test]
+    fn first_lobe_smaller_than_later_ones_is_the_peak() {
+        let t: Vec<f64> = (0..=4000).map(|k| k as f64 * 0.005).collect();
+        // lobes at t = 5 (0.4), 8 (1.0), 11 (−0.8 … ), Gaussians of σ = 0.5 — well separated
+        let g = |t: f64, c: f64| (-(t - c).powi(2) / (2.0 * 0.25)).exp();
+        let f: Vec<f64> = t.iter().map(|&t| 0.4 * g(t, 5.0) + 1.0 * g(t, 8.0) - 0.8 * g(t, 11.0) + 0.9 * g(t, 14.0)).collect();
+        let m = pulse_metrics(&t, &f, &PulseOptions::default()).unwrap();
+        assert!((m.peak_time - 5.0).abs() < 1e-3 && (m.peak_amplitude - 0.4).abs() < 1e-3, "{m:?}");
+        // the leading edge belongs to the first lobe: 0.4 g = 0.04, t = 5 − σ √(2 ln 10)
+        assert!((m.leading_edge_time - (5.0 - 0.5 * (2.0 * 10f64.ln()).sqrt())).abs() < 1e-3, "{m:?}");
+        // a ripple on the rising front: a narrow bump (0.05, σ = 0.03) at t = 4.5 on the flank of
+        // the first lobe (value 0.24, slope 0.49 there; the bump's steepest slope is 1.0, so it
+        // makes a local maximum ≈ 0.29, above the 0.1 floor) does not fall to half its height
+        // before the lobe climbs past it
+        let r: Vec<f64> = t.iter().zip(&f).map(|(&t, &v)| v + 0.05 * (-(t - 4.5f64).powi(2) / (2.0 * 0.03 * 0.03)).exp()).collect();
+        let ripple = (1..t.len() - 1).find(|&k| r[k] >= 0.1 && r[k] > r[k - 1] && r[k] >= r[k + 1]).unwrap();
+        assert!((t[ripple] - 4.5).abs() < 0.05, "the ripple is a local maximum above the floor: {}", t[ripple]);
+        let m = pulse_metrics(&t, &r, &PulseOptions::default()).unwrap();
+        assert!((m.peak_time - 5.0).abs() < 1e-2, "{m:?}");
     }
 
     #[test]

@@ -10,25 +10,32 @@
 //! ```
 //!
 //! With x horizontal and z vertical (the direction of the point force) the four moduli of an
-//! orthotropic medium are a = C_xxxx, b = C_zzzz, c = C_xxzz and d = C_xzxz (σ_xz = 2d ε_xz). An
-//! anisotropic elastic half-plane loaded by a point force responds with a double-peaked stress
-//! profile when
+//! orthotropic medium, in the convention of the half-plane criterion (SPEC §7.3), are
+//! a = C_xxxx, b = C_zzzz, c = C_xxzz and **d = 2 C_xzxz** (so that σ_xz = d ε_xz; d is twice the
+//! shear modulus, not the shear modulus). An anisotropic elastic half-plane loaded by a point force
+//! responds with a double-peaked stress profile when
 //!
 //! ```text
 //! r = [ab − c(d + c)] / (bd) < 0.
 //! ```
 //!
-//! (Isotropic media: a = b = λ + 2μ, c = λ, d = μ give r = (3λ + 4μ)/(λ + 2μ) > 0.) For any packing
+//! Isotropic media (a = b = λ + 2μ, c = λ, d = 2μ) give r = [(λ + 2μ)² − λ(λ + 2μ)]/[2μ(λ + 2μ)] = 1
+//! exactly, whatever λ and μ. For the triangular lattice with horizontal bonds (k₁ⁿ, k₁ᵗ) and oblique
+//! ones (k₂ⁿ, k₂ᵗ), in units of ℓ²/(8A) = R²/(2A) (ℓ = 2R the spacing):
+//! a = 8k₁ⁿ + k₂ⁿ + 3k₂ᵗ, b = 9k₂ⁿ + 3k₂ᵗ, c = 3(k₂ⁿ − k₂ᵗ), d = 6k₂ⁿ + 4k₁ᵗ + 2k₂ᵗ; with the horizontal
+//! contacts open and β = k₂ᵗ/k₂ⁿ, r = (β² + 10β − 3)/(β² + 6β + 9), negative for β < √28 − 5 ≈ 0.2915.
+//! For any packing
 //! the same moduli follow from the affine energy of its contact network:
 //! [`crate::moduli::ElasticModuli::affine`] and [`AnisotropicModuli::from_voigt`].
 //!
 //! ```
 //! use grainwave_linear::lattice::SpringNetwork;
-//! // central springs k on a triangular lattice: Lamé λ = μ = √3 k/4
+//! // central springs k on a triangular lattice: Lamé λ = μ = √3 k/4, d = 2μ, isotropic: r = 1
 //! let net = SpringNetwork::triangular(1.0, (1.0, 0.0), (1.0, 0.0));
 //! let m = net.moduli();
 //! let mu = 3f64.sqrt() / 4.0;
-//! assert!((m.a - 3.0 * mu).abs() < 1e-14 && (m.c - mu).abs() < 1e-14 && (m.d - mu).abs() < 1e-14);
+//! assert!((m.a - 3.0 * mu).abs() < 1e-14 && (m.c - mu).abs() < 1e-14 && (m.d - 2.0 * mu).abs() < 1e-14);
+//! assert!((m.r() - 1.0).abs() < 1e-14);
 //! // without horizontal springs the response becomes double-peaked
 //! assert!(SpringNetwork::triangular(1.0, (0.0, 0.0), (1.0, 0.0)).moduli().r() < 0.0);
 //! ```
@@ -56,7 +63,8 @@ pub struct SpringNetwork {
     pub bonds: Vec<SpringBond>,
 }
 
-/// The four moduli of an orthotropic 2D medium (x horizontal, z vertical).
+/// The four moduli of an orthotropic 2D medium (x horizontal, z vertical), in the convention of
+/// the half-plane criterion (SPEC §7.3): d is **twice** C_xzxz.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct AnisotropicModuli {
     /// a = C_xxxx.
@@ -65,7 +73,7 @@ pub struct AnisotropicModuli {
     pub b: f64,
     /// c = C_xxzz.
     pub c: f64,
-    /// d = C_xzxz.
+    /// d = 2 C_xzxz (σ_xz = d ε_xz).
     pub d: f64,
 }
 
@@ -80,12 +88,14 @@ impl AnisotropicModuli {
         self.r() < 0.0
     }
 
-    /// From a Voigt matrix: 3 × 3 (2D: [xx, zz, xz], z = y) or 6 × 6 (3D: x and z = axes 0 and 2).
+    /// From a Voigt matrix with engineering shear strains (its shear diagonal entry is C_xzxz):
+    /// 3 × 3 (2D: [xx, zz, xz], z = y) or 6 × 6 (3D: x and z = axes 0 and 2, xz = entry 4).
+    /// d = 2 × the shear entry.
     pub fn from_voigt(c: &[Vec<f64>]) -> Self {
         if c.len() == 3 {
-            AnisotropicModuli { a: c[0][0], b: c[1][1], c: c[0][1], d: c[2][2] }
+            AnisotropicModuli { a: c[0][0], b: c[1][1], c: c[0][1], d: 2.0 * c[2][2] }
         } else {
-            AnisotropicModuli { a: c[0][0], b: c[2][2], c: c[0][2], d: c[4][4] }
+            AnisotropicModuli { a: c[0][0], b: c[2][2], c: c[0][2], d: 2.0 * c[4][4] }
         }
     }
 }
@@ -130,7 +140,7 @@ impl SpringNetwork {
         c
     }
 
-    /// The moduli (a, b, c, d) of the affine stiffness.
+    /// The moduli (a, b, c, d = 2 C_xzxz) of the affine stiffness.
     pub fn moduli(&self) -> AnisotropicModuli {
         AnisotropicModuli::from_voigt(&self.affine_voigt())
     }

@@ -242,6 +242,26 @@ impl TriangularLatticeSpec {
         p
     }
 
+    /// Closed-form longitudinal speed of the lattice at small pressure (SPEC §5.6), in units of
+    /// √(E*/ρ) with d̄ = 1: c_nofric = 3^(19/12)/(2^(3/2) π^(1/2)) (p/E*)^(1/6), and with friction
+    /// c_fric = c_nofric √(1 + η/3), η = k_t/k_n = 1 − ν/(2 − ν) (Mindlin).
+    ///
+    /// Derivation: central springs k on a triangular lattice of spacing a give
+    /// λ + 2μ = 3√3 k/4 (tangential springs k_t add √3 k_t/4), and the 2D density is m/(√3a²/2),
+    /// so c² = 9 k a²/(8m) (× (1 + k_t/(3k))); with a → d̄ = 1, m = πρ/6, the bond force
+    /// F = a p/√3 and the Hertz law F = (E*/3) ξ^(3/2) between two unit spheres, k = (3/2) F/ξ =
+    /// (3/2) 3^(−5/6) p^(1/3) E*^(2/3), hence c² = 3^(19/6)/(8π) p^(1/3). Valid to O(ξ/d̄) ~ p^(2/3).
+    pub fn closed_form_speed(&self) -> f64 {
+        let e_star = self.young / (1.0 - self.poisson * self.poisson);
+        let c = 3f64.powf(19.0 / 12.0) / (2f64.powf(1.5) * std::f64::consts::PI.sqrt()) * (self.pressure / e_star).powf(1.0 / 6.0) * (e_star / self.density).sqrt();
+        if self.friction > 0.0 {
+            let eta = 1.0 - self.poisson / (2.0 - self.poisson);
+            c * (1.0 + eta / 3.0).sqrt()
+        } else {
+            c
+        }
+    }
+
     /// Equilibrium geometry of the monodisperse lattice: F = 2 R a p/√3, Hertz overlaps.
     pub fn geometry(&self) -> LatticeGeometry {
         let r = 0.5 * self.diameter;

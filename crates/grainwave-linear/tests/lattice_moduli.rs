@@ -38,28 +38,31 @@ fn triangular_spring_network_has_textbook_lame_constants() {
                 assert!((c[i][j] - expected[i][j]).abs() < 1e-14, "k = ({k_n}, {k_t}): C[{i}][{j}] = {} vs {}", c[i][j], expected[i][j]);
             }
         }
-        // isotropic half-plane: r = (3λ + 4μ)/(λ + 2μ) > 0, single-peaked response
+        // isotropic half-plane: d = 2μ, r = 1, single-peaked response
         let m = net.moduli();
-        assert!((m.r() - (3.0 * lambda + 4.0 * mu) / (lambda + 2.0 * mu)).abs() < 1e-13);
+        assert!((m.d - 2.0 * mu).abs() < 1e-14);
+        assert!((m.r() - 1.0).abs() < 1e-13);
         assert!(!m.double_peaked());
     }
 }
 
 /// Opening the horizontal contacts (k₁ = 0) of a central-force lattice gives, from the two oblique
-/// bonds alone, a = k/(4√3), b = 9k/(4√3), c = d = 3k/(4√3), hence r = (9 − 18)/27 = −1/3: a
-/// double-peaked response (SPEC §7.3).
+/// bonds alone, a = k/(4√3), b = 9k/(4√3), c = 3k/(4√3), d = 2 C_xzxz = 6k/(4√3), hence
+/// r = (9 − 3·9)/54 = −1/3: a double-peaked response (SPEC §7.3).
 #[test]
 fn open_horizontal_contacts_give_a_double_peaked_response() {
     let m = SpringNetwork::triangular(1.0, (0.0, 0.0), (1.0, 0.0)).moduli();
     let u = 1.0 / (4.0 * 3f64.sqrt());
-    for (got, want) in [(m.a, u), (m.b, 9.0 * u), (m.c, 3.0 * u), (m.d, 3.0 * u)] {
+    for (got, want) in [(m.a, u), (m.b, 9.0 * u), (m.c, 3.0 * u), (m.d, 6.0 * u)] {
         assert!((got - want).abs() < 1e-15, "{m:?}");
     }
     assert!((m.r() + 1.0 / 3.0).abs() < 1e-14 && m.double_peaked());
     // r as a function of the horizontal stiffness changes sign in between
     let r_of = |k1: f64| SpringNetwork::triangular(1.0, (k1, 0.0), (1.0, 0.0)).moduli().r();
     assert!(r_of(0.0) < 0.0 && r_of(1.0) > 0.0);
-    let _ = AnisotropicModuli::from_voigt(&[vec![1.0, 0.0, 0.0], vec![0.0, 1.0, 0.0], vec![0.0, 0.0, 1.0]]);
+    // d is twice the Voigt shear entry
+    let m = AnisotropicModuli::from_voigt(&[vec![1.0, 0.0, 0.0], vec![0.0, 1.0, 0.0], vec![0.0, 0.0, 1.0]]);
+    assert_eq!(m.d, 2.0);
 }
 
 /// A perfect, periodic triangular packing of equal disks (Hooke contacts, spacing 1): moduli from
@@ -254,4 +257,32 @@ fn static_solves_honour_imposed_displacements() {
     let err = r.iter().zip(&f).map(|(a, b)| (a - b).abs()).fold(0.0, f64::max);
     let scale = f.iter().fold(0.0_f64, |a, b| a.max(b.abs()));
     assert!(err < 1e-9 * scale, "{err:e}");
+}
+
+/// SPEC §5.6 closed forms of the lattice speed against the lattice's own stiffnesses: the
+/// equilibrium geometry (spacing a, bond force F, Hertz overlap ξ) gives k_n = (3/2)F/ξ and, with
+/// friction, the Mindlin k_t = k_n (ν = 0); the continuum speed of the triangular spring network,
+/// c² = (λ + 2μ)/ρ₂ with ρ₂ = m/(√3a²/2), must approach the closed form as p → 0: the closed form
+/// sets a = d̄ and neglects the overlap, a relative error O(ξ) ~ (√3 p)^(2/3) (≈ 1.4e-4 at
+/// p = 1e-6, 3e-3 at 1e-4), so the tolerance is 2 ξ. The frictional/frictionless ratio is √(4/3)
+/// exactly.
+#[test]
+fn lattice_speed_closed_forms_match_the_spring_network() {
+    for p in [1e-7, 1e-6, 1e-5, 1e-4] {
+        for friction in [0.0, 0.5] {
+            let spec = TriangularLatticeSpec { pressure: p, friction, ..Default::default() };
+            let g = spec.geometry();
+            let k_n = 1.5 * g.contact_force / g.overlap;
+            let k_t = if friction > 0.0 { k_n } else { 0.0 };
+            let net = SpringNetwork::triangular(g.spacing, (k_n, k_t), (k_n, k_t));
+            let c22 = net.affine_voigt()[1][1];
+            let m = std::f64::consts::PI / 6.0;
+            let rho = m / (3f64.sqrt() / 2.0 * g.spacing * g.spacing);
+            let c = (c22 / rho).sqrt();
+            let closed = spec.closed_form_speed();
+            assert!((c / closed - 1.0).abs() < 2.0 * g.overlap, "p = {p}, μ = {friction}: network {c} vs closed form {closed}");
+        }
+        let ratio = TriangularLatticeSpec { pressure: p, friction: 0.5, ..Default::default() }.closed_form_speed() / TriangularLatticeSpec { pressure: p, friction: 0.0, ..Default::default() }.closed_form_speed();
+        assert!((ratio - (4.0f64 / 3.0).sqrt()).abs() < 1e-14);
+    }
 }

@@ -5,7 +5,7 @@
 use super::plan::{Plan, StudyKind};
 use super::sample::SampleResult;
 use grainwave_analysis::ensemble::{mean_and_rms, mean_std, MeanStd};
-use grainwave_analysis::pulse_series::{analyze_heights, HeightSeries, SeriesOptions};
+use grainwave_analysis::pulse_series::{analyze_heights, bootstrap_exponents, BootstrapOptions, ExponentIntervals, HeightSeries, SeriesGroup, SeriesOptions};
 use grainwave_analysis::signal::{linear_fit, power_law_fit, pulse_metrics, LinearFit, PowerLawFit, PulseMetrics, PulseOptions};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -69,6 +69,11 @@ pub struct HeightSeriesSummary {
     pub edge_fit_samples: Option<LinearFit>,
     /// c_tof between the reference heights, per seed (samples of equal seed at the two heights).
     pub time_of_flight_samples: MeanStd,
+    /// γ, α, α′ and the effective exponents with bootstrap intervals over the samples, and for
+    /// each whether it can be called (`pulse.bootstrap` > 0).
+    pub exponent_intervals: Option<ExponentIntervals>,
+    /// Why there are no intervals (fewer than two heights with two samples, no peak, …).
+    pub exponent_intervals_error: Option<String>,
 }
 
 /// A speed vs pressure, with its log–log slope.
@@ -119,7 +124,7 @@ fn stats(values: impl Iterator<Item = f64>) -> MeanStd {
 /// Aggregates `results` (indexed like `plan.tasks`, `None` when missing).
 pub fn aggregate(plan: &Plan, results: &[Option<SampleResult>]) -> (Aggregate, Vec<GroupSignals>) {
     let pc = &plan.config.pulse;
-    let popts = PulseOptions { edge_fraction: pc.edge_fraction, peak_threshold: pc.peak_threshold.unwrap_or(0.5) };
+    let popts = PulseOptions { edge_fraction: pc.edge_fraction, peak_threshold: pc.peak_threshold.unwrap_or(grainwave_analysis::signal::DEFAULT_PEAK_THRESHOLD) };
     let mut groups = Vec::new();
     let mut signals = Vec::new();
     for g in &plan.groups {
@@ -293,7 +298,36 @@ pub fn aggregate(plan: &Plan, results: &[Option<SampleResult>]) -> (Aggregate, V
                 }
             }
         }
-        heights.push(HeightSeriesSummary { pressure: p, series, edge_fit_samples, time_of_flight_samples: mean_std(&tof) });
+        // exponents with bootstrap intervals over the samples of every height
+        let (mut exponent_intervals, mut exponent_intervals_error) = (None, None);
+        if pc.bootstrap > 0 && idx.len() >= 2 {
+            let mut sg = Vec::new();
+            for &k in &idx {
+                let g = &plan.groups[k];
+                let mut grp = SeriesGroup { times: g.times.clone(), heights: Vec::new(), signals: Vec::new() };
+                for (t, r) in plan.tasks.iter().zip(results) {
+                    if let Some(r) = r.as_ref().filter(|r| t.group == k && r.failure.is_none()) {
+                        if let Some(pulse) = &r.pulse {
+                            grp.heights.push(if plan.kind == StudyKind::Chain { g.estimated_height } else { r.height });
+                            grp.signals.push(pulse.signal.clone());
+                        }
+                    }
+                }
+                if grp.signals.len() >= 2 {
+                    sg.push(grp);
+                }
+            }
+            let bo = BootstrapOptions { replicates: pc.bootstrap, resolution: pc.exponent_resolution, ..Default::default() };
+            if sg.len() >= 2 {
+                match bootstrap_exponents(&sg, &popts, &bo) {
+                    Ok(e) => exponent_intervals = Some(e),
+                    Err(e) => exponent_intervals_error = Some(e.to_string()),
+                }
+            } else {
+                exponent_intervals_error = Some(format!("{} height(s) with at least two samples (intervals need two)", sg.len()));
+            }
+        }
+        heights.push(HeightSeriesSummary { pressure: p, series, edge_fit_samples, time_of_flight_samples: mean_std(&tof), exponent_intervals, exponent_intervals_error });
     }
 
     // speeds vs pressure
@@ -314,6 +348,14 @@ pub fn aggregate(plan: &Plan, results: &[Option<SampleResult>]) -> (Aggregate, V
         };
         push("c_tof".into(), heights.iter().map(|h| h.series.as_ref().and_then(|s| s.time_of_flight.as_ref()).map_or(f64::NAN, |t| t.velocity)).collect());
         push("edge_speed".into(), heights.iter().map(|h| h.series.as_ref().and_then(|s| s.edge_speed).unwrap_or(f64::NAN)).collect());
+        if plan.kind == StudyKind::Lattice {
+            // SPEC §5.6: the small-pressure closed form of the monodisperse lattice's speed
+            let closed = |p: f64| {
+                grainwave_linear::reference::TriangularLatticeSpec { pressure: p, friction: plan.friction, poisson: plan.poisson, young: 1.0 - plan.poisson * plan.poisson, ..Default::default() }
+                    .closed_form_speed()
+            };
+            push("closed_form".into(), ps.iter().map(|&p| closed(p)).collect());
+        }
         for si in 0..plan.sizes() {
             let at = |pi: usize| groups.iter().zip(&plan.groups).find(|(_, g)| g.size_index == si && g.pressure_index == pi).map(|(s, _)| s);
             let label = plan.groups.iter().find(|g| g.size_index == si).map(|g| g.size_label.clone()).unwrap_or_default();

@@ -192,9 +192,11 @@ pub struct PreparationConfig {
     /// Equilibrium: the largest grain acceleration max(|F|/m, |τ|R/I) and the piston's must fall
     /// below this [length/time²].
     pub max_acceleration: f64,
-    /// Velocity quenching: every `check_every` steps, if the power of the forces on grains and
-    /// piston is negative, all velocities are set to zero (a FIRE-like minimizer that speeds up the
-    /// relaxation of weakly damped modes; false: damping alone).
+    /// Velocity quenching, a **deviation** from SPEC §5.1 (off by default): every `check_every`
+    /// steps, if the power of the forces on grains and piston is negative, all velocities are set
+    /// to zero (a FIRE-like accelerator of the relaxation). It changes the packing (the shear
+    /// modulus C₃₃ rises markedly), so the published-protocol configs leave it off; false (default):
+    /// plain damped molecular dynamics, dissipation only through the contact dashpots.
     pub quench: bool,
     /// Steps between quench and equilibrium checks.
     pub check_every: u64,
@@ -215,7 +217,7 @@ impl Default for PreparationConfig {
             damping: 0.2,
             piston_mass: None,
             max_acceleration: 1e-10,
-            quench: true,
+            quench: false,
             check_every: 10,
             dt_fraction: 0.05,
             expected_overlap: None,
@@ -329,12 +331,19 @@ pub struct PulseConfig {
     pub time_samples: usize,
     /// Fraction of the first peak that defines the leading edge.
     pub edge_fraction: f64,
-    /// The first coherent peak is the first local maximum reaching this fraction of the record's
-    /// largest value (default 0.5; chains 0.1, whose Airy front is smaller than the oscillations
-    /// behind it).
+    /// Floor of the first coherent peak (SPEC §5.5): the peak is the first local maximum that
+    /// reaches this fraction of the record's largest value and is a lobe (the signal falls to half
+    /// of it before exceeding it) — not the largest peak: the Airy front of lattices and chains is
+    /// smaller than the oscillations behind it (default 0.1).
     pub peak_threshold: Option<f64>,
     /// Reference heights of c_tof: the two heights of the series closest to these [length].
     pub tof_heights: [f64; 2],
+    /// Bootstrap replicates of the exponent intervals (resampling the samples of every height;
+    /// 0: no intervals). Series need at least two heights with at least two samples each.
+    pub bootstrap: usize,
+    /// An exponent is too wide to call when the half-width of its 95 % bootstrap interval exceeds
+    /// this fraction of its value.
+    pub exponent_resolution: f64,
     /// Times of the displacement-field snapshots, as fractions of the first-peak time of the first
     /// sample of each size and pressure.
     pub field_times: Vec<f64>,
@@ -354,6 +363,8 @@ impl Default for PulseConfig {
             edge_fraction: 0.1,
             peak_threshold: None,
             tof_heights: [8.0, 25.0],
+            bootstrap: 1000,
+            exponent_resolution: 0.25,
             field_times: vec![0.5, 1.0],
         }
     }

@@ -182,6 +182,11 @@ pub fn summary_lines(r: &E1Report, out: &std::path::Path) -> Vec<String> {
             if s.heights.len() >= 2 {
                 lines.push(l);
             }
+            if let Some(e) = &h.exponent_intervals {
+                for v in e.verdicts.iter().filter(|v| !v.starts_with("effective")) {
+                    lines.push(format!("  {v}"));
+                }
+            }
         }
     }
     for (dir, why) in &r.failures {

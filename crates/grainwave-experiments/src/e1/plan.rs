@@ -198,11 +198,17 @@ pub fn plan(src: &ConfigSource, cfg: &E1Config) -> Result<Plan, ConfigError> {
     if !(pu.edge_fraction > 0.0 && pu.edge_fraction < 1.0) {
         return Err(err(src, "pulse.edge_fraction", format!("{} (allowed: a fraction in (0, 1))", pu.edge_fraction)));
     }
-    let threshold = pu.peak_threshold.unwrap_or(if cfg.chain.is_some() { 0.1 } else { 0.5 });
+    let threshold = pu.peak_threshold.unwrap_or(grainwave_analysis::signal::DEFAULT_PEAK_THRESHOLD);
     if !(threshold > 0.0 && threshold <= 1.0) {
         return Err(err(src, "pulse.peak_threshold", format!("{threshold} (allowed: a fraction in (0, 1])")));
     }
     config.pulse.peak_threshold = Some(threshold);
+    if pu.bootstrap == 1 {
+        return Err(err(src, "pulse.bootstrap", "1 (allowed: 0 for no intervals, or at least 2 replicates)"));
+    }
+    if !(pu.exponent_resolution > 0.0 && pu.exponent_resolution.is_finite()) {
+        return Err(err(src, "pulse.exponent_resolution", format!("{} (allowed: a positive fraction)", pu.exponent_resolution)));
+    }
     for (k, &f) in pu.field_times.iter().enumerate() {
         if !(f.is_finite() && f >= 0.0) {
             return Err(err(src, &format!("pulse.field_times[{k}]"), format!("{f} (allowed: a fraction ≥ 0 of the first-peak time)")));

@@ -1,12 +1,17 @@
 //! Building the systems of E1: packings by piston compression of a granular gas (SPEC §5.1),
 //! triangular lattices and chains (SPEC §5.6), and the relaxation to static equilibrium.
 //!
-//! **Relaxation.** The simulation advances in chunks of `check_every` steps (at absolute step
-//! numbers, so an interrupted and resumed preparation is bit-identical). After each chunk, with
-//! quenching on, the power P = Σ_i (F_i·v_i + τ_i·ω_i) + F_w v_w of the forces on the grains and the
-//! piston is computed; when P < 0 (the system climbs up its energy landscape) every velocity, the
-//! piston's included, is set to zero. The preparation is done when the largest grain acceleration
+//! **Relaxation.** Plain damped molecular dynamics (SPEC §5.1): energy leaves only through the
+//! contact dashpots (ζ of critical) and the piston's motion. The simulation advances in chunks of
+//! `check_every` steps (at absolute step numbers, so an interrupted and resumed preparation is
+//! bit-identical). The preparation is done when the largest grain acceleration
 //! max_i max(|F_i|/m_i, |τ_i|R_i/I_i) and the piston's |a_w| are below the tolerance.
+//!
+//! *Deviation, off by default* (`quench = true`): after each chunk the power
+//! P = Σ_i (F_i·v_i + τ_i·ω_i) + F_w v_w of the forces on the grains and the piston is computed, and
+//! when P < 0 every velocity, the piston's included, is set to zero (a FIRE-like accelerator). It
+//! relaxes faster but yields a different packing (stiffer in shear), so the published-protocol
+//! configs do not use it.
 
 use super::config::PreparationConfig;
 use crate::simulation::AnySim;

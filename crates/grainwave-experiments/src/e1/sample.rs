@@ -155,7 +155,7 @@ impl SampleResult {
 }
 
 fn pulse_options(c: &PulseConfig) -> PulseOptions {
-    PulseOptions { edge_fraction: c.edge_fraction, peak_threshold: c.peak_threshold.unwrap_or(0.5) }
+    PulseOptions { edge_fraction: c.edge_fraction, peak_threshold: c.peak_threshold.unwrap_or(grainwave_analysis::signal::DEFAULT_PEAK_THRESHOLD) }
 }
 
 fn metrics_of(times: &[f64], values: &[f64], c: &PulseConfig) -> (Option<PulseMetrics>, Option<String>) {

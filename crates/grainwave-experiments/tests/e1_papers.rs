@@ -1,0 +1,41 @@
+//! The E1 configs of `examples/papers/` (full-size studies, not run by the suite) are valid and
+//! follow the published protocol (SPEC §5.1): no velocity quenching in any preparation; the
+//! lattices measure c_tof between L ≈ 8 and 25 and come frictional and frictionless; the exponent
+//! series spans at least a factor 5 in height.
+
+use grainwave_experiments::config::ConfigSource;
+use grainwave_experiments::e1;
+use std::path::Path;
+
+#[test]
+fn e1_paper_configs_follow_the_published_protocol() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/papers");
+    let mut checked = 0;
+    let mut lattices = Vec::new();
+    for e in std::fs::read_dir(&dir).unwrap() {
+        let path = e.unwrap().path();
+        let name = path.file_name().unwrap().to_string_lossy().to_string();
+        if !(name.starts_with("e1-") && name.ends_with(".toml")) {
+            continue;
+        }
+        let src = ConfigSource::from_file(&path).unwrap();
+        let plan = e1::prepare(&src).unwrap_or_else(|e| panic!("{name}: {e}"));
+        assert!(!plan.config.preparation.quench, "{name}: the published protocol has no quenching (SPEC §5.1)");
+        if let Some(l) = &plan.config.lattice {
+            lattices.push(l.friction);
+            // c_tof between the heights closest to 8 and 25: the groups must contain them
+            let heights: Vec<f64> = plan.groups.iter().map(|g| g.estimated_height).collect();
+            for target in [8.0, 25.0] {
+                assert!(heights.iter().any(|h| (h - target).abs() < 1.0), "{name}: no lattice height near {target}: {heights:?}");
+            }
+        }
+        if name == "e1-exponents.toml" {
+            let h = plan.config.packing.as_ref().unwrap().heights.clone().unwrap();
+            let span = h.iter().cloned().fold(0.0, f64::max) / h.iter().cloned().fold(f64::INFINITY, f64::min);
+            assert!(span >= 5.0 && plan.config.samples >= 20 && plan.config.pulse.bootstrap > 0, "{name}: span {span}");
+        }
+        checked += 1;
+    }
+    assert!(checked >= 5, "only {checked} E1 paper configs");
+    assert!(lattices.contains(&0.0) && lattices.contains(&0.5), "lattices: frictionless and frictional (μ = 0.5) wanted, got {lattices:?}");
+}
