@@ -49,6 +49,9 @@ pub struct E3Config {
     /// What is measured and how it is coarse-grained.
     #[serde(default)]
     pub response: ResponseConfig,
+    /// First-opening force below the load by bisection on F_ext (modes `slab` and `sweep`).
+    #[serde(default)]
+    pub first_opening: FirstOpeningConfig,
     /// Parameter lists of mode `sweep` (each list replaces the single value of `[slab]`,
     /// `[material]`; the forces are `load.forces`).
     #[serde(default)]
@@ -113,19 +116,43 @@ impl Mode {
 pub struct SlabConfig {
     /// Number of layers L (rows of the triangular lattice).
     pub layers: usize,
-    /// Grains M in the longer rows; with `alternate` rows the others hold M − 1.
+    /// Grains M per row (`rows = "full"`), or in the longer rows (`"alternating_m_and_m_minus_1"`).
     pub grains_per_layer: usize,
     /// Polydispersity δ: radii uniform in [R̄(1 − δ), R̄] (0: monodisperse), in [0, 1).
     pub delta: f64,
-    /// Rows alternate between M and M − 1 grains, so that the slab is mirror-symmetric about its
-    /// centre and the top row has a grain on the axis (true); or every row holds M grains, the box
-    /// being (2M + 1)R̄ wide (false).
-    pub alternate: bool,
+    /// Row layout: `full` (SPEC §7.2.1, default: every row holds M grains, successive rows
+    /// shifted by R̄, box (2M + 1)R̄ wide, each row touching one side wall; 900 grains for 15 × 60)
+    /// or `alternating_m_and_m_minus_1` (rows of M and M − 1 grains in turn, box 2MR̄ wide,
+    /// mirror-symmetric, both walls touched by the long rows only; 892 grains for 15 × 60 — a
+    /// different system).
+    pub rows: RowLayout,
+}
+
+/// How the rows of a slab are filled (SPEC §7.2.1).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum RowLayout {
+    /// Every row holds M grains; rows start alternately at x = R̄ and 2R̄; W = (2M + 1)R̄.
+    #[default]
+    Full,
+    /// Rows of M and M − 1 grains in turn, symmetric about x = MR̄; W = 2MR̄.
+    #[serde(rename = "alternating_m_and_m_minus_1")]
+    AlternatingMAndMMinus1,
+}
+
+impl RowLayout {
+    /// Name as written in configs.
+    pub fn name(self) -> &'static str {
+        match self {
+            RowLayout::Full => "full",
+            RowLayout::AlternatingMAndMMinus1 => "alternating_m_and_m_minus_1",
+        }
+    }
 }
 
 impl Default for SlabConfig {
     fn default() -> Self {
-        SlabConfig { layers: 15, grains_per_layer: 60, delta: 0.0, alternate: true }
+        SlabConfig { layers: 15, grains_per_layer: 60, delta: 0.0, rows: RowLayout::Full }
     }
 }
 
@@ -302,6 +329,27 @@ impl Default for ResponseConfig {
             prominence: 0.05,
             boundary_layer: 4.0,
         }
+    }
+}
+
+/// First-opening force (SPEC §7.2.5): the smallest F_ext at which a contact opens in the region
+/// below the load (the opened contacts connected to the loaded grain, docs/e3.md), found per
+/// reference state by bisection on F_ext, every bracket end verified by a run of its own.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields, default)]
+pub struct FirstOpeningConfig {
+    /// Run the bisection (after the runs of `load.forces`).
+    pub bisection: bool,
+    /// Initial bracket [F_low, F_high]: the bisection needs no opening below the load at F_low and
+    /// one at F_high (both are run and checked; otherwise the summary says which end failed) [m̄g].
+    pub bracket: [f64; 2],
+    /// Stop when F_high/F_low − 1 is below this; the midpoint is the geometric mean.
+    pub relative_tolerance: f64,
+}
+
+impl Default for FirstOpeningConfig {
+    fn default() -> Self {
+        FirstOpeningConfig { bisection: false, bracket: [0.05, 50.0], relative_tolerance: 0.02 }
     }
 }
 

@@ -100,7 +100,7 @@ pub struct ModuliReport {
     pub b: f64,
     /// c = C_xxzz [m̄g/R̄].
     pub c: f64,
-    /// d = C_xzxz [m̄g/R̄].
+    /// d = 2 C_xzxz, the half-plane criterion's convention (SPEC §7.3) [m̄g/R̄].
     pub d: f64,
     /// r = [ab − c(d + c)]/(bd); < 0: double-peaked half-plane response.
     pub r: f64,
@@ -108,6 +108,62 @@ pub struct ModuliReport {
     pub bonds: usize,
     /// Window [x_min, z_min, x_max, z_max] [R̄].
     pub window: [f64; 4],
+}
+
+/// Single/double verdict of an ordered lattice on the raw per-contact floor forces (SPEC §7.2.5):
+/// no smoothing, a central dip of any depth counts.
+///
+/// With ΔF_z,k the floor-force changes of the floor contacts sorted by x (relative to the load),
+/// p₀ that of the contact under the load (see [`raw_floor_verdict`] for a load between two floor
+/// contacts), p_L and p_R the largest on its left and on its right: **double** when p₀ < min(p_L, p_R) (the centre is below a higher contact
+/// on each side), **single** when p₀ ≥ max(p_L, p_R) (the centre is the maximum), otherwise
+/// **irregular** (higher on one side only, e.g. an inclined force). The dip depth
+/// 1 − p₀/min(p_L, p_R) is reported signed: > 0 is the depth of the central dip, < 0 says by how
+/// much the centre exceeds the lower of the two side maxima.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RawVerdict {
+    /// The verdict.
+    pub shape: grainwave_analysis::peaks::PeakShape,
+    /// 1 − p₀/min(p_L, p_R) (signed; NaN when min(p_L, p_R) ≤ 0).
+    pub dip: f64,
+    /// x of the central contact [R̄].
+    pub centre_x: f64,
+    /// ΔF_z of the central contact [m̄g].
+    pub centre: f64,
+    /// (x, ΔF_z) of the largest change left of the centre [R̄, m̄g].
+    pub left: [f64; 2],
+    /// (x, ΔF_z) of the largest change right of the centre [R̄, m̄g].
+    pub right: [f64; 2],
+}
+
+/// The raw-force verdict of `floor` (see [`RawVerdict`]); None without a contact on each side of
+/// the centre.
+///
+/// The centre is the floor contact nearest x = 0 — or, when the load stands between two floor
+/// contacts (slabs with an even number of rows: the bottom row is shifted by R̄ from the top row),
+/// both contacts within 0.5 R̄ of that distance, p₀ being the larger of them; "left" and "right"
+/// are the contacts beyond the central ones.
+pub fn raw_floor_verdict(floor: &[FloorContact]) -> Option<RawVerdict> {
+    use grainwave_analysis::peaks::PeakShape;
+    let mut pts: Vec<(f64, f64)> = floor.iter().map(|c| (c.x, c.after - c.reference)).collect();
+    pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let nearest = pts.iter().map(|p| p.0.abs()).fold(f64::INFINITY, f64::min);
+    let central: Vec<usize> = (0..pts.len()).filter(|&k| pts[k].0.abs() <= nearest + 0.5).collect();
+    let (&first, &last) = (central.first()?, central.last()?);
+    let c = central.iter().copied().max_by(|&a, &b| pts[a].1.total_cmp(&pts[b].1))?;
+    let best = |r: &[(f64, f64)]| r.iter().copied().max_by(|a, b| a.1.total_cmp(&b.1));
+    let (left, right) = (best(&pts[..first])?, best(&pts[last + 1..])?);
+    let p0 = pts[c].1;
+    let low = left.1.min(right.1);
+    let shape = if p0 < low {
+        PeakShape::Double
+    } else if p0 >= left.1.max(right.1) {
+        PeakShape::Single
+    } else {
+        PeakShape::Irregular
+    };
+    let dip = if low > 0.0 { 1.0 - p0 / low } else { f64::NAN };
+    Some(RawVerdict { shape, dip, centre_x: pts[c].0, centre: p0, left: [left.0, left.1], right: [right.0, right.1] })
 }
 
 /// The force difference of one contact (superposition comparisons).
@@ -158,6 +214,9 @@ pub struct RunResult {
     pub first_opening_contact: Option<ContactKey>,
     /// Classifier verdict on the profile of the classifier width.
     pub classification: PeakClassification,
+    /// Verdict on the raw per-contact floor forces (the verdict of ordered lattices).
+    #[serde(default)]
+    pub raw: Option<RawVerdict>,
     /// Moduli of the final network, bulk window.
     pub moduli_bulk: ModuliReport,
     /// Moduli of the final network, load window.
@@ -321,6 +380,7 @@ pub fn measure_run(input: RunInputs<'_>, reference: &Snapshot<D2>, after: &Snaps
     let classifier_width = rc.classifier_width.unwrap_or(rc.widths[0]);
     let classified = smooth_1d(&xs, &dfz, classifier_width, &grid);
     let classification = classify_profile(&grid, &classified, &PeakOptions { prominence: rc.prominence, centre: 0.0 });
+    let raw = raw_floor_verdict(&floor);
     let counts = changes.counts();
     // the opened contacts connected to the load: seeded within 3 R̄ (the loaded grain's contacts
     // and its neighbours'), linked within 2.5 R̄ (contacts sharing a grain)
@@ -372,10 +432,49 @@ pub fn measure_run(input: RunInputs<'_>, reference: &Snapshot<D2>, after: &Snaps
         first_opening_estimate: estimate.map(|e| e.0),
         first_opening_contact: estimate.map(|e| e.1),
         classification,
+        raw,
         moduli_bulk: moduli(after, bulk),
         moduli_load: moduli(after, load_window(input.width, top, rc.boundary_layer, origin)),
         field,
         contacts,
     };
     (result, changes)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use grainwave_analysis::peaks::PeakShape;
+
+    fn floor(values: &[(f64, f64)]) -> Vec<FloorContact> {
+        values
+            .iter()
+            .enumerate()
+            .map(|(k, &(x, dz))| FloorContact { grain: k as u32, x, reference: 1.0, after: 1.0 + dz, horizontal_reference: 0.0, horizontal_after: 0.0 })
+            .collect()
+    }
+
+    #[test]
+    fn raw_verdict_counts_a_dip_of_any_depth_and_reports_it() {
+        // a 1 % central dip between two side maxima: double, depth 0.01 (a 5 %-prominence
+        // classifier on a smoothed profile would call this single)
+        let v = raw_floor_verdict(&floor(&[(-6.0, 0.1), (-4.0, 0.5), (-2.0, 1.0), (0.0, 0.99), (2.0, 1.0), (4.0, 0.5), (6.0, 0.1)])).unwrap();
+        assert_eq!(v.shape, PeakShape::Double);
+        assert!((v.dip - 0.01).abs() < 1e-12, "{v:?}");
+        assert_eq!((v.left[0], v.right[0], v.centre_x), (-2.0, 2.0, 0.0));
+        // the centre is the maximum: single, negative depth (centre 25 % above the side maxima)
+        let v = raw_floor_verdict(&floor(&[(-4.0, 0.2), (-2.0, 0.8), (0.0, 1.0), (2.0, 0.8), (4.0, 0.2)])).unwrap();
+        assert_eq!(v.shape, PeakShape::Single);
+        assert!((v.dip + 0.25).abs() < 1e-12);
+        // higher on one side only: irregular; unordered input is sorted first
+        let v = raw_floor_verdict(&floor(&[(2.0, 1.2), (-2.0, 0.5), (0.0, 1.0), (4.0, 0.3)])).unwrap();
+        assert_eq!(v.shape, PeakShape::Irregular);
+        assert!(raw_floor_verdict(&floor(&[(0.0, 1.0), (2.0, 0.5)])).is_none());
+        // a load between two floor contacts (x = ±1): both are central, the larger is p₀
+        let v = raw_floor_verdict(&floor(&[(-5.0, 0.3), (-3.0, 0.9), (-1.0, 1.0), (1.0, 1.01), (3.0, 0.9), (5.0, 0.3)])).unwrap();
+        assert_eq!((v.shape, v.centre_x), (PeakShape::Single, 1.0));
+        let v = raw_floor_verdict(&floor(&[(-5.0, 0.3), (-3.0, 1.1), (-1.0, 1.0), (1.0, 0.98), (3.0, 1.05), (5.0, 0.3)])).unwrap();
+        assert_eq!(v.shape, PeakShape::Double);
+        assert!((v.dip - (1.0 - 1.0 / 1.05)).abs() < 1e-12);
+    }
 }

@@ -152,9 +152,20 @@ pub fn prepare(src: &ConfigSource) -> Result<E3Config, ConfigError> {
         return Err(src.error_at_key("load.torque", format!("{} (allowed: a finite torque)", l.torque)));
     }
     positive(src, "load.ramp_time", l.ramp_time)?;
+    let fo = &cfg.first_opening;
+    if table.contains_key("first_opening") && !matches!(cfg.mode, Mode::Slab | Mode::Sweep) {
+        return Err(src.error_at_key("first_opening", format!("`[first_opening]` applies to modes `slab` and `sweep` only (this file's mode is `{}`)", cfg.mode.name())));
+    }
+    let [lo, hi] = fo.bracket;
+    if !(lo > 0.0 && hi > lo && hi.is_finite()) {
+        return Err(src.error_at_key("first_opening.bracket", format!("{:?} (allowed: [F_low, F_high] with 0 < F_low < F_high, in m̄g)", fo.bracket)));
+    }
+    if !(fo.relative_tolerance > 0.0 && fo.relative_tolerance < 1.0) {
+        return Err(src.error_at_key("first_opening.relative_tolerance", format!("{} (allowed: a fraction in (0, 1))", fo.relative_tolerance)));
+    }
     if let Some(g) = l.grain {
         for [layers, m] in &sizes {
-            let n = slab::Sites::of(slab::Shape::Slab { layers: *layers, grains_per_layer: *m, alternate: s.alternate }).positions.len();
+            let n = slab::Sites::of(slab::Shape::Slab { layers: *layers, grains_per_layer: *m, rows: s.rows }).positions.len();
             if g as usize >= n {
                 return Err(src.error_at_key("load.grain", format!("{g} (allowed: a grain id < {n}, the grain count of a {layers} × {m} slab)")));
             }
@@ -181,14 +192,14 @@ pub fn prepare(src: &ConfigSource) -> Result<E3Config, ConfigError> {
     // modes
     if cfg.mode == Mode::Superposition {
         positive(src, "superposition.separation", cfg.superposition.separation)?;
-        let sites = slab::Sites::of(slab::Shape::Slab { layers: s.layers, grains_per_layer: s.grains_per_layer, alternate: s.alternate });
+        let sites = slab::Sites::of(slab::Shape::Slab { layers: s.layers, grains_per_layer: s.grains_per_layer, rows: s.rows });
         let axis = 0.5 * sites.width;
         let d = 0.5 * cfg.superposition.separation;
         if sites.top_grain_near(axis - d) == sites.top_grain_near(axis + d) {
             return Err(src.error_at_key(
                 "superposition.separation",
                 format!(
-                    "{} puts both forces on the same grain (allowed: at least the top-row spacing, 4 R̄ with alternating rows)",
+                    "{} puts both forces on the same grain (allowed: at least the top-row spacing, 2 R̄)",
                     cfg.superposition.separation
                 ),
             ));
@@ -292,6 +303,9 @@ impl E3State {
                              reference_field: Option<&measure::FieldData>|
              -> Result<()> { outputs::write_run_files(out, &cfg, &plan, run, result, reference, after, changes, reference_field) };
             units::execute(ctx, &cfg, &plan, &mut self.references_done, &mut self.runs_done, &save, &write_run)?;
+            if cfg.first_opening.bisection {
+                units::bisect_first_opening(ctx, &cfg, &plan)?;
+            }
         }
         let summary = outputs::write_final(ctx.out_dir(), &cfg, &plan)?;
         self.finished = true;

@@ -1,7 +1,7 @@
 //! Outputs of the `e3` protocol: per-run files, ensemble aggregates, tables, plots and the summary.
 
 use super::config::{E3Config, Mode};
-use super::measure::{self, FieldData, ModuliReport, RunResult};
+use super::measure::{self, FieldData, FloorContact, ModuliReport, RawVerdict, RunResult};
 use super::plan::{Group, Plan, RunSpec, Variant};
 use super::slab::{self, Material, Shape, Sites};
 use super::units::{self, ReferenceResult, StoredRun};
@@ -279,8 +279,18 @@ pub struct Aggregate {
     pub opened_depth: f64,
     /// Mean width of the opened region [R̄].
     pub opened_width: f64,
-    /// Verdict of the classifier on the mean profile.
+    /// Verdict of the classifier on the mean smoothed profile (the verdict of disordered packings).
     pub classification: PeakClassification,
+    /// Verdict on the raw per-contact floor forces (ordered lattices; mean ΔF_z per floor grain
+    /// over the samples).
+    pub raw: Option<RawVerdict>,
+    /// The verdict of SPEC §7.2.5: the raw one for ordered lattices (δ = 0), the smoothed one
+    /// otherwise.
+    pub shape: PeakShape,
+    /// Depth of the central dip of the verdict's profile (raw: signed, see `RawVerdict`).
+    pub dip: f64,
+    /// What the verdict was made on: `raw` or `smoothed`.
+    pub verdict_basis: String,
     /// Mean r of the final network, bulk window.
     pub r_bulk: f64,
     /// Mean r of the final network, load window.
@@ -345,6 +355,28 @@ pub fn aggregate(cfg: &E3Config, group: &Group, variant: Variant, rs: &[&RunResu
         }
     };
     let classification = classify_profile(&grid, &classified, &PeakOptions { prominence: cfg.response.prominence, centre: 0.0 });
+    // raw verdict on the mean ΔF_z per floor grain (x from the first sample holding the grain)
+    let raw = if group.delta == 0.0 {
+        let mut per: BTreeMap<u32, (f64, f64, usize)> = BTreeMap::new();
+        for r in rs {
+            for c in &r.floor {
+                let e = per.entry(c.grain).or_insert((c.x, 0.0, 0));
+                e.1 += c.after - c.reference;
+                e.2 += 1;
+            }
+        }
+        let mean: Vec<FloorContact> = per
+            .iter()
+            .map(|(&grain, &(x, sum, _))| FloorContact { grain, x, reference: 0.0, after: sum / rs.len() as f64, horizontal_reference: 0.0, horizontal_after: 0.0 })
+            .collect();
+        measure::raw_floor_verdict(&mean)
+    } else {
+        None
+    };
+    let (shape, dip, verdict_basis) = match &raw {
+        Some(v) => (v.shape, v.dip, "raw"),
+        None => (classification.shape, classification.dip, "smoothed"),
+    };
     let field = |f: &dyn Fn(&RunResult) -> f64| mean_std(&rs.iter().map(|r| f(r)).collect::<Vec<_>>()).0;
     let linear: Vec<f64> = rs.iter().filter(|r| r.linear).filter_map(|r| r.first_opening_estimate).collect();
     Aggregate {
@@ -363,6 +395,10 @@ pub fn aggregate(cfg: &E3Config, group: &Group, variant: Variant, rs: &[&RunResu
         opened_depth: field(&|r| r.region.depth),
         opened_width: field(&|r| r.region.width),
         classification,
+        raw,
+        shape,
+        dip,
+        verdict_basis: verdict_basis.into(),
         r_bulk: field(&|r| r.moduli_bulk.r),
         r_load: field(&|r| r.moduli_load.r),
         first_opening_estimate: if linear.is_empty() { None } else { Some(mean_std(&linear).0) },
@@ -402,16 +438,24 @@ pub struct CaseReport {
     pub moduli_bulk: ModuliReport,
 }
 
-/// Where the first contact opens, for one group.
+/// Where the first contact opens, for one group, from the runs of `load.forces`. The "anywhere"
+/// values count every contact, including nearly unloaded ones far from the load (walls, floor
+/// row); the "below the load" bracket counts only the opened region connected to the load, which
+/// defines the first-opening force of SPEC §7.2.5 (found precisely by `[first_opening]`
+/// bisection, see `GroupReport::first_opening_bisection`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FirstOpening {
-    /// Linear estimate from the smallest force whose runs stayed linear [m̄g].
+    /// Largest force of the list without an opened contact below the load (every sample) [m̄g].
+    pub largest_without_opening_below_load: Option<f64>,
+    /// Smallest force of the list with an opened contact below the load (some sample) [m̄g].
+    pub smallest_with_opening_below_load: Option<f64>,
+    /// Linear estimate (anywhere) from the smallest force whose runs stayed linear [m̄g].
     pub linear_estimate: Option<f64>,
     /// The force of the run the estimate comes from [m̄g].
     pub estimated_from: Option<f64>,
-    /// Largest force of the list at which no contact opened (every sample) [m̄g].
+    /// Largest force of the list at which no contact opened anywhere (every sample) [m̄g].
     pub largest_without_opening: Option<f64>,
-    /// Smallest force of the list at which some contact opened [m̄g].
+    /// Smallest force of the list at which some contact opened anywhere [m̄g].
     pub smallest_with_opening: Option<f64>,
 }
 
@@ -432,8 +476,10 @@ pub struct GroupReport {
     pub cases: Vec<CaseReport>,
     /// Responses.
     pub responses: Vec<Aggregate>,
-    /// First opening.
+    /// First opening from the force list.
     pub first_opening: Option<FirstOpening>,
+    /// First opening below the load by bisection, per reference state (`[first_opening]`).
+    pub first_opening_bisection: Vec<units::OpeningBisection>,
 }
 
 /// Superposition check of one case and force.
@@ -541,6 +587,12 @@ fn first_opening(aggs: &[Aggregate]) -> Option<FirstOpening> {
     by_force.sort_by(|a, b| a.force.total_cmp(&b.force));
     let est = by_force.iter().find(|a| a.linear == a.samples && a.first_opening_estimate.is_some());
     Some(FirstOpening {
+        largest_without_opening_below_load: by_force
+            .iter()
+            .filter(|a| a.opened_region == 0.0)
+            .map(|a| a.force)
+            .fold(None, |m: Option<f64>, f| Some(m.map_or(f, |m| m.max(f)))),
+        smallest_with_opening_below_load: by_force.iter().find(|a| a.opened_region > 0.0).map(|a| a.force),
         linear_estimate: est.and_then(|a| a.first_opening_estimate),
         estimated_from: est.map(|a| a.force),
         largest_without_opening: by_force.iter().filter(|a| a.opened == 0.0).map(|a| a.force).fold(None, |m: Option<f64>, f| Some(m.map_or(f, |m| m.max(f)))),
@@ -632,6 +684,20 @@ pub fn write_final(out: &Path, cfg: &E3Config, plan: &Plan) -> Result<E3Summary>
         for a in &aggs {
             all_aggs.push((group.index, a.clone()));
         }
+        let mut bisections = Vec::new();
+        if cfg.first_opening.bisection && matches!(cfg.mode, Mode::Slab | Mode::Sweep) {
+            for &c in &group.cases {
+                let case = &plan.cases[c];
+                let probes = units::read_bisection(&out, case)?;
+                for (k, p) in probes.iter().enumerate() {
+                    timing.insert(format!("opening {}/opening_{k}", case.label), p.wall_clock);
+                    if !p.converged {
+                        summary.not_converged.push(format!("opening {}/opening_{k}", case.label));
+                    }
+                }
+                bisections.push(units::summarize_bisection(cfg, case, probes));
+            }
+        }
         let (layers, m) = match group.shape {
             Shape::Slab { layers, grains_per_layer, .. } => (layers, grains_per_layer),
             Shape::Pile { layers, top_grains } => (layers, top_grains + layers - 1),
@@ -644,6 +710,7 @@ pub fn write_final(out: &Path, cfg: &E3Config, plan: &Plan) -> Result<E3Summary>
             material: Material::resolve(&cfg.material, group.friction, group.ratio),
             cases,
             first_opening: first_opening(&aggs),
+            first_opening_bisection: bisections,
             responses: aggs,
         });
     }
@@ -689,7 +756,9 @@ fn tables(cfg: &E3Config, plan: &Plan, runs: &[RunResult], aggs: &[(usize, Aggre
     t.push_u64("opened_region", runs.iter().map(|r| r.region.count as u64))?;
     t.push_f64("opened_depth", runs.iter().map(|r| r.region.depth))?;
     t.push_f64("opened_width", runs.iter().map(|r| r.region.width))?;
-    t.push_text("shape", runs.iter().map(|r| r.classification.shape.name()))?;
+    t.push_text("shape_smoothed", runs.iter().map(|r| r.classification.shape.name()))?;
+    t.push_text("shape_raw", runs.iter().map(|r| r.raw.map_or("none", |v| v.shape.name())))?;
+    t.push_f64("raw_dip", runs.iter().map(|r| r.raw.map_or(f64::NAN, |v| v.dip)))?;
     t.push_f64("first_opening_estimate", runs.iter().map(|r| if r.linear { r.first_opening_estimate.unwrap_or(f64::NAN) } else { f64::NAN }))?;
     t.push_f64("r_bulk", runs.iter().map(|r| r.moduli_bulk.r))?;
     t.push_f64("r_load", runs.iter().map(|r| r.moduli_load.r))?;
@@ -732,9 +801,12 @@ fn tables(cfg: &E3Config, plan: &Plan, runs: &[RunResult], aggs: &[(usize, Aggre
     t.push_f64("opened_region", idx.iter().map(|&i| aggs[i].1.opened_region))?;
     t.push_f64("opened_depth", idx.iter().map(|&i| aggs[i].1.opened_depth))?;
     t.push_f64("opened_width", idx.iter().map(|&i| aggs[i].1.opened_width))?;
-    t.push_text("shape", idx.iter().map(|&i| aggs[i].1.classification.shape.name()))?;
-    t.push_f64("dip", idx.iter().map(|&i| aggs[i].1.classification.dip))?;
-    t.push_f64("peak_separation", idx.iter().map(|&i| aggs[i].1.classification.separation))?;
+    t.push_text("shape", idx.iter().map(|&i| aggs[i].1.shape.name()))?;
+    t.push_f64("dip", idx.iter().map(|&i| aggs[i].1.dip))?;
+    t.push_text("verdict_basis", idx.iter().map(|&i| aggs[i].1.verdict_basis.clone()))?;
+    t.push_text("shape_smoothed", idx.iter().map(|&i| aggs[i].1.classification.shape.name()))?;
+    t.push_f64("dip_smoothed", idx.iter().map(|&i| aggs[i].1.classification.dip))?;
+    t.push_f64("peak_separation_smoothed", idx.iter().map(|&i| aggs[i].1.classification.separation))?;
     t.push_f64("r_bulk", idx.iter().map(|&i| aggs[i].1.r_bulk))?;
     t.push_f64("r_load", idx.iter().map(|&i| aggs[i].1.r_load))?;
     t.push_u64("converged", idx.iter().map(|&i| aggs[i].1.converged as u64))?;
@@ -876,7 +948,7 @@ fn crossover(cfg: &E3Config, plan: &Plan, aggs: &[(usize, Aggregate)], out: &Pat
                 } else {
                     g.ratio
                 };
-                let e = pts.entry(a.classification.shape.name()).or_default();
+                let e = pts.entry(a.shape.name()).or_default();
                 e.0.push(x);
                 e.1.push(a.force);
             }

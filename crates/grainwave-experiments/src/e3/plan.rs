@@ -117,7 +117,7 @@ impl Plan {
         if cfg.mode == Mode::LatticeElasticity {
             return plan;
         }
-        let slab = |layers: usize, m: usize| Shape::Slab { layers, grains_per_layer: m, alternate: cfg.slab.alternate };
+        let slab = |layers: usize, m: usize| Shape::Slab { layers, grains_per_layer: m, rows: cfg.slab.rows };
         let (sizes, deltas, frictions, ratios) = if cfg.mode == Mode::Sweep {
             (
                 or_single(&cfg.sweep.sizes, [cfg.slab.layers, cfg.slab.grains_per_layer]),

@@ -5,12 +5,16 @@
 //! density 1/π, so that a disk of radius R has mass m = R² and m̄ = 1; τ = √(R̄/g) = 1.
 //!
 //! **Slab.** L rows on a triangular lattice of spacing 2R̄ (rows √3 R̄ apart, the lowest at height
-//! R̄ above the floor), between side walls at x = 0 and x = W. With `alternate` rows (default) the
-//! rows hold M and M − 1 grains in turn, the long rows at x = R̄, 3R̄, …, (2M − 1)R̄ and the short
-//! ones at x = 2R̄, …, (2M − 2)R̄, W = 2MR̄: the slab is symmetric about x = MR̄ and every wall is at
-//! distance R̄ from the nearest centres. The parity is chosen so that the top row has a grain on
-//! the axis: the top row is long when M is odd. Without `alternate` every row holds M grains
-//! (rows alternately at x = R̄, 3R̄, … and 2R̄, 4R̄, …) and W = (2M + 1)R̄.
+//! R̄ above the floor), between side walls at x = 0 and x = W. With `rows = "full"` (default, SPEC
+//! §7.2.1) every row holds M grains, the even rows (0 = bottom) at x = R̄, 3R̄, …, (2M − 1)R̄ and the
+//! odd ones at 2R̄, …, 2MR̄, W = (2M + 1)R̄: each row touches one side wall (the even rows the left,
+//! the odd rows the right), the nearest centres of the other row parity being at 2R̄ from it; 15 × 60
+//! gives 900 grains in a box 121 R̄ wide. The default load, the top-row grain nearest the box's axis
+//! x = W/2, is then half a radius from the axis (x = 61 for 15 × 60). With
+//! `rows = "alternating_m_and_m_minus_1"` the rows hold M and M − 1 grains in turn, the long rows
+//! at x = R̄, 3R̄, …, (2M − 1)R̄ and the short ones at x = 2R̄, …, (2M − 2)R̄, W = 2MR̄: the slab is
+//! symmetric about x = MR̄ and every wall is at distance R̄ from the nearest centres; the parity is
+//! chosen so that the top row has a grain on the axis (the top row is long when M is odd).
 //!
 //! **Pile.** Layer r (from the bottom) holds T + L − 1 − r grains centred on the axis (T the top
 //! layer's count), each layer shifted by R̄; the bottom layer touches both side walls.
@@ -18,7 +22,7 @@
 //! Polydisperse grains keep their lattice centres (the spacing fits the largest radius) and settle
 //! under gravity.
 
-use super::config::{E3Config, IntegratorName, MaterialConfig};
+use super::config::{E3Config, IntegratorName, MaterialConfig, RowLayout};
 use crate::error::Result;
 use glam::DVec2;
 use grainwave_core::contact::{ContactLaw, NormalDamping, NormalElastic, Rolling, Tangential, TangentialDamping, Twisting};
@@ -40,14 +44,14 @@ pub const RIGHT: u32 = 2;
 /// Shape of a packing.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub enum Shape {
-    /// A slab of `layers` rows, `grains_per_layer` in the long rows.
+    /// A slab of `layers` rows of `grains_per_layer` grains (the long rows, alternating layout).
     Slab {
         /// L.
         layers: usize,
         /// M.
         grains_per_layer: usize,
-        /// Rows of M and M − 1 grains in turn.
-        alternate: bool,
+        /// Row layout.
+        rows: RowLayout,
     },
     /// A triangular pile.
     Pile {
@@ -78,7 +82,8 @@ impl Sites {
         let mut positions = Vec::new();
         let mut rows = Vec::new();
         match shape {
-            Shape::Slab { layers, grains_per_layer: m, alternate } => {
+            Shape::Slab { layers, grains_per_layer: m, rows: layout } => {
+                let alternate = layout == RowLayout::AlternatingMAndMMinus1;
                 let top_long = m % 2 == 1;
                 for r in 0..layers {
                     let z = 1.0 + r as f64 * dz;
@@ -255,7 +260,7 @@ mod tests {
     #[test]
     fn slab_sites_are_symmetric_with_a_centre_grain_on_top() {
         for (l, m) in [(15, 60), (25, 13), (4, 6), (5, 7)] {
-            let s = Sites::of(Shape::Slab { layers: l, grains_per_layer: m, alternate: true });
+            let s = Sites::of(Shape::Slab { layers: l, grains_per_layer: m, rows: RowLayout::AlternatingMAndMMinus1 });
             assert_eq!(s.width, 2.0 * m as f64);
             let axis = 0.5 * s.width;
             let centre = s.top_grain_near(axis);
@@ -270,10 +275,29 @@ mod tests {
             let min_x = s.positions.iter().map(|p| p[0]).fold(f64::INFINITY, f64::min);
             assert_eq!(min_x, 1.0);
         }
-        let s = Sites::of(Shape::Slab { layers: 15, grains_per_layer: 60, alternate: true });
+        let s = Sites::of(Shape::Slab { layers: 15, grains_per_layer: 60, rows: RowLayout::AlternatingMAndMMinus1 });
         assert_eq!(s.positions.len(), 8 * 59 + 7 * 60);
-        let s = Sites::of(Shape::Slab { layers: 15, grains_per_layer: 60, alternate: false });
+    }
+
+    #[test]
+    fn full_rows_slab_is_the_papers_900_grain_lattice() {
+        // SPEC §7.2.1: "15 layers of 60" = 900 grains, every row 60, rows shifted by R̄, box 121 R̄
+        let s = Sites::of(Shape::Slab { layers: 15, grains_per_layer: 60, rows: RowLayout::Full });
         assert_eq!((s.positions.len(), s.width), (900, 121.0));
+        for r in 0..15 {
+            let xs: Vec<f64> = (0..900).filter(|&k| s.rows[k] == r).map(|k| s.positions[k][0]).collect();
+            assert_eq!(xs.len(), 60, "row {r}");
+            // spacing 2R̄ along the row; rows shifted by R̄
+            assert!(xs.windows(2).all(|w| w[1] - w[0] == 2.0));
+            assert_eq!(xs[0], if r % 2 == 0 { 1.0 } else { 2.0 });
+            // each row touches exactly one side wall (a centre at distance R̄), the other is 2R̄ away
+            let gaps = (xs[0], s.width - xs[59]);
+            assert!(gaps == (1.0, 2.0) || gaps == (2.0, 1.0), "row {r}: {gaps:?}");
+        }
+        // the default load: the top-row grain nearest the axis x = 60.5
+        let c = s.top_grain_near(0.5 * s.width);
+        assert_eq!(s.positions[c as usize], [61.0, 1.0 + 14.0 * 3f64.sqrt()]);
+        assert_eq!(crate::e3::config::SlabConfig::default().rows, RowLayout::Full, "the paper's lattice is the default");
     }
 
     #[test]

@@ -488,14 +488,14 @@ pub(crate) fn execute(
             guard.ctx.reporter.samples(done, total);
             let r = &stored.result;
             guard.ctx.log(&format!(
-                "run {}/{}: F = {}, p(0)/F = {:.4e}, {} opened, {} sliding, {}, {} steps{}, {:.1} s",
+                "run {}/{}: F = {}, p(0)/F = {:.4e}, {} opened, {} sliding, raw verdict {}, {} steps{}, {:.1} s",
                 plan.cases[run.case].label,
                 run.label,
                 run.force,
                 r.response_at_zero.first().copied().unwrap_or(f64::NAN),
                 r.counts.opened,
                 r.counts.sliding,
-                r.classification.shape.name(),
+                r.raw.map_or(r.classification.shape, |v| v.shape).name(),
                 r.outcome.steps,
                 if r.outcome.converged { "" } else { " (NOT converged)" },
                 stored.wall_clock
@@ -508,6 +508,209 @@ pub(crate) fn execute(
     let d = done_flags.into_inner().map_err(|_| poisoned())?;
     references_done.copy_from_slice(&d.0);
     runs_done.copy_from_slice(&d.1);
+    Ok(())
+}
+
+/// One run of a first-opening bisection (SPEC §7.2.5).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct OpeningProbe {
+    /// F_ext [m̄g].
+    pub force: f64,
+    /// Opened contacts connected to the load (the region below the load).
+    pub opened_below_load: usize,
+    /// Depth of that region below the load [R̄].
+    pub region_depth: f64,
+    /// Contacts opened anywhere.
+    pub opened_anywhere: usize,
+    /// No contact opened, formed or started sliding.
+    pub linear: bool,
+    /// Linear estimate of the force opening the first contact anywhere (linear runs) [m̄g].
+    pub linear_estimate_anywhere: Option<f64>,
+    /// The relaxation converged.
+    pub converged: bool,
+    /// Steps of the run.
+    pub steps: u64,
+    /// Wall-clock seconds.
+    pub wall_clock: f64,
+}
+
+/// The bisection of one reference state.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct OpeningBisection {
+    /// Case label.
+    pub case: String,
+    /// Largest force run without an opening below the load [m̄g].
+    pub lower: Option<f64>,
+    /// Smallest force run with an opening below the load [m̄g].
+    pub upper: Option<f64>,
+    /// The first-opening force below the load: √(lower · upper) when both are known [m̄g].
+    pub first_opening_below_load: Option<f64>,
+    /// Largest force run without any opened contact, anywhere [m̄g].
+    pub anywhere_lower: Option<f64>,
+    /// Smallest force run with an opened contact somewhere [m̄g].
+    pub anywhere_upper: Option<f64>,
+    /// Linear estimate of the first opening anywhere, from the smallest linear run [m̄g].
+    pub anywhere_linear_estimate: Option<f64>,
+    /// Every run in the order done.
+    pub probes: Vec<OpeningProbe>,
+    /// Why the bisection could not bracket the force, if so.
+    pub note: Option<String>,
+}
+
+/// File of bisection run `k` of `case`.
+pub fn opening_file(out: &Path, case: &Case, k: usize) -> PathBuf {
+    case_dir(out, case).join(format!("opening_{k}.gwck"))
+}
+
+/// The bisection runs of `case` (probe k at force `f`) as run specs.
+fn opening_spec(plan: &Plan, case: &Case, k: usize, force: f64) -> RunSpec {
+    RunSpec { index: plan.runs.len() + k, case: case.index, force_index: 0, force, variant: Variant::Single, label: format!("opening_{k}") }
+}
+
+/// Forces of the bisection given the probes so far: None when done.
+fn next_force(cfg: &E3Config, probes: &[OpeningProbe]) -> Option<f64> {
+    let [lo, hi] = cfg.first_opening.bracket;
+    match probes.len() {
+        0 => return Some(lo),
+        1 => return (probes[0].opened_below_load == 0).then_some(hi),
+        _ => {}
+    }
+    if probes[1].opened_below_load == 0 {
+        return None;
+    }
+    let lower = probes.iter().filter(|p| p.opened_below_load == 0).map(|p| p.force).fold(f64::NEG_INFINITY, f64::max);
+    let upper = probes.iter().filter(|p| p.opened_below_load > 0).map(|p| p.force).fold(f64::INFINITY, f64::min);
+    (upper / lower - 1.0 > cfg.first_opening.relative_tolerance).then(|| (lower * upper).sqrt())
+}
+
+/// Summarizes the probes of one case.
+pub fn summarize_bisection(cfg: &E3Config, case: &Case, probes: Vec<OpeningProbe>) -> OpeningBisection {
+    let [lo, hi] = cfg.first_opening.bracket;
+    let max_of = |it: &mut dyn Iterator<Item = f64>| it.fold(None, |m: Option<f64>, f| Some(m.map_or(f, |m| m.max(f))));
+    let min_of = |it: &mut dyn Iterator<Item = f64>| it.fold(None, |m: Option<f64>, f| Some(m.map_or(f, |m| m.min(f))));
+    let lower = max_of(&mut probes.iter().filter(|p| p.opened_below_load == 0).map(|p| p.force));
+    let upper = min_of(&mut probes.iter().filter(|p| p.opened_below_load > 0).map(|p| p.force));
+    let note = if probes.first().is_some_and(|p| p.opened_below_load > 0) {
+        Some(format!("a contact below the load opens already at the lower end of the bracket, {lo} m̄g"))
+    } else if probes.len() >= 2 && probes[1].opened_below_load == 0 {
+        Some(format!("no contact below the load opens up to the upper end of the bracket, {hi} m̄g"))
+    } else {
+        None
+    };
+    let anywhere_linear_estimate = probes.iter().filter(|p| p.linear).min_by(|a, b| a.force.total_cmp(&b.force)).and_then(|p| p.linear_estimate_anywhere);
+    OpeningBisection {
+        case: case.label.clone(),
+        lower,
+        upper,
+        first_opening_below_load: match (lower, upper) {
+            (Some(l), Some(u)) if note.is_none() => Some((l * u).sqrt()),
+            _ => None,
+        },
+        anywhere_lower: max_of(&mut probes.iter().filter(|p| p.opened_anywhere == 0).map(|p| p.force)),
+        anywhere_upper: min_of(&mut probes.iter().filter(|p| p.opened_anywhere > 0).map(|p| p.force)),
+        anywhere_linear_estimate,
+        probes,
+        note,
+    }
+}
+
+fn probe_of(stored: &StoredRun) -> OpeningProbe {
+    let r = &stored.result;
+    OpeningProbe {
+        force: r.force,
+        opened_below_load: r.region.count,
+        region_depth: r.region.depth,
+        opened_anywhere: r.counts.opened,
+        linear: r.linear,
+        linear_estimate_anywhere: r.first_opening_estimate,
+        converged: r.outcome.converged,
+        steps: r.outcome.steps,
+        wall_clock: stored.wall_clock,
+    }
+}
+
+/// Reads the bisection runs of `case` done so far (in order, stopping at the first missing one).
+pub fn read_bisection(out: &Path, case: &Case) -> Result<Vec<OpeningProbe>> {
+    let mut probes = Vec::new();
+    loop {
+        let path = opening_file(out, case, probes.len());
+        if !path.exists() {
+            return Ok(probes);
+        }
+        let stored: StoredRun = grainwave_core::checkpoint::load(&path, RUN_TAG)?;
+        probes.push(probe_of(&stored));
+    }
+}
+
+/// The first-opening bisection (SPEC §7.2.5) of every case, cases in parallel, each bisection
+/// sequential: F_low and F_high of the bracket are run first (no opening below the load at F_low,
+/// one at F_high), then the geometric midpoint of the current bracket until F_high/F_low − 1 ≤ the
+/// tolerance. Each run is a response unit of its own (`units/<case>/opening_<k>.gwck`; resumable
+/// like the others): the k-th force depends only on the runs before it, so a resumed bisection
+/// reads them back and continues.
+pub(crate) fn bisect_first_opening(ctx: &mut RunContext<'_>, cfg: &E3Config, plan: &Plan) -> Result<()> {
+    use rayon::prelude::*;
+    let out = ctx.out_dir().to_path_buf();
+    let flag = ctx.interrupt_flag();
+    let report_every = ctx.report_every;
+    ctx.reporter.stage(&format!("first-opening bisection ({} reference state(s))", plan.cases.len()), None);
+    let shared = Mutex::new(Shared { ctx, done: 0, total: plan.cases.len() });
+    let single = plan.cases.len() == 1;
+    let outcomes: Vec<std::result::Result<(), UnitStop>> = plan
+        .cases
+        .par_iter()
+        .with_max_len(1)
+        .map(|case| {
+            let env = Env { shared: &shared, flag: flag.clone(), forward_progress: single, report_every };
+            let reference: ReferenceResult = grainwave_core::checkpoint::load(&reference_file(&out, case), REFERENCE_TAG)?;
+            let mut probes = read_bisection(&out, case)?;
+            while let Some(force) = next_force(cfg, &probes) {
+                let k = probes.len();
+                let spec = opening_spec(plan, case, k, force);
+                let started = std::time::Instant::now();
+                let (result, _, _) = run_unit(cfg, plan, &spec, &reference, &out, &env)?;
+                let stored = StoredRun { result, wall_clock: started.elapsed().as_secs_f64() };
+                let path = opening_file(&out, case, k);
+                grainwave_core::checkpoint::save(&path, RUN_TAG, &stored)?;
+                let _ = std::fs::remove_file(partial_file(&path));
+                let p = probe_of(&stored);
+                if let Ok(mut guard) = shared.lock() {
+                    guard.ctx.log(&format!(
+                        "first opening {}: F = {:.6} m̄g, {} opened below the load (depth {:.2} R̄), {} anywhere{}, {:.1} s",
+                        case.label,
+                        p.force,
+                        p.opened_below_load,
+                        p.region_depth,
+                        p.opened_anywhere,
+                        if p.converged { "" } else { " (NOT converged)" },
+                        p.wall_clock
+                    ));
+                }
+                probes.push(p);
+            }
+            if let Ok(mut guard) = shared.lock() {
+                guard.done += 1;
+                let (d, t) = (guard.done, guard.total);
+                guard.ctx.reporter.samples(d, t);
+            }
+            Ok(())
+        })
+        .collect();
+    let mut interrupted = false;
+    for o in outcomes {
+        match o {
+            Ok(()) => {}
+            Err(UnitStop::Interrupted) => interrupted = true,
+            Err(UnitStop::Failed(e)) => return Err(e),
+        }
+    }
+    if interrupted {
+        let mut guard = shared.lock().map_err(|_| poisoned())?;
+        let checkpoint = guard.ctx.path(crate::protocol::CHECKPOINT_FILE);
+        let dir = guard.ctx.out_dir().to_path_buf();
+        guard.ctx.log(&format!("interrupted during the first-opening bisection: state saved in {}", checkpoint.display()));
+        return Err(ExperimentError::Interrupted { checkpoint, dir });
+    }
     Ok(())
 }
 
