@@ -53,8 +53,10 @@ fn a_gzip_file_with_one_huge_line_is_refused_at_the_line_limit() {
 #[test]
 fn long_values_are_echoed_at_most_200_characters() {
     let long = "x".repeat(3000);
+    let digits = "1".repeat(3000);
     for text in [
-        format!("LAMMPS data file\n\n2 atoms\n{long} frobs\n"),
+        // a header line starts with a number (a letter starts a section)
+        format!("LAMMPS data file\n\n2 atoms\n{digits} frobs\n"),
         HEADER.replace("1000000000000", "2") + &format!("1 1 1 1 {long} 1 1\n2 1 1 1 2 2 2\n"),
     ] {
         let msg = parse_data(&text, "t.data").unwrap_err().to_string();
