@@ -11,6 +11,7 @@ use grainwave_experiments::e2::arrival::{arrival_of_first_lobe, arrival_of_maxim
 use grainwave_experiments::e2::config::{MaterialConfig, PulseShape, ReplayConfig};
 use grainwave_experiments::e2::model::{self, Drive, PistonLoad, Units};
 use grainwave_experiments::e2::outputs::load_checkpoint;
+use grainwave_experiments::e2::{E2State, Stage};
 use grainwave_experiments::e2::replay::{arrivals, central_grain, paired_replay, perturbation_of, Perturbation};
 use grainwave_experiments::e2::strain::{strain_between, StrainTracker};
 use grainwave_experiments::protocol::{RunContext, SilentReporter};
@@ -510,18 +511,40 @@ fn bad_e2_configs_name_the_key_the_value_and_what_is_allowed() {
     check("[loading]\ndirection = \"sideways\"", "direction", "compression");
 }
 
+/// Records, for each progress report, the stage it came in and whether the preparation had
+/// made the walls absorbing by then.
+#[derive(Default)]
+struct StageRecorder {
+    stage: String,
+    absorbing: bool,
+    reports: Vec<(String, bool)>,
+}
+
+impl grainwave_experiments::protocol::Reporter for StageRecorder {
+    fn stage(&mut self, name: &str, _: Option<u64>) {
+        self.stage = name.to_string();
+    }
+    fn progress(&mut self, _: &Progress) {
+        self.reports.push((self.stage.clone(), self.absorbing));
+    }
+    fn samples(&mut self, _: usize, _: usize) {}
+    fn message(&mut self, text: &str) {
+        self.absorbing |= text.contains("walls now absorbing");
+    }
+}
+
 #[test]
 fn interrupted_e2_runs_resume_to_the_same_bits() {
+    // Absorbing walls (the default): stiff during the compression of the gas, absorbing from the
+    // end of the preparation on. The run is interrupted in the preparation before and after that
+    // switch, in the loading and in a single replay, and each time resumed; every output must
+    // have the same bits as the uninterrupted run's.
     let text = r#"
 experiment = "e2"
 seed = 9
 [packing]
 columns = 8
 rows = 8
-[material]
-# stiff walls: resuming a run with the absorbing walls of the canonical protocol is not yet
-# bit-identical (open defect, see docs/e2.md)
-absorbing_walls = false
 [loading]
 strain_rate = 0.005
 final_strain = 1e-4
@@ -531,33 +554,53 @@ sample_every = 5
 checkpoint = 2
 amplitudes = [1e-6]
 duration = 0.5
+[[replays]]
+name = "slow"
+checkpoint = -1
+modification = "velocity_scale"
+factor = 0.5
+duration = 5.0
 "#;
     let files = |d: &Path| -> Vec<(String, Vec<u8>)> {
-        ["loading.csv", "checkpoints/index.csv", "checkpoints/ck-000003.gwck", "replays/r0/a0_field.npy", "replays/r0/a0_arrivals.csv"]
-            .iter()
-            .map(|f| (f.to_string(), std::fs::read(d.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"))))
-            .collect()
+        [
+            "loading.csv",
+            "checkpoints/index.csv",
+            "checkpoints/ck-000003.gwck",
+            "replays/r0/a0_field.npy",
+            "replays/r0/a0_arrivals.csv",
+            "replays/slow/series.csv",
+            "replays/slow/final.gwck",
+        ]
+        .iter()
+        .map(|f| (f.to_string(), std::fs::read(d.join(f)).unwrap_or_else(|e| panic!("{f}: {e}"))))
+        .collect()
     };
     let straight = tmp("straight");
-    {
-        let mut rep = SilentReporter;
-        let mut ctx = RunContext::new(&straight, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
-        ctx.report_every = 20;
-        registry::run(&ConfigSource::from_text("resume.toml", text), &mut ctx).unwrap();
-    }
-    // the preparation reports every 20 checks; the loading every 20 steps here
     let reports = {
-        let flag = Arc::new(AtomicBool::new(false));
-        let mut rep = Interrupter::new(flag.clone(), usize::MAX);
-        let d = tmp("count");
-        let mut ctx = RunContext::new(&d, &mut rep, flag).unwrap();
+        let mut rep = StageRecorder::default();
+        let mut ctx = RunContext::new(&straight, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
+        // the preparation reports every 20 checks; the loading and the single replays every 20
+        // steps here
         ctx.report_every = 20;
         registry::run(&ConfigSource::from_text("resume.toml", text), &mut ctx).unwrap();
         drop(ctx);
-        rep.reports()
+        rep.reports
     };
-    assert!(reports >= 4, "{reports} reports");
-    for after in [1, reports - 2] {
+    // the report after which to interrupt, by stage; the interruption is seen at the next check
+    // of the preparation, the next sample of the loading, the next report of a single replay
+    let find = |what: &str, f: &dyn Fn(&(String, bool)) -> bool| -> usize {
+        let k: Vec<usize> = (0..reports.len()).filter(|&k| f(&reports[k])).collect();
+        assert!(!k.is_empty(), "no progress report {what}: {reports:?}");
+        // the middle one, so that the run still has work left after it
+        k[(k.len() - 1) / 2] + 1
+    };
+    let cases = [
+        ("preparation, stiff walls", find("before the switch", &|r| r.0 == "preparation" && !r.1)),
+        ("preparation, absorbing walls", find("after the switch", &|r| r.0 == "preparation" && r.1)),
+        ("loading", find("in the loading", &|r| r.0 == "loading")),
+        ("single replay", find("in the single replay", &|r| r.0 == "replay slow")),
+    ];
+    for (label, after) in cases {
         let split = tmp(&format!("split-{after}"));
         let flag = Arc::new(AtomicBool::new(false));
         let mut rep = Interrupter::new(flag.clone(), after);
@@ -566,7 +609,22 @@ duration = 0.5
             ctx.report_every = 20;
             match registry::run(&ConfigSource::from_text("resume.toml", text), &mut ctx) {
                 Err(ExperimentError::Interrupted { checkpoint, .. }) => assert!(checkpoint.exists()),
-                other => panic!("expected an interruption after {after} reports, got {other:?}"),
+                other => panic!("{label}: expected an interruption after {after} reports, got {other:?}"),
+            }
+        }
+        // the interruption fell where it was meant to
+        let state: E2State = grainwave_core::checkpoint::load(&split.join("checkpoint.gwck"), grainwave_experiments::e2::TAG).unwrap();
+        let stiff = model::wall_law(&state.config.material);
+        match label {
+            "preparation, stiff walls" | "preparation, absorbing walls" => {
+                assert_eq!(state.stage, Stage::Preparing, "{label}");
+                let law = state.sim.as_ref().unwrap().domain.walls[model::BOTTOM].law;
+                assert_eq!(law != stiff, label.ends_with("absorbing walls"), "{label}: bottom wall law {law:?}");
+            }
+            "loading" => assert_eq!(state.stage, Stage::Loading, "{label}"),
+            _ => {
+                assert_eq!((state.stage, state.replays.len()), (Stage::Replays, 1), "{label}");
+                assert!(split.join("replays/slow/partial.gwck").exists(), "{label}: no partial.gwck");
             }
         }
         assert!(!split.join("summary.json").exists());
@@ -574,7 +632,9 @@ duration = 0.5
         let mut ctx = RunContext::new(&split, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
         ctx.report_every = 20;
         registry::resume(&split, &mut ctx).unwrap();
-        assert!(files(&straight) == files(&split), "interrupted after {after} reports: different results");
+        for ((f, a), (_, b)) in files(&straight).iter().zip(files(&split)) {
+            assert!(*a == b, "interrupted in the {label} (after {after} reports): {f} differs");
+        }
     }
 }
 

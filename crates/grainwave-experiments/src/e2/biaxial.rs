@@ -160,6 +160,10 @@ pub fn prepare(
                     // a full refresh (neighbour lists and forces), as a reloaded checkpoint does,
                     // so that a run resumed after this point continues with the same bits
                     sim.refresh()?;
+                    ctx.log(&format!(
+                        "preparation: converged with stiff walls at step {} ({:.3} t*); bottom, left and top walls now absorbing",
+                        sim.step, info.time
+                    ));
                     continue;
                 }
                 info.converged = true;
@@ -266,6 +270,19 @@ pub fn load(
     loop {
         {
             if (sim.step - loading.series.first().map(|r| r[8] as u64).unwrap_or(sim.step)) % lc.sample_every == 0 {
+                // interruption and periodic saves come before the sample: a saved state is one
+                // whose sample is still to be taken, so a resumed run takes it exactly once (a
+                // state saved after its sample was sampled again on resume: a duplicated row of
+                // the series, and a second strain update)
+                if ctx.interrupted() {
+                    loading.seconds = base + started.elapsed().as_secs_f64();
+                    return Ok(false);
+                }
+                if last_save.elapsed().as_secs_f64() >= cfg.output.save_every {
+                    loading.seconds = base + started.elapsed().as_secs_f64();
+                    save(ctx, sim, loading)?;
+                    last_save = std::time::Instant::now();
+                }
                 let (exx, eyy) = loading.tracker.update(&positions_by_id(&sim.grains));
                 let (sxx, syy) = model::wall_stresses(sim);
                 let row = [
@@ -308,15 +325,6 @@ pub fn load(
                     let mut p = sim.progress(&StopCriteria::default());
                     p.fraction_of_limit = (eyy.abs() / lc.final_strain).min(1.0);
                     ctx.reporter.progress(&p);
-                }
-                if ctx.interrupted() {
-                    loading.seconds = base + started.elapsed().as_secs_f64();
-                    return Ok(false);
-                }
-                if last_save.elapsed().as_secs_f64() >= cfg.output.save_every {
-                    loading.seconds = base + started.elapsed().as_secs_f64();
-                    save(ctx, sim, loading)?;
-                    last_save = std::time::Instant::now();
                 }
             }
         }

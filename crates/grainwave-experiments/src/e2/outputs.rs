@@ -517,13 +517,20 @@ pub fn run_replay(ctx: &mut RunContext<'_>, cfg: &E2Config, k: usize, source: &P
         // the series of a long single replay (the slow-down lasts 100 t* ≈ 4500 t_a) keeps at
         // most ≈ 20 000 rows: sample_interval, or duration/20 000 if longer
         let sample_every = sample_every.max(steps / 20_000);
+        // progress, interruption and periodic saves every `report_every` steps (1000 by default),
+        // after the step's sample: a saved state has taken its sample, and the resume starts
+        // with the next step
+        let every = ctx.report_every.max(1);
         while p.done < steps {
             p.drive.step(&mut p.sim)?;
             p.done += 1;
             if p.done % sample_every == 0 {
                 record(&p.sim, &mut p.rows);
             }
-            if p.done % 1000 == 0 && p.done < steps {
+            if p.done % every == 0 && p.done < steps {
+                let mut progress = p.sim.progress(&StopCriteria::default());
+                progress.fraction_of_limit = p.done as f64 / steps as f64;
+                ctx.reporter.progress(&progress);
                 let interrupted = ctx.interrupted();
                 if interrupted || last_save.elapsed().as_secs_f64() >= cfg.output.save_every {
                     grainwave_core::checkpoint::save(&partial_path, PARTIAL_TAG, &p)?;
@@ -532,9 +539,9 @@ pub fn run_replay(ctx: &mut RunContext<'_>, cfg: &E2Config, k: usize, source: &P
                 if interrupted {
                     return Ok(None);
                 }
-                if p.done % 100_000 == 0 {
-                    ctx.log_quiet(&format!("replay {name}: step {} of {steps}, KE {:.3e} p* L*²", p.done, p.sim.kinetic_energy() / energy));
-                }
+            }
+            if p.done % 100_000 == 0 {
+                ctx.log_quiet(&format!("replay {name}: step {} of {steps}, KE {:.3e} p* L*²", p.done, p.sim.kinetic_energy() / energy));
             }
         }
         let SinglePartial { sim, drive, rows, ke0, m0, mob0, .. } = p;
