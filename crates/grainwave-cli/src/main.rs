@@ -172,7 +172,8 @@ fn error_chain(err: &anyhow::Error) -> String {
         out.push_str(&format!("\n  caused by: {text}"));
         previous = text;
     }
-    out
+    // extreme values (1e308 is 309 digits in `{}`) in exponent form
+    grainwave_experiments::config::compact_numbers(&out)
 }
 
 fn run(cli: &Cli) -> Result<()> {

@@ -252,3 +252,82 @@ fn a_blow_up_is_logged_marked_and_not_resumed_without_retry() {
     assert!(!err.contains("the run failed"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+// ---- a run whose units fail at run time (issue list 2: never exit 0, never a crash in the output stage) ----
+
+/// Runs `fixture` into a fresh directory; returns (exit code, stderr, directory).
+fn run_fixture(name: &str) -> (i32, String, PathBuf) {
+    let dir = out(name);
+    let (code, err) = gw(&["run", fixture(name).to_str().unwrap(), "--out", dir.to_str().unwrap()]);
+    (code, err, dir)
+}
+
+/// The directory is marked as failed with `first` as the diagnosis, `inspect` says so, the log
+/// has it, and no summary was written.
+fn marked_failed(dir: &Path, first: &str) {
+    let failed = std::fs::read_to_string(dir.join("run.failed")).unwrap();
+    assert!(failed.starts_with(first), "run.failed: {failed}");
+    let log = std::fs::read_to_string(dir.join("run.log")).unwrap();
+    assert!(log.contains(&format!("failed: {first}")), "{log}");
+    assert!(!dir.join("summary.json").exists(), "a summary was written for a failed run");
+    let o = Command::new(BIN).args(["inspect", dir.to_str().unwrap()]).output().unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains(&format!("FAILED: {first}")), "{text}");
+}
+
+#[test]
+fn e1_every_sample_failing_exits_1_with_the_list() {
+    // before: every sample failed, then the plot step failed ("no data series", exit 1, no summary)
+    let (code, err, dir) = run_fixture("e1-max-acceleration-1.5.toml");
+    assert_eq!(code, 1, "{err}");
+    assert!(err.starts_with("error: every one of the 8 samples failed"), "{err}");
+    // one line per sample (2 heights × 2 pressures × 2 seeds), each naming its group and seed
+    for group in ["p1e-5_L6", "p1e-4_L6", "p1e-5_L10", "p1e-4_L10"] {
+        for seed in [1, 2] {
+            assert!(err.contains(&format!("\n    {group} seed {seed}: ")), "{group} seed {seed} not listed: {err}");
+        }
+    }
+    assert!(!err.contains("no data series") && !err.contains("panicked"), "{err}");
+    marked_failed(&dir, "every one of the 8 samples failed");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn e3_every_response_run_failing_exits_1_with_the_list() {
+    // before: the first failure only (the other runs' failures were dropped)
+    let (code, err, dir) = run_fixture("e3-forces-1e12.toml");
+    assert_eq!(code, 1, "{err}");
+    assert!(err.starts_with("error: every one of the 2 response runs failed"), "{err}");
+    for f in ["F1000000000000: numerical blow-up", "F2000000000000: numerical blow-up"] {
+        assert!(err.contains(f), "`{f}` not listed: {err}");
+    }
+    // the reference state was done and is kept
+    assert!(dir.join("units/L8xM20_d0_mu0.5_kt0.8_s1/reference.gwck").exists());
+    marked_failed(&dir, "every one of the 2 response runs failed");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn e3_some_runs_failing_exits_1_naming_them_and_keeps_the_others() {
+    let (code, err, dir) = run_fixture("e3-one-force-1e12.toml");
+    assert_eq!(code, 1, "{err}");
+    assert!(err.starts_with("error: 1 of the 2 response runs failed"), "{err}");
+    assert!(err.contains("F1000000000000: numerical blow-up") && !err.contains("F0.5:"), "{err}");
+    assert!(dir.join("units/L8xM20_d0_mu0.5_kt0.8_s1/F0.5.gwck").exists(), "the completed run was not kept");
+    marked_failed(&dir, "1 of the 2 response runs failed");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn e2_a_failing_replay_exits_1_naming_it_and_is_not_resumed_without_retry() {
+    let (code, err, dir) = run_fixture("e2-replay-blow-up.toml");
+    assert_eq!(code, 1, "{err}");
+    assert!(err.starts_with("error: replay `fast` failed, which stops the run (1 later one(s) not run): numerical blow-up"), "{err}");
+    // the stages before it are kept
+    assert!(dir.join("loading.csv").exists() && dir.join("checkpoints/index.csv").exists());
+    marked_failed(&dir, "replay `fast` failed");
+    let (code, err) = gw(&["resume", dir.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--retry"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -37,6 +37,31 @@ pub enum ExperimentError {
         /// One line per failure: name and reason.
         failures: Vec<String>,
     },
+    /// Some units of work (reference states, response runs, replays) failed while the others
+    /// completed: the run stops before its outputs, which need every unit. Each failure is listed
+    /// with its unit (and written to `run.log`); the completed units are kept, so `grainwave
+    /// resume --retry` redoes only the failed ones once their cause is fixed.
+    #[error("{} of the {total} {what} failed; the outputs need all of them:{}", .failures.len(), .failures.iter().map(|f| format!("\n    {f}")).collect::<String>())]
+    UnitsFailed {
+        /// What failed, in the plural ("response runs").
+        what: String,
+        /// How many units there were in the stage.
+        total: usize,
+        /// One line per failure: unit and reason.
+        failures: Vec<String>,
+    },
+    /// A unit of a sequential protocol (an `e2` replay) failed: the run stops there, since later
+    /// units may start from it. The units done are kept (`grainwave resume --retry` continues
+    /// from the failed one); the failure goes to `run.log`.
+    #[error("{unit} failed, which stops the run{}: {reason}", if *.not_run > 0 { format!(" ({} later one(s) not run)", .not_run) } else { String::new() })]
+    StoppedAt {
+        /// The unit ("replay `fast`").
+        unit: String,
+        /// Why (the error and its causes, on one line).
+        reason: String,
+        /// Units after it that were not run.
+        not_run: usize,
+    },
     /// Another process is running in the output directory (it holds the directory's lock).
     #[error("`{}` is in use by another grainwave process ({holder}); wait for it to end or give another output directory", .dir.display())]
     Busy {

@@ -275,7 +275,7 @@ pub fn refuse_all_failed(ctx: &mut RunContext<'_>, what: &str, failures: impl It
     let mut list = Vec::new();
     for f in failures {
         match f {
-            Some(reason) => list.push(crate::config::clip(&reason, 2 * crate::config::MAX_ECHO_CHARS)),
+            Some(reason) => list.push(crate::config::clip(&crate::config::compact_numbers(&reason), 2 * crate::config::MAX_ECHO_CHARS)),
             None => return Ok(()),
         }
     }
@@ -285,6 +285,33 @@ pub fn refuse_all_failed(ctx: &mut RunContext<'_>, what: &str, failures: impl It
     let e = ExperimentError::AllFailed { what: what.to_string(), failures: list };
     ctx.log(&e.to_string());
     Err(e)
+}
+
+/// The error of a stage in which `failures` (one line each) of `total` units failed: every one
+/// ([`ExperimentError::AllFailed`]) or some ([`ExperimentError::UnitsFailed`]); both end the
+/// run with exit code 1.
+pub fn failed_units(what: &str, total: usize, failures: Vec<String>) -> ExperimentError {
+    if failures.len() == total {
+        ExperimentError::AllFailed { what: what.to_string(), failures }
+    } else {
+        ExperimentError::UnitsFailed { what: what.to_string(), total, failures }
+    }
+}
+
+/// One line describing a unit's failure: the error and its causes ("a: b"), clipped to
+/// 3 × [`crate::config::MAX_ECHO_CHARS`] characters.
+pub fn failure_line(e: &ExperimentError) -> String {
+    let mut text = e.to_string();
+    let mut cause = std::error::Error::source(e);
+    while let Some(c) = cause {
+        let t = c.to_string();
+        if !text.ends_with(&t) {
+            text.push_str(": ");
+            text.push_str(&t);
+        }
+        cause = c.source();
+    }
+    crate::config::clip(&crate::config::compact_numbers(&text.replace('\n', " ")), 3 * crate::config::MAX_ECHO_CHARS)
 }
 
 /// Reads the content tag of the checkpoint of output directory `dir` (or of a checkpoint file).

@@ -113,7 +113,7 @@ impl ConfigSource {
     fn error_at_span(&self, span: Option<Range<usize>>, key: Option<String>, message: String) -> ConfigError {
         let (line, column) = span.as_ref().map(|s| line_column(&self.text, s.start)).unwrap_or((0, 0));
         // a message quotes values from the file: keep it readable whatever their size
-        let message = clip(&message, 5 * MAX_ECHO_CHARS);
+        let message = clip(&compact_numbers(&message), 5 * MAX_ECHO_CHARS);
         ConfigError { file: self.name.clone(), line, column, key, message, span, text: self.text.clone() }
     }
 }
@@ -301,6 +301,41 @@ pub fn clip(text: &str, max: usize) -> String {
     }
 }
 
+/// Longest number written out in full in a message [characters]; longer ones are rewritten in
+/// exponent form.
+const MAX_NUMBER_CHARS: usize = 24;
+
+/// `text` with every decimal number longer than 24 characters rewritten in exponent form:
+/// Rust writes `1e308` as 309 digits and `5e-324` as 326 characters in `{}`, which buries a
+/// message; `{:e}` gives `1e308` and `5e-324` (the same value: the shortest form that reads back
+/// to the same `f64`). Shorter numbers, and digit runs that are not numbers, are left alone.
+pub fn compact_numbers(text: &str) -> String {
+    let bytes = text.as_bytes();
+    let mut out = String::with_capacity(text.len());
+    let mut k = 0;
+    while k < bytes.len() {
+        let starts_number = bytes[k].is_ascii_digit() || (bytes[k] == b'-' && bytes.get(k + 1).is_some_and(u8::is_ascii_digit));
+        let after_word = k > 0 && (bytes[k - 1].is_ascii_alphanumeric() || bytes[k - 1] == b'_');
+        if starts_number && !after_word {
+            let mut end = k + 1;
+            while end < bytes.len() && (bytes[end].is_ascii_digit() || bytes[end] == b'.') {
+                end += 1;
+            }
+            let run = &text[k..end];
+            match run.parse::<f64>() {
+                Ok(v) if run.len() > MAX_NUMBER_CHARS && v.is_finite() => out.push_str(&format!("{v:e}")),
+                _ => out.push_str(run),
+            }
+            k = end;
+        } else {
+            let c = text[k..].chars().next().expect("k is on a char boundary");
+            out.push(c);
+            k += c.len_utf8();
+        }
+    }
+    out
+}
+
 /// 1-based line and column (in characters) of byte offset `at`.
 pub fn line_column(text: &str, at: usize) -> (usize, usize) {
     let at = at.min(text.len());
@@ -483,6 +518,19 @@ fn key_at(doc: &toml_edit::Document<&str>, at: usize) -> Option<String> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn extreme_numbers_are_written_in_exponent_form() {
+        let huge = format!("{}", 1e308_f64);
+        let tiny = format!("{}", 5e-324_f64);
+        assert_eq!(huge.len(), 309);
+        let m = compact_numbers(&format!("{huge} (allowed: < 1), {tiny}, -{huge}, 0.25, 4294967296, v1.2.3, x{huge}"));
+        assert!(m.starts_with("1e308 (allowed: < 1), 5e-324, -1e308, 0.25, 4294967296, v1.2.3, x1000"), "{m}");
+        // a config error quoting such a value stays short
+        let src = ConfigSource::from_text("t.toml", "a = 1e308\n");
+        let e = src.error_at_key("a", format!("{} (allowed: a finite number < 1)", 1e308_f64));
+        assert!(e.message.starts_with("1e308 (allowed"), "{}", e.message);
+    }
 
     #[test]
     fn positions_and_paths() {

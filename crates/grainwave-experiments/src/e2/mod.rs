@@ -391,7 +391,22 @@ impl E2State {
                     return Err(ctx.interrupted_error(TAG, self));
                 }
                 let k = self.replays.len();
-                let Some(report) = outputs::run_replay(ctx, &cfg, k, &source)? else {
+                // a replay that fails ends the run (later replays may start from it): the failure
+                // names the replay, goes to run.log and marks the directory as failed; the replays
+                // done are kept, so `grainwave resume --retry` continues from this one
+                let report = match outputs::run_replay(ctx, &cfg, k, &source) {
+                    Ok(r) => r,
+                    Err(e @ ExperimentError::Interrupted { .. }) => return Err(e),
+                    Err(e) => {
+                        let name = cfg.replays[k].name.clone().unwrap_or(format!("r{k}"));
+                        return Err(ExperimentError::StoppedAt {
+                            unit: format!("replay `{name}`"),
+                            reason: crate::protocol::failure_line(&e),
+                            not_run: cfg.replays.len() - k - 1,
+                        });
+                    }
+                };
+                let Some(report) = report else {
                     return Err(ctx.interrupted_error(TAG, self));
                 };
                 if self.units.is_none() {

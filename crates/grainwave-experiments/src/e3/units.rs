@@ -439,7 +439,8 @@ pub(crate) fn execute(
             Ok(())
         })
         .collect();
-    settle(outcomes, &shared, &done_flags, save_state)?;
+    let labels: Vec<String> = pending_refs.iter().map(|&c| format!("reference {}", plan.cases[c].label)).collect();
+    settle("reference states", &labels, outcomes, &shared, &done_flags, save_state)?;
     // 2. runs
     let pending_runs: Vec<usize> = (0..plan.runs.len())
         .filter(|&r| {
@@ -504,7 +505,8 @@ pub(crate) fn execute(
             Ok(())
         })
         .collect();
-    settle(outcomes, &shared, &done_flags, save_state)?;
+    let labels: Vec<String> = pending_runs.iter().map(|&r| format!("run {}/{}", plan.cases[plan.runs[r].case].label, plan.runs[r].label)).collect();
+    settle("response runs", &labels, outcomes, &shared, &done_flags, save_state)?;
     let d = done_flags.into_inner().map_err(|_| poisoned())?;
     references_done.copy_from_slice(&d.0);
     runs_done.copy_from_slice(&d.1);
@@ -697,12 +699,16 @@ pub(crate) fn bisect_first_opening(ctx: &mut RunContext<'_>, cfg: &E3Config, pla
         })
         .collect();
     let mut interrupted = false;
-    for o in outcomes {
+    let mut failures = Vec::new();
+    for (case, o) in plan.cases.iter().zip(outcomes) {
         match o {
             Ok(()) => {}
             Err(UnitStop::Interrupted) => interrupted = true,
-            Err(UnitStop::Failed(e)) => return Err(e),
+            Err(UnitStop::Failed(e)) => failures.push(format!("bisection {}: {}", case.label, crate::protocol::failure_line(&e))),
         }
+    }
+    if !failures.is_empty() {
+        return Err(crate::protocol::failed_units("first-opening bisections", plan.cases.len(), failures));
     }
     if interrupted {
         let mut guard = shared.lock().map_err(|_| poisoned())?;
@@ -722,20 +728,29 @@ fn io_error(path: &Path, e: std::io::Error) -> ExperimentError {
     ExperimentError::Core(CoreError::Io { action: "cannot create".into(), path: path.display().to_string(), error: e })
 }
 
-/// The first failure (in plan order) is returned; otherwise an interruption saves the state.
+/// Failures take precedence: when units failed, every failure is listed with its unit (the
+/// units that completed are saved and not redone by `resume --retry`); otherwise an interruption
+/// saves the state. `labels[k]` names the unit of `outcomes[k]`; `what` is the stage's units in
+/// the plural.
 fn settle(
+    what: &str,
+    labels: &[String],
     outcomes: Vec<std::result::Result<(), UnitStop>>,
     shared: &Mutex<Shared<'_, '_>>,
     done_flags: &Mutex<(Vec<bool>, Vec<bool>)>,
     save_state: &(dyn Fn(&mut RunContext<'_>, &[bool], &[bool]) -> Result<()> + Sync),
 ) -> Result<()> {
     let mut interrupted = false;
-    for o in outcomes {
+    let mut failures = Vec::new();
+    for (label, o) in labels.iter().zip(outcomes) {
         match o {
             Ok(()) => {}
             Err(UnitStop::Interrupted) => interrupted = true,
-            Err(UnitStop::Failed(e)) => return Err(e),
+            Err(UnitStop::Failed(e)) => failures.push(format!("{label}: {}", crate::protocol::failure_line(&e))),
         }
+    }
+    if !failures.is_empty() {
+        return Err(crate::protocol::failed_units(what, labels.len(), failures));
     }
     if interrupted {
         let (refs, runs) = done_flags.lock().map(|d| (d.0.clone(), d.1.clone())).map_err(|_| poisoned())?;
@@ -748,3 +763,4 @@ fn settle(
     }
     Ok(())
 }
+
