@@ -15,7 +15,8 @@ samples, C₃₃ over the published value, Φ₂, z*, the preparation steps, and
 baseline **paired by seed** (a sample's seed fixes its grain sizes and gas positions, so the pair
 differs only by the varied detail): mean relative difference ± its standard error over the pairs.
 A difference is marked `*` when it exceeds two standard errors. Only samples without a failure and
-at the chosen pressure are used.
+at the chosen pressure are used; the n column says how many failed (e.g. stopped by the overlap
+guard `max_overlap_fraction`), since the survivors of a variant with failures may be a biased set.
 """
 import csv
 import math
@@ -38,12 +39,15 @@ def load(d, p):
     fn = os.path.join(d, "samples.csv")
     if not os.path.exists(fn):
         sys.exit(f"{d}: no samples.csv — for an interrupted run, write it with `grainwave plot {d}`")
-    out = {}
+    out, failed = {}, 0
     for r in csv.DictReader(open(fn)):
-        if r["failure"] or not math.isclose(float(r["pressure"]), p, rel_tol=1e-9):
+        if not math.isclose(float(r["pressure"]), p, rel_tol=1e-9):
+            continue
+        if r["failure"]:
+            failed += 1
             continue
         out[int(r["seed"])] = {k: float(r[k]) for k in KEYS}
-    return out
+    return out, failed
 
 
 def mean_std(v):
@@ -68,10 +72,10 @@ def main(argv):
     if len(argv) < 1:
         sys.exit(__doc__)
     pub = PUBLISHED.get(min(PUBLISHED, key=lambda q: abs(math.log(q / p))))
-    base = load(argv[0], p)
+    base, base_failed = load(argv[0], p)
     if not base:
         sys.exit(f"{argv[0]}: no sample at p = {p:g}")
-    variants = [("baseline", base)]
+    variants = [("baseline", base, base_failed)]
     for a in argv[1:]:
         if "=" in a:
             name, d = a.split("=", 1)
@@ -79,17 +83,18 @@ def main(argv):
             d = a.rstrip("/")
             m = re.search(r"c33-p\d+e-\d+-(.+)$", os.path.basename(d))
             name = m.group(1) if m else os.path.basename(d)
-        variants.append((name, load(d, p)))
+        variants.append((name, *load(d, p)))
 
     print(f"p = {p:g}; published: " + ", ".join(f"{k} = {pub[k]:g}" for k in MODULI))
     print()
     print("| variant | n | C₁₁ | C₁₂ | C₂₂ | C₃₃ | C₃₃/published | Φ₂ | z* | preparation steps |"
           " ΔC₁₁ | ΔC₂₂ | ΔC₃₃ (paired by seed, n) |")
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
-    for name, d in variants:
+    for name, d, failed in variants:
         seeds = sorted(d)
+        n = f"{len(seeds)}" + (f" ({failed} failed)" if failed else "")
         if not seeds:
-            print(f"| {name} | 0 | " + " | ".join(["—"] * 11) + " |")
+            print(f"| {name} | {n} | " + " | ".join(["—"] * 11) + " |")
             continue
         cells = []
         for k in ["C11", "C12", "C22", "C33"]:
@@ -107,7 +112,7 @@ def main(argv):
             se = sd / math.sqrt(len(rel))
             mark = " *" if abs(m) > 2 * se else ""
             cells.append(f"{100 * m:+.0f} ± {100 * se:.0f} %{mark}" + (f" ({len(rel)})" if k == "C33" else ""))
-        print(f"| {name} | {len(seeds)} | " + " | ".join(cells) + " |")
+        print(f"| {name} | {n} | " + " | ".join(cells) + " |")
 
 
 if __name__ == "__main__":
