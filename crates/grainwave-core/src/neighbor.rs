@@ -373,7 +373,7 @@ unsafe fn max_displacement2_3d_avx512(period: [f64; 3], inverse: [f64; 3], refer
     use crate::domain::nearest_image_axis;
     use crate::simd512::{deinterleave3, per_coordinate, Wide8};
     use std::arch::x86_64::*;
-    debug_assert!(n % 8 == 0);
+    assert!(n % 8 == 0, "max_displacement2_3d_avx512: {n} grains, not a multiple of 8");
     // SAFETY: the caller's contract.
     unsafe {
         let (per, inv) = (per_coordinate(period), per_coordinate(inverse));
@@ -433,7 +433,8 @@ fn split_parts<'a, T>(mut data: &'a mut [T], parts: &[(std::ops::Range<usize>, s
     let mut at = parts.first().map_or(0, |p| p.1.start);
     data = &mut data[at..];
     for (_, pairs) in parts {
-        debug_assert_eq!(pairs.start, at);
+        // the parts must be consecutive, or pairs would be handed to the wrong owners
+        assert_eq!(pairs.start, at, "split_parts: parts not consecutive");
         let (head, tail) = std::mem::take(&mut data).split_at_mut(pairs.end - at);
         out.push(head);
         data = tail;

@@ -135,7 +135,7 @@ pub fn random_gas<D: Dim>(
             )));
         }
     }
-    debug_assert!(placed.iter().all(|&p| p));
+    assert!(placed.iter().all(|&p| p), "random_gas: a grain was left unplaced");
     Ok(pos)
 }
 

@@ -371,7 +371,7 @@ mod wide {
     #[target_feature(enable = "avx2,avx512f")]
     #[allow(clippy::too_many_arguments)]
     pub(super) unsafe fn kick_drift_3d(x: *mut f64, v: *mut f64, f: *const f64, km: &[f64; MIN_LEN], w: *mut f64, t: *const f64, ki: &[f64; MIN_LEN], dt: f64, bounds: [f64; 6], n: usize) -> Flagged {
-        debug_assert!(n % 8 == 0 && n <= MIN_LEN);
+        assert!(n % 8 == 0 && n <= MIN_LEN, "kick_drift_3d: {n} grains");
         let mut flagged = Flagged { list: [0; MIN_LEN], len: 0 };
         // SAFETY: the caller's contract.
         unsafe {

@@ -1050,7 +1050,8 @@ pub(super) struct BlockPass<'a, 'b, D: Dim, L> {
 impl<D: Dim, L: WindowLaw> WithDampers for BlockPass<'_, '_, D, L> {
     type Out = ForceStats;
     fn run<P: Dampers>(self, damp: P) -> ForceStats {
-        debug_assert!(available() && (!self.wide || wide_available()));
+        // the instructions of this path must exist on this processor (cheap: once per block)
+        assert!(available() && (!self.wide || wide_available()), "fused pass chosen without its instruction set");
         // SAFETY: this path is chosen only when the processor has AVX2 (`available`), and
         // with `wide` only when it has AVX-512 F and VL (`wide_available`).
         unsafe {
@@ -1080,7 +1081,8 @@ pub(super) struct CrossPass<'a, 'b, D: Dim, L> {
 impl<D: Dim, L: WindowLaw> WithDampers for CrossPass<'_, '_, D, L> {
     type Out = ForceStats;
     fn run<P: Dampers>(self, damp: P) -> ForceStats {
-        debug_assert!(available() && (!self.wide || wide_available()));
+        // the instructions of this path must exist on this processor (cheap: once per block)
+        assert!(available() && (!self.wide || wide_available()), "fused pass chosen without its instruction set");
         // SAFETY: as for `BlockPass`.
         unsafe {
             if self.wide {
