@@ -37,6 +37,7 @@ pub mod error;
 pub mod grains;
 pub mod neighbor;
 pub mod placement;
+pub(crate) mod real;
 pub mod sim;
 #[cfg(target_arch = "x86_64")]
 pub(crate) mod simd512;

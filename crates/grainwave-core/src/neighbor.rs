@@ -370,9 +370,10 @@ pub(crate) fn max_displacement2<D: Dim>(image: &PeriodicImage<D>, reference: &[D
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,avx512f")]
 unsafe fn max_displacement2_3d_avx512(period: [f64; 3], inverse: [f64; 3], reference: *const f64, pos: *const f64, n: usize) -> f64 {
-    use crate::simd512::{deinterleave3, nearest_integer, per_coordinate};
+    use crate::domain::nearest_image_axis;
+    use crate::simd512::{deinterleave3, per_coordinate, Wide8};
     use std::arch::x86_64::*;
-    debug_assert!(n % 8 == 0);
+    assert!(n % 8 == 0, "max_displacement2_3d_avx512: {n} grains, not a multiple of 8");
     // SAFETY: the caller's contract.
     unsafe {
         let (per, inv) = (per_coordinate(period), per_coordinate(inverse));
@@ -381,8 +382,8 @@ unsafe fn max_displacement2_3d_avx512(period: [f64; 3], inverse: [f64; 3], refer
             let mut sq = [_mm512_setzero_pd(); 3];
             for r in 0..3 {
                 let d = _mm512_sub_pd(_mm512_loadu_pd(pos.add(k + 8 * r)), _mm512_loadu_pd(reference.add(k + 8 * r)));
-                let t = nearest_integer(_mm512_mul_pd(d, inv[r]));
-                let d = _mm512_sub_pd(d, _mm512_mul_pd(per[r], t));
+                // the domain's minimum image, with the cell length of each lane's coordinate
+                let d = nearest_image_axis(Wide8(d), Wide8(per[r]), Wide8(inv[r])).0 .0;
                 sq[r] = _mm512_mul_pd(d, d);
             }
             // squares of x, y, z of the eight grains
@@ -432,7 +433,8 @@ fn split_parts<'a, T>(mut data: &'a mut [T], parts: &[(std::ops::Range<usize>, s
     let mut at = parts.first().map_or(0, |p| p.1.start);
     data = &mut data[at..];
     for (_, pairs) in parts {
-        debug_assert_eq!(pairs.start, at);
+        // the parts must be consecutive, or pairs would be handed to the wrong owners
+        assert_eq!(pairs.start, at, "split_parts: parts not consecutive");
         let (head, tail) = std::mem::take(&mut data).split_at_mut(pairs.end - at);
         out.push(head);
         data = tail;
@@ -778,7 +780,8 @@ struct WideGeometry<'a> {
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,avx512f,avx512vl,popcnt")]
 unsafe fn wide_cells(cells: std::ops::Range<usize>, geo: &WideGeometry<'_>, start: &[usize], items: &[u32], slots: &CellOrder, out: &mut Vec<(u32, u32)>) {
-    use crate::simd512::{first_lanes, nearest_integer as nearest};
+    use crate::domain::nearest_image_axis;
+    use crate::simd512::{first_lanes, Wide8};
     use std::arch::x86_64::*;
     let WideGeometry { grid, forward, length, inverse, skin } = *geo;
     let counts = grid.n;
@@ -833,9 +836,10 @@ unsafe fn wide_cells(cells: std::ops::Range<usize>, geo: &WideGeometry<'_>, star
                         let dx = _mm512_sub_pd(_mm512_maskz_loadu_pd(live, sx.add(k)), xi);
                         let dy = _mm512_sub_pd(_mm512_maskz_loadu_pd(live, sy.add(k)), yi);
                         let dz = _mm512_sub_pd(_mm512_maskz_loadu_pd(live, sz.add(k)), zi);
-                        let dx = _mm512_sub_pd(dx, _mm512_mul_pd(lx, nearest(_mm512_mul_pd(dx, ix))));
-                        let dy = _mm512_sub_pd(dy, _mm512_mul_pd(ly, nearest(_mm512_mul_pd(dy, iy))));
-                        let dz = _mm512_sub_pd(dz, _mm512_mul_pd(lz, nearest(_mm512_mul_pd(dz, iz))));
+                        // the domain's minimum image along each axis (the cell is not sheared here)
+                        let dx = nearest_image_axis(Wide8(dx), Wide8(lx), Wide8(ix)).0 .0;
+                        let dy = nearest_image_axis(Wide8(dy), Wide8(ly), Wide8(iy)).0 .0;
+                        let dz = nearest_image_axis(Wide8(dz), Wide8(lz), Wide8(iz)).0 .0;
                         let d2 = _mm512_add_pd(_mm512_add_pd(_mm512_mul_pd(dx, dx), _mm512_mul_pd(dy, dy)), _mm512_mul_pd(dz, dz));
                         let reach = _mm512_add_pd(_mm512_add_pd(ri, _mm512_maskz_loadu_pd(live, sr.add(k))), skin_v);
                         let hit = _mm512_mask_cmp_pd_mask::<_CMP_LT_OQ>(live, d2, _mm512_mul_pd(reach, reach));
@@ -935,6 +939,7 @@ mod tests {
     /// image shift, adds or drops pairs).
     #[test]
     fn wide_cell_search_matches_brute_force_3d() {
+        crate::util::avx512_or_skip("wide_cell_search_matches_brute_force_3d: the AVX-512 cell search not run (the element-wise one is checked)");
         let mut rng = ChaCha8Rng::seed_from_u64(11);
         for periodic in [[true; 3], [true, true, false], [false, true, true]] {
             let dom: Domain<D3> = Domain::new(DVec3::ZERO, DVec3::new(5.0, 4.5, 6.0), periodic);
@@ -993,6 +998,7 @@ mod tests {
     /// NaN in the vector part and in the rest, displacements across the boundary.
     #[test]
     fn max_displacement_3d_is_the_nan_max_fold() {
+        crate::util::avx512_or_skip("max_displacement_3d_is_the_nan_max_fold: the AVX-512 displacement check not run (the element-wise one is checked)");
         for periodic in [[true, true, true], [true, false, true]] {
             let dom: Domain<D3> = Domain::new(DVec3::ZERO, DVec3::new(7.0, 5.0, 6.0), periodic);
             let image = dom.image();

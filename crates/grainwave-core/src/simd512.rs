@@ -1,11 +1,15 @@
 //! AVX-512 helpers shared by the per-grain passes (drift, orientations, displacement checks)
 //! and the force pass: 3D vectors stored as consecutive (x, y, z) rows, eight of them — 24 f64,
-//! three 512-bit vectors — at a time. Every function here only moves data; the arithmetic stays
-//! with the callers, which perform the operations of their element-wise twins.
+//! three 512-bit vectors — at a time; and [`Wide8`], eight f64 lanes, on which the lane-generic
+//! arithmetic (the domain's minimum image, the contact law) runs. The functions here only move
+//! data; the arithmetic stays with the callers, which perform the operations of their
+//! element-wise twins.
 //!
 //! All functions are compiled into callers that enable AVX-512 F (`#[target_feature]`).
 
+use crate::real::Real;
 use std::arch::x86_64::*;
+use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// Eight i64 lanes (permutation indices).
 ///
@@ -55,18 +59,97 @@ pub(crate) fn first_lanes(n: usize) -> __mmask8 {
     (0xffu32 >> (8 - n.min(8))) as __mmask8
 }
 
-/// [`crate::domain::nearest_integer`] lane by lane: clamped to ±2⁵¹ keeping NaN (the constant
-/// first: NaN is the second operand of min and max), then shifted and back.
-///
-/// # Safety
-/// AVX-512 F is available.
-#[inline(always)]
-pub(crate) unsafe fn nearest_integer(t: __m512d) -> __m512d {
-    use crate::domain::{ROUND_LIMIT, ROUND_SHIFT};
-    // SAFETY: the caller's contract.
-    unsafe {
-        let (limit, shift) = (_mm512_set1_pd(ROUND_LIMIT), _mm512_set1_pd(ROUND_SHIFT));
-        let t = _mm512_min_pd(limit, _mm512_max_pd(_mm512_set1_pd(-ROUND_LIMIT), t));
-        _mm512_sub_pd(_mm512_add_pd(t, shift), shift)
+/// Eight f64 lanes in one 512-bit register: the lane type of the fused pass on processors with
+/// AVX-512 F and VL (`Path::Fused512`), and of the AVX-512 passes over grains and candidate
+/// pairs (displacement checks, neighbor search, close list). Only used inside functions compiled
+/// with AVX-512 F (the operations are inlined there). Every operation is the IEEE operation of
+/// `f64` lane by lane ([`Real`]): the same bits as the scalar code.
+#[derive(Clone, Copy)]
+pub(crate) struct Wide8(pub(crate) __m512d);
+
+macro_rules! binary_wide {
+    ($trait:ident, $f:ident, $op:ident) => {
+        impl $trait for Wide8 {
+            type Output = Self;
+            #[inline(always)]
+            fn $f(self, o: Self) -> Self {
+                // SAFETY: only used in code compiled with AVX-512 F, on processors that have it.
+                unsafe { Wide8($op(self.0, o.0)) }
+            }
+        }
+    };
+}
+binary_wide!(Add, add, _mm512_add_pd);
+binary_wide!(Sub, sub, _mm512_sub_pd);
+binary_wide!(Mul, mul, _mm512_mul_pd);
+binary_wide!(Div, div, _mm512_div_pd);
+
+impl Neg for Wide8 {
+    type Output = Self;
+    #[inline(always)]
+    fn neg(self) -> Self {
+        // SAFETY: as above. Flips the sign bit, as f64 negation (integer xor: AVX-512 F only).
+        unsafe { Wide8(_mm512_castsi512_pd(_mm512_xor_si512(_mm512_castpd_si512(self.0), _mm512_set1_epi64(i64::MIN)))) }
+    }
+}
+
+impl Real for Wide8 {
+    type Mask = __mmask8;
+    #[inline(always)]
+    fn splat(x: f64) -> Self {
+        // SAFETY: as above.
+        unsafe { Wide8(_mm512_set1_pd(x)) }
+    }
+    #[inline(always)]
+    fn sqrt(self) -> Self {
+        // SAFETY: as above.
+        unsafe { Wide8(_mm512_sqrt_pd(self.0)) }
+    }
+    #[inline(always)]
+    fn max_zero(self) -> Self {
+        // SAFETY: as above. `x > 0 ? x : 0`: 0 for NaN, as f64::max.
+        unsafe { Wide8(_mm512_max_pd(self.0, _mm512_setzero_pd())) }
+    }
+    #[inline(always)]
+    fn min(self, o: Self) -> Self {
+        // SAFETY: as above. `self < o ? self : o`.
+        unsafe { Wide8(_mm512_min_pd(self.0, o.0)) }
+    }
+    #[inline(always)]
+    fn max(self, o: Self) -> Self {
+        // SAFETY: as above. `self > o ? self : o`.
+        unsafe { Wide8(_mm512_max_pd(self.0, o.0)) }
+    }
+    #[inline(always)]
+    fn eq(self, o: Self) -> __mmask8 {
+        // SAFETY: as above.
+        unsafe { _mm512_cmp_pd_mask::<_CMP_EQ_OQ>(self.0, o.0) }
+    }
+    #[inline(always)]
+    fn gt(self, o: Self) -> __mmask8 {
+        // SAFETY: as above.
+        unsafe { _mm512_cmp_pd_mask::<_CMP_GT_OQ>(self.0, o.0) }
+    }
+    #[inline(always)]
+    fn select(m: __mmask8, a: Self, b: Self) -> Self {
+        // SAFETY: as above (lanes of `a` where `m` is set).
+        unsafe { Wide8(_mm512_mask_blend_pd(m, b.0, a.0)) }
+    }
+    #[inline(always)]
+    fn map3(a: Self, b: Self, c: Self, f: impl Fn(f64, f64, f64) -> f64) -> Self {
+        let (a, b, c) = (a.lanes(), b.lanes(), c.lanes());
+        // SAFETY: as above.
+        unsafe { Wide8(_mm512_setr_pd(f(a[0], b[0], c[0]), f(a[1], b[1], c[1]), f(a[2], b[2], c[2]), f(a[3], b[3], c[3]), f(a[4], b[4], c[4]), f(a[5], b[5], c[5]), f(a[6], b[6], c[6]), f(a[7], b[7], c[7]))) }
+    }
+}
+
+impl Wide8 {
+    /// The eight lanes.
+    #[inline(always)]
+    pub(crate) fn lanes(self) -> [f64; 8] {
+        let mut a = [0.0; 8];
+        // SAFETY: as above; unaligned store into eight f64.
+        unsafe { _mm512_storeu_pd(a.as_mut_ptr(), self.0) };
+        a
     }
 }

@@ -66,3 +66,20 @@ impl Fnv64 {
         self.0
     }
 }
+
+/// Whether the processor has AVX-512 F and VL. When it does not, writes
+/// `skipped: CPU lacks AVX-512 F and VL: {what}` to stderr past the test harness's output capture
+/// (so that `cargo test` shows it): the unit tests of the AVX-512 paths would otherwise pass
+/// without having run them.
+#[cfg(test)]
+pub(crate) fn avx512_or_skip(what: &str) -> bool {
+    #[cfg(target_arch = "x86_64")]
+    let has = std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("avx512vl");
+    #[cfg(not(target_arch = "x86_64"))]
+    let has = false;
+    if !has {
+        use std::io::Write;
+        let _ = writeln!(std::io::stderr().lock(), "skipped: CPU lacks AVX-512 F and VL: {what}");
+    }
+    has
+}

@@ -11,54 +11,40 @@ fn pool(n: usize) -> rayon::ThreadPool {
     rayon::ThreadPoolBuilder::new().num_threads(n).build().unwrap()
 }
 
-/// A 2000-disk frictional packing with damping and rolling resistance, agitated so that contacts
-/// form, break and slide and the neighbor list is rebuilt.
-fn busy_2d() -> Simulation<D2> {
-    let mut p = hooke(1.0e3, Some(0.8), 0.3);
-    p.rolling_stiffness = Some(0.5);
-    p.rolling_friction = Some(0.05);
+/// A 2000-disk frictional packing with damping and rolling resistance (2D), or a 256-sphere
+/// Hertz–Mindlin packing with twisting resistance (3D), agitated so that contacts form, break
+/// and slide and the neighbor list is rebuilt.
+fn busy<D: TestDim>() -> Simulation<D> {
+    let mut p = D::pick(hooke(1.0e3, Some(0.8), 0.3), hertz(1.0e3, 0.3, 0.4, Some(0.05)));
+    if D::D == 2 {
+        p.rolling_stiffness = Some(0.5);
+        p.rolling_friction = Some(0.05);
+    } else {
+        p.twisting_stiffness = Some(0.1);
+    }
     let law = p.build(Partner::Grain, "contact").unwrap();
-    dense_2d(40, 50, law, 0.5, 21).build().unwrap()
+    let b = D::dense((40, 50), 4, law, D::pick(0.5, 0.2), D::pick(21, 22));
+    if D::D == 3 { b.expected_overlap(0.05) } else { b }.build().unwrap()
 }
 
-fn busy_3d() -> Simulation<D3> {
-    let mut p = hertz(1.0e3, 0.3, 0.4, Some(0.05));
-    p.twisting_stiffness = Some(0.1);
-    let law = p.build(Partner::Grain, "contact").unwrap();
-    dense_3d(4, law, 0.2, 22).expected_overlap(0.05).build().unwrap()
-}
-
-#[test]
-fn same_bits_for_1_2_and_3_threads_2d() {
-    let hashes: Vec<(u64, u64, u64)> = [1, 2, 3]
-        .iter()
-        .map(|&n| {
-            pool(n).install(|| {
-                let mut sim = busy_2d();
-                sim.steps(1500).unwrap();
-                assert!(sim.nlist.builds > 3, "the neighbor list was rebuilt");
-                assert!(sim.counters.sliding > 0 || sim.counters.contacts > 0);
-                (sim.state_hash(), sim.kinetic_energy().to_bits(), sim.nlist.builds)
+both_dims! {
+    fn same_bits_for_1_2_and_3_threads<D>() {
+        let hashes: Vec<(u64, u64, u64)> = [1, 2, 3]
+            .iter()
+            .map(|&n| {
+                pool(n).install(|| {
+                    let mut sim = busy::<D>();
+                    sim.steps(D::pick(1500, 800)).unwrap();
+                    // 2D: the neighbor list is rebuilt several times (the 3D packing is slower)
+                    assert!(D::D == 3 || sim.nlist.builds > 3, "the neighbor list was rebuilt");
+                    assert!(sim.counters.sliding > 0 || sim.counters.contacts > 0);
+                    (sim.state_hash(), sim.kinetic_energy().to_bits(), sim.nlist.builds)
+                })
             })
-        })
-        .collect();
-    assert_eq!(hashes[0], hashes[1], "1 vs 2 threads");
-    assert_eq!(hashes[0], hashes[2], "1 vs 3 threads");
-}
-
-#[test]
-fn same_bits_for_1_and_2_threads_3d() {
-    let a = pool(1).install(|| {
-        let mut s = busy_3d();
-        s.steps(800).unwrap();
-        s.state_hash()
-    });
-    let b = pool(2).install(|| {
-        let mut s = busy_3d();
-        s.steps(800).unwrap();
-        s.state_hash()
-    });
-    assert_eq!(a, b);
+            .collect();
+        assert_eq!(hashes[0], hashes[1], "1 vs 2 threads");
+        assert_eq!(hashes[0], hashes[2], "1 vs 3 threads");
+    }
 }
 
 #[test]
@@ -69,11 +55,11 @@ fn checkpoint_resume_is_bitwise_identical_and_corruption_is_detected() {
     let (k, n) = (700u64, 1500u64);
     let stop = StopCriteria { step_limit: Some(n), check_every: 50, ..Default::default() };
 
-    let mut straight = busy_2d();
+    let mut straight = busy::<D2>();
     straight.run(&stop, &mut |_| Control::Continue).unwrap();
 
     // interrupted at step k by the observer, saved, reloaded, resumed with the same criteria
-    let mut first = busy_2d();
+    let mut first = busy::<D2>();
     let out = first
         .run(&StopCriteria { check_every: 1, ..stop.clone() }, &mut |p| if p.step >= k { Control::Stop } else { Control::Continue })
         .unwrap();

@@ -36,33 +36,23 @@ fn measure<D: Dim>(mut sim: Simulation<D>, steps: usize) -> Drift {
     Drift { drift: (last - first).abs() / e0, max_deviation, contact_events: events }
 }
 
-#[test]
-fn hooke_2d_dense_periodic_conserves_energy() {
-    let damped = hooke(1.0e3, Some(0.3), 0.0).build(Partner::Grain, "contact").unwrap();
-    let elastic = hooke(1.0e3, None, 0.0).build(Partner::Grain, "contact").unwrap();
-    let sim = jam_then_heat(dense_2d(40, 50, damped, 0.0, 11).build().unwrap(), elastic, 1e-8, 0.3, 3);
-    assert!(sim.counters.contacts > 5000, "dense: {} contacts for 2000 disks", sim.counters.contacts);
-    assert!(sim.kinetic_energy() > 0.01 * sim.elastic_energy(), "agitated");
-    let d = measure(sim, 10_000);
-    eprintln!("2D Hooke: drift {:.3e}, max deviation {:.3e}, {} contact events", d.drift, d.max_deviation, d.contact_events);
-    assert!(d.contact_events > 10_000, "contacts must open and close during the test");
-    assert!(d.drift < 1e-5, "relative energy drift {:e}", d.drift);
-    assert!(d.max_deviation < 1e-3, "energy oscillation {:e}", d.max_deviation);
-}
-
-#[test]
-fn hertz_3d_dense_periodic_conserves_energy() {
-    let damped = hertz(1.0e3, 0.3, 0.0, Some(0.3)).build(Partner::Grain, "contact").unwrap();
-    let elastic = hertz(1.0e3, 0.3, 0.0, None).build(Partner::Grain, "contact").unwrap();
-    let sim = dense_3d(5, damped, 0.0, 12).expected_overlap(0.05).build().unwrap();
-    let sim = jam_then_heat(sim, elastic, 1e-8, 0.2, 3);
-    assert!(sim.counters.contacts > 2000, "dense: {} contacts for 500 spheres", sim.counters.contacts);
-    assert!(sim.kinetic_energy() > 0.02 * sim.elastic_energy(), "agitated");
-    let d = measure(sim, 10_000);
-    eprintln!("3D Hertz: drift {:.3e}, max deviation {:.3e}, {} contact events", d.drift, d.max_deviation, d.contact_events);
-    assert!(d.contact_events > 10_000, "contacts must open and close during the test");
-    assert!(d.drift < 1e-5, "relative energy drift {:e}", d.drift);
-    assert!(d.max_deviation < 1e-3, "energy oscillation {:e}", d.max_deviation);
+both_dims! {
+    /// Hooke on 2000 disks (2D), Hertz on 500 spheres (3D), frictionless.
+    fn dense_periodic_packing_conserves_energy<D>() {
+        let (damped, elastic) = D::pick((hooke(1.0e3, Some(0.3), 0.0), hooke(1.0e3, None, 0.0)), (hertz(1.0e3, 0.3, 0.0, Some(0.3)), hertz(1.0e3, 0.3, 0.0, None)));
+        let (damped, elastic) = (damped.build(Partner::Grain, "contact").unwrap(), elastic.build(Partner::Grain, "contact").unwrap());
+        let b = D::dense((40, 50), 5, damped, 0.0, D::pick(11, 12));
+        let b = if D::D == 3 { b.expected_overlap(0.05) } else { b };
+        let sim = jam_then_heat(b.build().unwrap(), elastic, 1e-8, D::pick(0.3, 0.2), 3);
+        let (contacts, agitation) = D::pick((5000, 0.01), (2000, 0.02));
+        assert!(sim.counters.contacts > contacts, "dense: {} contacts for {} grains", sim.counters.contacts, sim.len());
+        assert!(sim.kinetic_energy() > agitation * sim.elastic_energy(), "agitated");
+        let d = measure(sim, 10_000);
+        eprintln!("{} {}: drift {:.3e}, max deviation {:.3e}, {} contact events", D::NAME, D::pick("Hooke", "Hertz"), d.drift, d.max_deviation, d.contact_events);
+        assert!(d.contact_events > 10_000, "contacts must open and close during the test");
+        assert!(d.drift < 1e-5, "relative energy drift {:e}", d.drift);
+        assert!(d.max_deviation < 1e-3, "energy oscillation {:e}", d.max_deviation);
+    }
 }
 
 #[test]

@@ -93,14 +93,11 @@ fn settle_and_check<D: Dim>(mut sim: Simulation<D>) {
     assert!(rel(snap.wall_load(2 * up as u32), weight) < 1e-6);
 }
 
-#[test]
-fn grains_settle_under_gravity_2d() {
-    settle_and_check(gravity_box::<D2>(GrainKind::Disk { thickness: 1.0 }, 150, 10.0, 1));
-}
-
-#[test]
-fn grains_settle_under_gravity_3d() {
-    settle_and_check(gravity_box::<D3>(GrainKind::Sphere, 150, 4.0, 2));
+both_dims! {
+    /// 150 grains in a box 10 wide (2D) or 4 × 4 (3D).
+    fn grains_settle_under_gravity<D>() {
+        settle_and_check(gravity_box::<D>(D::kind(), 150, D::pick(10.0, 4.0), D::pick(1, 2)));
+    }
 }
 
 /// A column between a fixed floor and a piston of prescribed force F, periodic sideways: at
@@ -161,12 +158,9 @@ fn piston_column<D: Dim>(kind: GrainKind, n: usize, width: f64, force: f64, seed
     assert!(piston.displacement() > 0.5 * height, "the piston moved down onto the grains");
 }
 
-#[test]
-fn piston_compresses_a_column_2d() {
-    piston_column::<D2>(GrainKind::Disk { thickness: 1.0 }, 80, 8.0, 50.0, 3);
-}
-
-#[test]
-fn piston_compresses_a_column_3d() {
-    piston_column::<D3>(GrainKind::Sphere, 80, 3.5, 50.0, 4);
+both_dims! {
+    /// 80 grains, 8 wide (2D) or 3.5 × 3.5 (3D), under a piston force of 50.
+    fn piston_compresses_a_column<D>() {
+        piston_column::<D>(D::kind(), 80, D::pick(8.0, 3.5), 50.0, D::pick(3, 4));
+    }
 }

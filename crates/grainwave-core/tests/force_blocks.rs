@@ -69,7 +69,8 @@ fn specialised_window_kernels_give_the_bits_of_the_general_kernel() {
     // several blocks, and one block.
     // (general, simd, one block): the general kernel, or a specialised one on the portable path
     // (simd 0), the fused AVX2 pass (1), the AVX-512 windows (2) or the fused pass on 512-bit
-    // lanes (3) — each when the processor has it, the next lower level otherwise)
+    // lanes (3) — the levels the processor has; the others are reported as skipped)
+    let levels = simd_levels("specialised_window_kernels_give_the_bits_of_the_general_kernel", &[0, 1, 2, 3]);
     type Make = dyn Fn() -> Box<dyn FnMut((bool, u8, bool)) -> u64> + Sync;
     let run = |mode: (bool, u8, bool), threads: usize, make: &Make| {
         pool(threads).install(|| (make())(mode))
@@ -117,11 +118,11 @@ fn specialised_window_kernels_give_the_bits_of_the_general_kernel() {
             for make in [&make2 as &Make, &make3] {
                 let reference = run((true, 0, false), 1, make);
                 for threads in [1, 2] {
-                    for simd in [0, 1, 2, 3] {
+                    for &simd in &levels {
                         assert_eq!(run((false, simd, false), threads, make), reference, "{law:?}, shear {shear}, {threads} threads, simd {simd}");
                     }
                 }
-                for simd in [0, 1, 2, 3] {
+                for &simd in &levels {
                     assert_eq!(run((false, simd, true), 1, make), reference, "{law:?}, shear {shear}, one block, simd {simd}");
                 }
             }
@@ -145,22 +146,16 @@ fn the_close_list_of_the_fused_pass_misses_no_contact() {
         (sim.state_hash(), sim.close_list_builds(), sim.nlist.builds, sim.close_list_fingerprint())
     };
     let (general, _, builds, _) = run(true, 0);
-    // the fused pass on 256-bit (1) and 512-bit lanes (3; level 1 where the processor lacks
-    // AVX-512), whose close lists are filtered element by element (1) or eight pairs at a time
-    // (3): the same list
-    let fingerprints: Vec<u64> = [1, 3].iter().map(|&simd| run(false, simd).3).collect();
-    assert_eq!(fingerprints[0], fingerprints[1]);
-    for simd in [1, 3] {
+    // the fused pass on 256-bit (1) and 512-bit lanes (3), whose close lists are filtered
+    // element by element (1) or eight pairs at a time (3): the same list (the levels the
+    // processor has; the others are reported as skipped)
+    let levels = simd_levels("the_close_list_of_the_fused_pass_misses_no_contact", &[1, 3]);
+    let fingerprints: Vec<u64> = levels.iter().map(|&simd| run(false, simd).3).collect();
+    assert!(fingerprints.iter().all(|&f| f == fingerprints[0]), "{fingerprints:x?}");
+    for &simd in &levels {
         let (fused, close_builds, _, _) = run(false, simd);
         assert_eq!(fused, general, "simd {simd}");
-        // only where the processor has AVX2 (the fused pass); elsewhere the portable path ran
-        #[cfg(target_arch = "x86_64")]
-        let fused_pass = std::arch::is_x86_feature_detected!("avx2");
-        #[cfg(not(target_arch = "x86_64"))]
-        let fused_pass = false;
-        if fused_pass {
-            assert!(close_builds > 2 * builds, "simd {simd}: close list built {close_builds} times, neighbor list {builds}");
-        }
+        assert!(close_builds > 2 * builds, "simd {simd}: close list built {close_builds} times, neighbor list {builds}");
     }
 }
 
@@ -170,13 +165,13 @@ fn a_nan_spin_is_caught_through_the_close_list() {
     // force pass can see it: through the close list (3D, fused pass), the grain's contacts still
     // carry it into a non-finite force.
     let law = hooke(1.0e3, Some(0.8), 0.3).build(Partner::Grain, "contact").unwrap();
-    for (general, simd) in [(false, 1), (false, 3), (true, 0)] {
+    let levels = simd_levels("a_nan_spin_is_caught_through_the_close_list", &[1, 3]);
+    for (general, simd) in levels.iter().map(|&l| (false, l)).chain([(true, 0)]) {
         let mut sim = dense_3d(4, law, 0.3, 22).expected_overlap(0.05).build().unwrap();
         sim.set_general_kernel(general);
         sim.set_simd_level(simd);
         sim.steps(50).unwrap();
-        #[cfg(target_arch = "x86_64")]
-        assert!(general || sim.close_list_builds() > 0 || !std::arch::is_x86_feature_detected!("avx2"));
+        assert!(general || sim.close_list_builds() > 0);
         sim.grains.omega[7] = glam::DVec3::new(f64::NAN, 0.0, 0.0);
         let e = sim.steps(5).unwrap_err().to_string();
         assert!(e.contains("non-finite"), "general {general}, simd {simd}: {e}");
@@ -205,7 +200,7 @@ fn masses_changed_by_hand_reach_the_close_list() {
         sim.state_hash()
     };
     let reference = run(true, 0);
-    for simd in [1, 3] {
+    for simd in simd_levels("masses_changed_by_hand_reach_the_close_list", &[1, 3]) {
         assert_eq!(run(false, simd), reference, "simd {simd}");
     }
 }

@@ -45,14 +45,16 @@ fn an_image_across_the_sheared_boundary_collides_like_a_moving_grain() {
     assert!((sim.domain.tilt[0] - rate * sim.time).abs() < 1e-9);
 }
 
-/// A dense, agitated 2D packing (a compressed triangular lattice) in a shearing cell, its bottom
-/// row on the sheared boundary: grains cross it back and forth (positions and velocities
-/// remapped), contacts form and break across it.
-fn sheared_packing(law: ContactLaw) -> Simulation<D2> {
-    let mut sim = dense_2d(20, 25, law, 0.3, 8).build().unwrap();
+/// A dense, agitated packing (a compressed triangular lattice of 500 disks, or FCC lattice of
+/// 500 spheres) in a shearing cell, its bottom row on the sheared boundary: grains cross it back
+/// and forth (positions and velocities remapped), contacts form and break across it.
+fn sheared_packing<D: TestDim>(law: ContactLaw) -> Simulation<D> {
+    let b = D::dense((20, 25), 5, law, 0.3, 8);
+    let mut sim = if D::D == 3 { b.expected_overlap(0.05) } else { b }.build().unwrap();
     sim.domain.set_shear_rate(0.02).unwrap();
     for k in 0..sim.len() {
-        sim.grains.pos[k].y -= 0.25;
+        let y = sim.grains.pos[k].get(1);
+        sim.grains.pos[k].set(1, y - 0.25);
         let (mut x, mut v, mut im) = (sim.grains.pos[k], sim.grains.vel[k], sim.grains.image[k]);
         sim.domain.wrap_moving(&mut x, &mut v, &mut im);
         (sim.grains.pos[k], sim.grains.vel[k], sim.grains.image[k]) = (x, v, im);
@@ -61,24 +63,33 @@ fn sheared_packing(law: ContactLaw) -> Simulation<D2> {
     sim
 }
 
-#[test]
-fn sheared_runs_are_bitwise_identical_for_any_threads_blocks_and_kernel() {
-    for p in [hooke(1.0e3, Some(0.8), 0.3), hertz(1.0e3, 0.3, 0.4, Some(0.05))] {
-        let law = p.build(Partner::Grain, "contact").unwrap();
-        let run = |threads: usize, block: Option<usize>, general: bool| {
-            pool(threads).install(|| {
-                let mut sim = sheared_packing(law);
-                sim.set_force_block_len(block);
-                sim.set_general_kernel(general);
-                sim.steps(1500).unwrap();
-                (sim.state_hash(), sim.nlist.builds, sim.grains.image.iter().map(|i| i[1].abs()).sum::<i32>())
-            })
-        };
-        let reference = run(1, None, true);
-        assert!(reference.1 > 5, "the tilt forces rebuilds: {reference:?}");
-        assert!(reference.2 > 0, "grains crossed the sheared boundary");
-        for (threads, block, general) in [(1, None, false), (2, None, false), (3, Some(100), false), (2, Some(77), true)] {
-            assert_eq!(run(threads, block, general), reference, "{threads} threads, blocks {block:?}, general {general}");
+both_dims! {
+    /// The general kernel against the specialised ones (on every vector path the processor has),
+    /// threads and blocks, Hooke and Hertz, in a sheared cell: the tilt of the images and their
+    /// velocity go through the domain's one minimum image on every path.
+    fn sheared_runs_are_bitwise_identical_for_any_threads_blocks_and_kernel<D>() {
+        let levels = simd_levels("sheared_runs_are_bitwise_identical_for_any_threads_blocks_and_kernel", &[0, 1, 2, 3]);
+        for p in [hooke(1.0e3, Some(0.8), 0.3), hertz(1.0e3, 0.3, 0.4, Some(0.05))] {
+            let law = p.build(Partner::Grain, "contact").unwrap();
+            let run = |threads: usize, block: Option<usize>, general: bool, simd: u8| {
+                pool(threads).install(|| {
+                    let mut sim = sheared_packing::<D>(law);
+                    sim.set_force_block_len(block);
+                    sim.set_general_kernel(general);
+                    sim.set_simd_level(simd);
+                    sim.steps(D::pick(1500, 600)).unwrap();
+                    (sim.state_hash(), sim.nlist.builds, sim.grains.image.iter().map(|i| i[1].abs()).sum::<i32>())
+                })
+            };
+            let reference = run(1, None, true, 0);
+            assert!(reference.1 > 5, "the tilt forces rebuilds: {reference:?}");
+            assert!(reference.2 > 0, "grains crossed the sheared boundary");
+            for &simd in &levels {
+                for (threads, block, general) in [(1, None, false), (2, None, false), (3, Some(100), false)] {
+                    assert_eq!(run(threads, block, general, simd), reference, "{threads} threads, blocks {block:?}, general {general}, simd {simd}");
+                }
+            }
+            assert_eq!(run(2, Some(77), true, 0), reference, "general kernel, 2 threads, blocks of 77");
         }
     }
 }
@@ -86,7 +97,7 @@ fn sheared_runs_are_bitwise_identical_for_any_threads_blocks_and_kernel() {
 #[test]
 fn shear_develops_a_velocity_profile_and_resumes_bit_for_bit() {
     let law = hooke(1.0e3, Some(0.5), 0.3).build(Partner::Grain, "contact").unwrap();
-    let mut sim = sheared_packing(law);
+    let mut sim = sheared_packing::<D2>(law);
     sim.steps(3000).unwrap();
     let mut copy: Simulation<D2> = grainwave_core::checkpoint::decode(&grainwave_core::checkpoint::encode("simulation-2d", &sim).unwrap(), "simulation-2d", "memory").unwrap();
     sim.steps(3000).unwrap();

@@ -148,7 +148,7 @@ fn summarize_e3(r: &e3::E3Summary, out: &Path) -> RunSummary {
         lines.push(format!("superposition F = {}: per-contact deviation {:.2e}, profile {:.2e}", s.force, s.contact_max_deviation, s.profile_max_deviation.first().copied().unwrap_or(f64::NAN)));
     }
     for p in &r.piles {
-        lines.push(format!("pile         {}: floor/weight {:.9}, {} floor profile", p.group, p.floor_over_weight, p.shape.name()));
+        lines.push(format!("pile         {}: floor/weight {:.9}, {} floor profile ({}, dip {:.4})", p.group, p.floor_over_weight, p.shape.name(), p.verdict_basis, p.dip));
     }
     if let Some(l) = &r.lattice {
         lines.push(format!("lattice      a = {:.4}, b = {:.4}, c = {:.4}, d = {:.4}, r = {:.4} ({})", l.moduli.a, l.moduli.b, l.moduli.c, l.moduli.d, l.moduli.r, l.verdict));

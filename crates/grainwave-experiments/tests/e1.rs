@@ -369,6 +369,21 @@ fn outputs_and_checkpoint() {
     assert!(written.iter().any(|f| f == "plots/arrival_times.png") && dir.join("plots/arrival_times.png").exists());
     let r: SampleResult = grainwave_core::checkpoint::load(&dir.join("samples/p1e-4_N24/s0011/result.gwck"), "e1-sample-result").unwrap();
     assert!(r.failure.is_none() && r.statistics.is_some() && r.moduli.is_some());
+    // The summary's sample work is the sum of the samples' own wall-clock (which already includes
+    // a preparation made in the same task), not that plus the preparation a second time.
+    let mut sum = 0.0;
+    let mut prepared = 0;
+    for g in std::fs::read_dir(dir.join("samples")).unwrap() {
+        for s in std::fs::read_dir(g.unwrap().path()).unwrap() {
+            let r: SampleResult = grainwave_core::checkpoint::load(&s.unwrap().path().join("result.gwck"), "e1-sample-result").unwrap();
+            prepared += r.preparation.as_ref().is_some_and(|p| p.seconds > 0.0) as usize;
+            sum += r.seconds;
+        }
+    }
+    assert!(prepared > 0, "the run prepares packings");
+    let reported = summary.report["sample_seconds"].as_f64().unwrap();
+    // same numbers summed in possibly another order: rounding only
+    assert!((reported - sum).abs() <= 1e-9 * sum.max(1.0), "sample_seconds {reported} vs Σ sample seconds {sum}");
 }
 
 fn check_err(text: &str) -> grainwave_experiments::config::ConfigError {

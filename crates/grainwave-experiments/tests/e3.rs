@@ -490,6 +490,18 @@ fn first_opening_below_the_load_by_bisection_is_not_the_global_first_opening() {
     // 0.79 m̄g: nearly unloaded contacts far from the load). Here bracket [1, 4] with 5 %
     // tolerance (7 runs); the result must lie within 6 % of 2.113 (the tolerance plus margin;
     // the runs are deterministic) and above the global value.
+    //
+    // Why the 8 × 20 value is the reference and not the full-size one scaled: the first opening
+    // is not a size-independent number and no scaling of it is known. Measured with this same
+    // protocol (docs/validation.md, E3), 8 × 20 against the paper's 15 × 60: 0.315 against
+    // 0.645 m̄g (μ = 0), 2.113 against 3.72 m̄g (μ = 0.2), 10.4 against 16.65 m̄g (μ = 1) — ratios
+    // 0.49, 0.57, 0.62, different for each μ, so any "scaled" full-size value would be this
+    // small-slab measurement in disguise. A full-size bisection takes minutes (a reference of
+    // 20–130 s and ~11 runs), too slow for the suite: the full-size values are pinned by
+    // examples/papers/e3-first-opening.toml and its row of the validation table. On this slab the
+    // band catches a return to the global "any contact" definition (< 1.58 m̄g here) and any
+    // change of the contact law, the relaxation or the region rule that moves the opening by
+    // more than 6 %.
     let out = out_dir("first-opening");
     let text = paper_slab("full", 0.2, 0.8, "[load]\nforces = [1.0]\nramp_time = 10.0\n\n[first_opening]\nbisection = true\nbracket = [1.0, 4.0]\nrelative_tolerance = 0.05");
     let r = run_text(&text, &out);
@@ -508,3 +520,40 @@ fn first_opening_below_the_load_by_bisection_is_not_the_global_first_opening() {
     assert!(anywhere < lower, "a contact elsewhere opens first ({anywhere} m̄g) — the global value is not the first opening below the load");
 }
 
+
+#[test]
+fn ordered_piles_are_judged_on_their_raw_floor_forces() {
+    // SPEC §7.2.5/§7.2.9, the paper's two 11-layer piles (examples/papers/e3-pile-*.toml, a few
+    // seconds each). Measured: frictionless (μ = μ_wall = 0), the floor contact under the apex
+    // carries 5.99 m̄g against 6.17 m̄g two radii to either side — a raw dip of 2.8 % that the
+    // w = 3 R̄ smoothed, 5 %-prominence classifier calls single; frictional (μ = 0.94,
+    // μ_wall = 0.35, k_T/k_N = 0.5) the apex contact is the largest (7.76 m̄g), no dip. The verdict
+    // must be the raw one for both (ordered piles), dip > 0 exactly when double, and the dip must
+    // equal the one recomputed here from the written per-contact floor forces.
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/papers");
+    let mut verdicts = Vec::new();
+    for name in ["e3-pile-frictionless", "e3-pile-frictional"] {
+        let out = out_dir(name);
+        let text = std::fs::read_to_string(dir.join(format!("{name}.toml"))).unwrap() + "\n[output]\nvtk = false\nplots = false\n";
+        let r = run_text(&text, &out);
+        let p = &r["piles"][0];
+        assert_eq!(p["verdict_basis"].as_str(), Some("raw"), "{name}: {p}");
+        let (shape, dip) = (p["shape"].as_str().unwrap().to_string(), p["dip"].as_f64().unwrap());
+        // second computation from pile_floor_<group>_contacts.csv (x relative to the axis)
+        let csv = std::fs::read_to_string(out.join(format!("pile_floor_{}_contacts.csv", p["group"].as_str().unwrap()))).unwrap();
+        let mut lines = csv.lines();
+        let head: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let (ix, ifz) = (head.iter().position(|&h| h == "x").unwrap(), head.iter().position(|&h| h == "fz").unwrap());
+        let pts: Vec<(f64, f64)> = lines.map(|l| l.split(',').collect::<Vec<_>>()).map(|v| (v[ix].parse().unwrap(), v[ifz].parse().unwrap())).collect();
+        let centre = pts.iter().filter(|q| q.0.abs() < 0.5).map(|q| q.1).next().expect("a floor contact under the apex");
+        let side = |s: f64| pts.iter().filter(|q| q.0 * s > 0.5).map(|q| q.1).fold(f64::NEG_INFINITY, f64::max);
+        let by_hand = 1.0 - centre / side(-1.0).min(side(1.0));
+        assert!((dip - by_hand).abs() < 1e-12, "{name}: dip {dip} against {by_hand} from the floor contacts");
+        assert_eq!(shape == "double", dip > 0.0, "{name}: {shape} with dip {dip}");
+        verdicts.push((shape, dip, p["shape_smoothed"].as_str().unwrap().to_string()));
+    }
+    assert_eq!(verdicts[0].0, "double", "frictionless pile: {:?}", verdicts[0]);
+    assert!(verdicts[0].1 > 0.01 && verdicts[0].1 < 0.1, "frictionless dip {} (measured 0.028)", verdicts[0].1);
+    assert_eq!(verdicts[0].2, "single", "the smoothed classifier hides the 3 % dip: {:?}", verdicts[0]);
+    assert_eq!(verdicts[1].0, "single", "frictional pile: {:?}", verdicts[1]);
+}

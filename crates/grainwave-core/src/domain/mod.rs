@@ -1,5 +1,12 @@
 //! The simulation domain as a value: which axes are periodic, the periodic cell, and the walls.
 //! Nothing else in grainwave does minimum-image arithmetic: ask [`Domain::displacement`].
+//!
+//! The arithmetic is written once, generic over the floating-point lanes ([`Real`]): one value
+//! (`f64`, [`PeriodicImage::displacement_velocity`]) or eight and sixteen at a time (the AVX2 and
+//! AVX-512 force passes, neighbor search and displacement checks call
+//! [`PeriodicImage::displacement_velocity_lanes`] or, for a cell that is not sheared,
+//! [`nearest_image_axis`] with their own lane types). So every path takes the same image with
+//! the same bits.
 
 mod time_function;
 mod wall;
@@ -9,6 +16,7 @@ pub use wall::{Wall, WallMotion};
 
 use crate::dim::{Dim, VectorOps};
 use crate::error::{CoreError, Result};
+use crate::real::Real;
 use serde::{Deserialize, Serialize};
 
 /// Periodicity and walls.
@@ -332,28 +340,46 @@ impl<D: Dim> PeriodicImage<D> {
     /// relative to `to` itself (zero unless the cell is shearing).
     #[inline(always)]
     pub fn displacement_velocity(&self, from: D::Vector, to: D::Vector) -> (D::Vector, D::Vector) {
-        let mut d = to - from;
-        let mut dv = D::Vector::ZERO;
+        let r = to - from;
+        let mut c = [0.0; 3];
+        for k in 0..D::D {
+            c[k] = r.get(k);
+        }
+        let (c, cv) = self.displacement_velocity_lanes(c);
+        let (mut d, mut dv) = (D::Vector::ZERO, D::Vector::ZERO);
+        for k in 0..D::D {
+            d.set(k, c[k]);
+            dv.set(k, cv[k]);
+        }
+        (d, dv)
+    }
+
+    /// [`PeriodicImage::displacement_velocity`] lane by lane, on the components of `to − from`
+    /// (x, y, z; those past the dimension are ignored and returned as they are): the nearest-image
+    /// components and the velocity of the image (zero unless the cell is shearing). The one
+    /// implementation of the minimum image: from the last axis down, along axis k
+    /// n = nint(d_k / L_k) ([`nearest_image_axis`]), d ← d − n e_k with e_k the cell edge along k
+    /// (L_k plus the tilt factors of edge k), and dv ← dv − n ė_k. Branch-free in the lanes; the
+    /// tilt terms are applied only in a sheared cell (a test once per call).
+    #[inline(always)]
+    pub(crate) fn displacement_velocity_lanes<R: Real>(&self, mut d: [R; 3]) -> ([R; 3], [R; 3]) {
+        let mut dv = [R::splat(0.0); 3];
         if !self.sheared {
-            // the same operations without the tilt terms, tested once per pair
+            // the same operations without the tilt terms
             for k in (0..D::D).rev() {
-                let dk = d.get(k);
-                d.set(k, dk - self.length.get(k) * nearest_integer(dk * self.inverse.get(k)));
+                d[k] = nearest_image_axis(d[k], R::splat(self.length.get(k)), R::splat(self.inverse.get(k))).0;
             }
             return (d, dv);
         }
         for k in (0..D::D).rev() {
-            let dk = d.get(k);
-            let n = nearest_integer(dk * self.inverse.get(k));
-            d.set(k, dk - self.length.get(k) * n);
-            if self.sheared {
-                for (t, &(edge, along)) in TILT_AXES.iter().enumerate() {
-                    if edge == k && self.tilt[t] != 0.0 {
-                        d.set(along, d.get(along) - n * self.tilt[t]);
-                    }
-                    if edge == k && self.rate[t] != 0.0 {
-                        dv.set(along, dv.get(along) - n * self.rate[t]);
-                    }
+            let (dk, n) = nearest_image_axis(d[k], R::splat(self.length.get(k)), R::splat(self.inverse.get(k)));
+            d[k] = dk;
+            for (t, &(edge, along)) in TILT_AXES.iter().enumerate() {
+                if edge == k && self.tilt[t] != 0.0 {
+                    d[along] = d[along] - n * R::splat(self.tilt[t]);
+                }
+                if edge == k && self.rate[t] != 0.0 {
+                    dv[along] = dv[along] - n * R::splat(self.rate[t]);
                 }
             }
         }
@@ -410,13 +436,34 @@ impl<D: Dim> PeriodicImage<D> {
 /// so that the force kernels vectorize. NaN stays NaN.
 #[inline(always)]
 pub fn nearest_integer(x: f64) -> f64 {
-    (x.clamp(-ROUND_LIMIT, ROUND_LIMIT) + ROUND_SHIFT) - ROUND_SHIFT
+    nearest_integer_lanes(x)
 }
 
-/// 1.5 × 2⁵², the shift of [`nearest_integer`] (and of its vector twins).
-pub(crate) const ROUND_SHIFT: f64 = 6_755_399_441_055_744.0;
-/// 2⁵¹, the clamp of [`nearest_integer`] (and of its vector twins).
-pub(crate) const ROUND_LIMIT: f64 = 2_251_799_813_685_248.0;
+/// [`nearest_integer`] lane by lane, the one implementation: clamped to ±2⁵¹ keeping NaN (the
+/// constant first: `min`/`max` return their second operand for NaN), then shifted by 1.5 × 2⁵²
+/// and back.
+#[inline(always)]
+pub(crate) fn nearest_integer_lanes<R: Real>(x: R) -> R {
+    let (limit, shift) = (R::splat(ROUND_LIMIT), R::splat(ROUND_SHIFT));
+    (limit.min((-limit).max(x)) + shift) - shift
+}
+
+/// The minimum image along one axis, lane by lane: for a pair-vector component `d`, the cell
+/// length `length` along that axis and its inverse `inverse` (both 0 along a non-periodic axis,
+/// so that no image is taken), returns `(d − length·n, n)` with `n = nint(d · inverse)`.
+/// [`PeriodicImage::displacement_velocity_lanes`] composes it with the tilt terms of a sheared
+/// cell; the AVX-512 passes that only run in cells that are not sheared call it directly with
+/// per-lane lengths.
+#[inline(always)]
+pub(crate) fn nearest_image_axis<R: Real>(d: R, length: R, inverse: R) -> (R, R) {
+    let n = nearest_integer_lanes(d * inverse);
+    (d - length * n, n)
+}
+
+/// 1.5 × 2⁵², the shift of [`nearest_integer`].
+const ROUND_SHIFT: f64 = 6_755_399_441_055_744.0;
+/// 2⁵¹, the clamp of [`nearest_integer`].
+const ROUND_LIMIT: f64 = 2_251_799_813_685_248.0;
 
 #[cfg(test)]
 mod tests {

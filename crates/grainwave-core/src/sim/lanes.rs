@@ -11,7 +11,6 @@
 
 use crate::contact::{HertzMindlin, HookeCundallStrack, NormalDamping, TangentialDamping};
 use crate::dim::{Dim, VectorOps};
-use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// Contacts per window.
 pub(super) const CAP: usize = 32;
@@ -96,62 +95,7 @@ pub(super) fn with_window<R>(f: impl FnOnce(&mut Window) -> R) -> R {
     })
 }
 
-/// The floating-point lanes the contact law is written for: `f64` (one contact; the window loop
-/// below, which the compiler vectorizes) or a vector of several contacts (`forces::avx2`). Every
-/// operation is the IEEE operation of `f64` lane by lane, so the law gives the same bits either
-/// way.
-pub(super) trait Real: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> + Neg<Output = Self> {
-    /// Per-lane truth value.
-    type Mask: Copy;
-    fn splat(x: f64) -> Self;
-    fn sqrt(self) -> Self;
-    /// `self.max(0.0)`: 0 for NaN.
-    fn max_zero(self) -> Self;
-    /// `self == o` (false for NaN).
-    fn eq(self, o: Self) -> Self::Mask;
-    /// `self > o` (false for NaN).
-    fn gt(self, o: Self) -> Self::Mask;
-    /// `if m { a } else { b }` lane by lane.
-    fn select(m: Self::Mask, a: Self, b: Self) -> Self;
-    /// `f` lane by lane (the general damping parts).
-    fn map3(a: Self, b: Self, c: Self, f: impl Fn(f64, f64, f64) -> f64) -> Self;
-}
-
-impl Real for f64 {
-    type Mask = bool;
-    #[inline(always)]
-    fn splat(x: f64) -> Self {
-        x
-    }
-    #[inline(always)]
-    fn sqrt(self) -> Self {
-        f64::sqrt(self)
-    }
-    #[inline(always)]
-    fn max_zero(self) -> Self {
-        self.max(0.0)
-    }
-    #[inline(always)]
-    fn eq(self, o: Self) -> bool {
-        self == o
-    }
-    #[inline(always)]
-    fn gt(self, o: Self) -> bool {
-        self > o
-    }
-    #[inline(always)]
-    fn select(m: bool, a: Self, b: Self) -> Self {
-        if m {
-            a
-        } else {
-            b
-        }
-    }
-    #[inline(always)]
-    fn map3(a: Self, b: Self, c: Self, f: impl Fn(f64, f64, f64) -> f64) -> Self {
-        f(a, b, c)
-    }
-}
+pub(crate) use crate::real::Real;
 
 /// The normal and tangential elastic parts of a specialised law, per contact.
 pub(super) trait WindowLaw: Copy + Send + Sync {

@@ -47,7 +47,9 @@ pub struct E1Report {
     pub failures: Vec<(String, String)>,
     /// Wall-clock seconds of this process (the last run or resume) [s].
     pub wall_seconds: f64,
-    /// Wall-clock seconds spent on the samples, summed over samples and resumes [s].
+    /// Wall-clock seconds of the sample tasks, summed over the samples [s]: each as timed by the run
+    /// that finished it, its preparation included when that run made the packing (a packing
+    /// reused from an earlier run adds only the analysis). Not the preparation again on top.
     pub sample_seconds: f64,
     /// Per group, series over heights and over pressures.
     #[serde(flatten)]
@@ -326,7 +328,7 @@ pub fn write_outputs(out: &Path, plan: &Plan, wall_seconds: f64) -> Result<E1Rep
         complete: done.len() == plan.tasks.len(),
         failures,
         wall_seconds,
-        sample_seconds: done.iter().map(|(_, r)| r.seconds + r.preparation.as_ref().map_or(0.0, |p| p.seconds)).sum(),
+        sample_seconds: done.iter().map(|(_, r)| r.seconds).sum(),
         aggregate: agg,
         files,
     };

@@ -525,10 +525,22 @@ pub struct PileReport {
     pub stress_at_axis: Vec<f64>,
     /// Largest smoothed floor stress, per width [m̄g/R̄].
     pub stress_max: Vec<f64>,
-    /// Whether the floor stress dips under the apex (classifier on the first width).
+    /// Whether the floor stress dips under the apex, by the rule of SPEC §7.2.5: for an ordered
+    /// pile (δ = 0) the raw per-contact floor forces (`raw`, a dip of any depth counts), otherwise
+    /// the classifier on the smoothed profile of the first width.
     pub shape: PeakShape,
-    /// 1 − p(axis)/min(peaks) when dipped.
+    /// Depth of the dip of that verdict: raw, the signed 1 − F_z(axis)/min(F_z,L, F_z,R) (< 0: how far
+    /// the contact under the apex stands above the side maxima); smoothed, 1 − p(axis)/min(peaks).
     pub dip: f64,
+    /// What `shape` was judged on: `raw` (ordered piles) or `smoothed`.
+    pub verdict_basis: String,
+    /// Verdict on the raw per-contact floor forces F_z (ordered piles; the forces themselves, the
+    /// pile under gravity having no reference state to subtract).
+    pub raw: Option<RawVerdict>,
+    /// Verdict of the classifier on the smoothed profile (first width), always given.
+    pub shape_smoothed: PeakShape,
+    /// Its dip depth.
+    pub dip_smoothed: f64,
 }
 
 /// The summary of an `e3` run (`summary.json`).
@@ -1067,6 +1079,7 @@ fn pile_outputs(cfg: &E3Config, plan: &Plan, references: &[ReferenceResult], out
         let mut balance = 0.0;
         let mut contacts = CsvTable::new();
         let (mut seeds, mut xs_all, mut fz_all, mut fx_all) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        let mut floor_contacts: Vec<FloorContact> = Vec::new();
         for &c in &group.cases {
             let r = &references[c];
             let snap = r.sim.snapshot();
@@ -1079,6 +1092,12 @@ fn pile_outputs(cfg: &E3Config, plan: &Plan, references: &[ReferenceResult], out
                 for (m, v) in mean[w].iter_mut().zip(p) {
                     *m += v / group.cases.len() as f64;
                 }
+            }
+            if group.delta == 0.0 {
+                // an ordered pile is one sample (plan: δ = 0 runs once); its floor forces are
+                // judged as they are (reference 0)
+                let ids = floor.iter().map(|k| k.i);
+                floor_contacts.extend(ids.zip(xs.iter().zip(&fz)).map(|(grain, (&x, &f))| FloorContact { grain, x, reference: 0.0, after: f, horizontal_reference: 0.0, horizontal_after: 0.0 }));
             }
             balance += r.wall_loads[0] / r.weight / group.cases.len() as f64;
             seeds.extend(std::iter::repeat_n(plan.cases[c].seed, xs.len()));
@@ -1131,13 +1150,22 @@ fn pile_outputs(cfg: &E3Config, plan: &Plan, references: &[ReferenceResult], out
             plot.save(out, &stem).map_err(plot_err)?;
             files.extend([format!("{stem}.png"), format!("{stem}.svg")]);
         }
+        let raw = if group.delta == 0.0 { measure::raw_floor_verdict(&floor_contacts) } else { None };
+        let (shape, dip, verdict_basis) = match &raw {
+            Some(v) => (v.shape, v.dip, "raw"),
+            None => (cl.shape, cl.dip, "smoothed"),
+        };
         reports.push(PileReport {
             group: group.label.clone(),
             floor_over_weight: balance,
             stress_at_axis: (0..nw).map(|w| mean[w][z0]).collect(),
             stress_max: (0..nw).map(|w| mean[w].iter().cloned().fold(f64::NEG_INFINITY, f64::max)).collect(),
-            shape: cl.shape,
-            dip: cl.dip,
+            shape,
+            dip,
+            verdict_basis: verdict_basis.into(),
+            raw,
+            shape_smoothed: cl.shape,
+            dip_smoothed: cl.dip,
         });
     }
     Ok(reports)

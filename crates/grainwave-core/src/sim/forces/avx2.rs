@@ -26,8 +26,9 @@
 
 use super::{finish_grain, start_block, CrossForce, CrossIndex, Finish, ForceStats, Grain, History, Inputs, Velocities};
 use crate::dim::{Dim, VectorOps};
-use crate::domain::TILT_AXES;
+use crate::domain::nearest_image_axis;
 use crate::sim::lanes::{self, ContactIn, Dampers, Real, WindowLaw, WithDampers};
+use crate::simd512::Wide8;
 use std::arch::x86_64::*;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
@@ -90,6 +91,16 @@ impl Real for F64x4 {
         unsafe { F64x4(_mm256_max_pd(self.0, _mm256_setzero_pd())) }
     }
     #[inline(always)]
+    fn min(self, o: Self) -> Self {
+        // SAFETY: as above. `self < o ? self : o`.
+        unsafe { F64x4(_mm256_min_pd(self.0, o.0)) }
+    }
+    #[inline(always)]
+    fn max(self, o: Self) -> Self {
+        // SAFETY: as above. `self > o ? self : o`.
+        unsafe { F64x4(_mm256_max_pd(self.0, o.0)) }
+    }
+    #[inline(always)]
     fn eq(self, o: Self) -> __m256d {
         // SAFETY: as above.
         unsafe { _mm256_cmp_pd::<_CMP_EQ_OQ>(self.0, o.0) }
@@ -143,10 +154,6 @@ pub(super) trait Lanes: Real {
     fn array(self) -> Self::F;
     /// Bit l set when lane l of `m` is true.
     fn bits(m: Self::Mask) -> u32;
-    /// `self < o ? self : o` (`o` when either is NaN).
-    fn min(self, o: Self) -> Self;
-    /// `self > o ? self : o` (`o` when either is NaN).
-    fn max(self, o: Self) -> Self;
     /// `!(self ≥ o)`: true for NaN.
     fn nge(self, o: Self) -> Self::Mask;
     /// Whether [`Lanes::rows3`] is available: 3D results go back as rows with masked vector
@@ -216,18 +223,6 @@ impl F64x4 {
         // SAFETY: only used in code compiled with AVX2.
         unsafe { _mm256_movemask_pd(m) as u32 }
     }
-    /// `self < o ? self : o`.
-    #[inline(always)]
-    fn min(self, o: Self) -> Self {
-        // SAFETY: as above.
-        unsafe { F64x4(_mm256_min_pd(self.0, o.0)) }
-    }
-    /// `self > o ? self : o`.
-    #[inline(always)]
-    fn max(self, o: Self) -> Self {
-        // SAFETY: as above.
-        unsafe { F64x4(_mm256_max_pd(self.0, o.0)) }
-    }
     /// `!(self ≥ o)`.
     #[inline(always)]
     fn nge(self, o: Self) -> __m256d {
@@ -287,6 +282,14 @@ impl<H: Real> Real for Pair<H> {
         Pair(self.0.max_zero(), self.1.max_zero())
     }
     #[inline(always)]
+    fn min(self, o: Self) -> Self {
+        Pair(self.0.min(o.0), self.1.min(o.1))
+    }
+    #[inline(always)]
+    fn max(self, o: Self) -> Self {
+        Pair(self.0.max(o.0), self.1.max(o.1))
+    }
+    #[inline(always)]
     fn eq(self, o: Self) -> Self::Mask {
         (self.0.eq(o.0), self.1.eq(o.1))
     }
@@ -337,89 +340,8 @@ impl Lanes for F64x8 {
         F64x4::bits(m.0) | F64x4::bits(m.1) << 4
     }
     #[inline(always)]
-    fn min(self, o: Self) -> Self {
-        Pair(self.0.min(o.0), self.1.min(o.1))
-    }
-    #[inline(always)]
-    fn max(self, o: Self) -> Self {
-        Pair(self.0.max(o.0), self.1.max(o.1))
-    }
-    #[inline(always)]
     fn nge(self, o: Self) -> Self::Mask {
         (self.0.nge(o.0), self.1.nge(o.1))
-    }
-}
-
-/// Eight f64 lanes in one 512-bit register: the lane type of the fused pass on processors with
-/// AVX-512 F and VL (`Path::Fused512`). Only used inside functions compiled with those (the
-/// operations are inlined there). Every operation is the IEEE operation of `f64` lane by lane,
-/// as for [`F64x8`]: the same bits.
-#[derive(Clone, Copy)]
-pub(super) struct Wide8(__m512d);
-
-macro_rules! binary_wide {
-    ($trait:ident, $f:ident, $op:ident) => {
-        impl $trait for Wide8 {
-            type Output = Self;
-            #[inline(always)]
-            fn $f(self, o: Self) -> Self {
-                // SAFETY: only used in code compiled with AVX-512 F, on processors that have it.
-                unsafe { Wide8($op(self.0, o.0)) }
-            }
-        }
-    };
-}
-binary_wide!(Add, add, _mm512_add_pd);
-binary_wide!(Sub, sub, _mm512_sub_pd);
-binary_wide!(Mul, mul, _mm512_mul_pd);
-binary_wide!(Div, div, _mm512_div_pd);
-
-impl Neg for Wide8 {
-    type Output = Self;
-    #[inline(always)]
-    fn neg(self) -> Self {
-        // SAFETY: as above. Flips the sign bit, as f64 negation (integer xor: AVX-512 F only).
-        unsafe { Wide8(_mm512_castsi512_pd(_mm512_xor_si512(_mm512_castpd_si512(self.0), _mm512_set1_epi64(i64::MIN)))) }
-    }
-}
-
-impl Real for Wide8 {
-    type Mask = __mmask8;
-    #[inline(always)]
-    fn splat(x: f64) -> Self {
-        // SAFETY: as above.
-        unsafe { Wide8(_mm512_set1_pd(x)) }
-    }
-    #[inline(always)]
-    fn sqrt(self) -> Self {
-        // SAFETY: as above.
-        unsafe { Wide8(_mm512_sqrt_pd(self.0)) }
-    }
-    #[inline(always)]
-    fn max_zero(self) -> Self {
-        // SAFETY: as above. `x > 0 ? x : 0`: 0 for NaN, as f64::max.
-        unsafe { Wide8(_mm512_max_pd(self.0, _mm512_setzero_pd())) }
-    }
-    #[inline(always)]
-    fn eq(self, o: Self) -> __mmask8 {
-        // SAFETY: as above.
-        unsafe { _mm512_cmp_pd_mask::<_CMP_EQ_OQ>(self.0, o.0) }
-    }
-    #[inline(always)]
-    fn gt(self, o: Self) -> __mmask8 {
-        // SAFETY: as above.
-        unsafe { _mm512_cmp_pd_mask::<_CMP_GT_OQ>(self.0, o.0) }
-    }
-    #[inline(always)]
-    fn select(m: __mmask8, a: Self, b: Self) -> Self {
-        // SAFETY: as above (lanes of `a` where `m` is set).
-        unsafe { Wide8(_mm512_mask_blend_pd(m, b.0, a.0)) }
-    }
-    #[inline(always)]
-    fn map3(a: Self, b: Self, c: Self, f: impl Fn(f64, f64, f64) -> f64) -> Self {
-        let (a, b, c) = (a.array(), b.array(), c.array());
-        // SAFETY: as above.
-        unsafe { Wide8(_mm512_setr_pd(f(a[0], b[0], c[0]), f(a[1], b[1], c[1]), f(a[2], b[2], c[2]), f(a[3], b[3], c[3]), f(a[4], b[4], c[4]), f(a[5], b[5], c[5]), f(a[6], b[6], c[6]), f(a[7], b[7], c[7]))) }
     }
 }
 
@@ -450,24 +372,11 @@ impl Lanes for Wide8 {
     }
     #[inline(always)]
     fn array(self) -> [f64; 8] {
-        let mut a = [0.0; 8];
-        // SAFETY: as above; unaligned store into eight f64.
-        unsafe { _mm512_storeu_pd(a.as_mut_ptr(), self.0) };
-        a
+        self.lanes()
     }
     #[inline(always)]
     fn bits(m: __mmask8) -> u32 {
         m as u32
-    }
-    #[inline(always)]
-    fn min(self, o: Self) -> Self {
-        // SAFETY: as above. `self < o ? self : o`.
-        unsafe { Wide8(_mm512_min_pd(self.0, o.0)) }
-    }
-    #[inline(always)]
-    fn max(self, o: Self) -> Self {
-        // SAFETY: as above. `self > o ? self : o`.
-        unsafe { Wide8(_mm512_max_pd(self.0, o.0)) }
     }
     #[inline(always)]
     fn nge(self, o: Self) -> __mmask8 {
@@ -531,14 +440,6 @@ impl Lanes for Wide16 {
         m.0 as u32 | (m.1 as u32) << 8
     }
     #[inline(always)]
-    fn min(self, o: Self) -> Self {
-        Pair(self.0.min(o.0), self.1.min(o.1))
-    }
-    #[inline(always)]
-    fn max(self, o: Self) -> Self {
-        Pair(self.0.max(o.0), self.1.max(o.1))
-    }
-    #[inline(always)]
     fn nge(self, o: Self) -> Self::Mask {
         (self.0.nge(o.0), self.1.nge(o.1))
     }
@@ -559,8 +460,6 @@ impl Lanes for Wide16 {
 
 /// The lanes of the fused pass on processors with AVX-512 F and VL.
 type WideLanes = Wide16;
-
-use crate::domain::{ROUND_LIMIT as LIMIT, ROUND_SHIFT as SHIFT};
 
 /// Rows of `n` (1, 2 or 3) consecutive f64 at `base + off[l]`, as `n` vectors of four lanes
 /// (lane l from the row at `off[l]`): two-element row loads and an unpack, the third component
@@ -609,15 +508,6 @@ impl<V: Lanes> Group<V> {
         self.j.as_mut()[8 * h..8 * h + 8].copy_from_slice(&u32s(j));
         self.valid |= valid << (8 * h);
     }
-}
-
-/// [`crate::domain::nearest_integer`] lane by lane: clamped to ±2⁵¹ keeping NaN (the constant
-/// first: NaN is the second operand of min and max), then shifted and back.
-#[inline(always)]
-fn nearest<V: Lanes>(t: V) -> V {
-    let (limit, shift) = (V::splat(LIMIT), V::splat(SHIFT));
-    let t = limit.min((-limit).max(t));
-    (t + shift) - shift
 }
 
 /// `x` as eight u32 lanes.
@@ -717,30 +607,15 @@ unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: 
             Some(k) => (k[0], k[1]),
             None => (V::rows(inp.radius.as_ptr(), 1, &g.i)[0], V::rows(inp.radius.as_ptr(), 1, &g.j)[0]),
         };
-        // nearest-image vector and, in a shearing cell, the velocity of the image
-        // (`PeriodicImage::displacement_velocity`)
+        // nearest-image vector and, in a shearing cell, the velocity of the image (the domain's
+        // `PeriodicImage::displacement_velocity_lanes`)
         let image = &inp.image;
         let zero = V::splat(0.0);
         let mut d = [zero; 3];
-        let mut dv = [zero; 3];
         for c in 0..dd {
             d[c] = xj[c] - xi[c];
         }
-        for c in (0..dd).rev() {
-            let dk = d[c];
-            let t = nearest(dk * V::splat(image.inverse.get(c)));
-            d[c] = dk - V::splat(image.length.get(c)) * t;
-            if image.sheared {
-                for (a, &(edge, along)) in TILT_AXES.iter().enumerate() {
-                    if edge == c && image.tilt[a] != 0.0 {
-                        d[along] = d[along] - t * V::splat(image.tilt[a]);
-                    }
-                    if edge == c && image.rate[a] != 0.0 {
-                        dv[along] = dv[along] - t * V::splat(image.rate[a]);
-                    }
-                }
-            }
-        }
+        let (d, dv) = image.displacement_velocity_lanes(d);
         // |r|² in the order of `VectorOps::dot`
         let mut dist2 = d[0] * d[0] + d[1] * d[1];
         if dd == 3 {
@@ -1175,7 +1050,8 @@ pub(super) struct BlockPass<'a, 'b, D: Dim, L> {
 impl<D: Dim, L: WindowLaw> WithDampers for BlockPass<'_, '_, D, L> {
     type Out = ForceStats;
     fn run<P: Dampers>(self, damp: P) -> ForceStats {
-        debug_assert!(available() && (!self.wide || wide_available()));
+        // the instructions of this path must exist on this processor (cheap: once per block)
+        assert!(available() && (!self.wide || wide_available()), "fused pass chosen without its instruction set");
         // SAFETY: this path is chosen only when the processor has AVX2 (`available`), and
         // with `wide` only when it has AVX-512 F and VL (`wide_available`).
         unsafe {
@@ -1205,7 +1081,8 @@ pub(super) struct CrossPass<'a, 'b, D: Dim, L> {
 impl<D: Dim, L: WindowLaw> WithDampers for CrossPass<'_, '_, D, L> {
     type Out = ForceStats;
     fn run<P: Dampers>(self, damp: P) -> ForceStats {
-        debug_assert!(available() && (!self.wide || wide_available()));
+        // the instructions of this path must exist on this processor (cheap: once per block)
+        assert!(available() && (!self.wide || wide_available()), "fused pass chosen without its instruction set");
         // SAFETY: as for `BlockPass`.
         unsafe {
             if self.wide {
@@ -1261,9 +1138,9 @@ pub(super) unsafe fn close_filter_wide(
             let (il, jl) = (u32s(i), u32s(j));
             let (xi, xj) = (wide_rows(pos, 3, &times(i, 3)), wide_rows(pos, 3, &times(j, 3)));
             let mut d = [xj[0] - xi[0], xj[1] - xi[1], xj[2] - xi[2]];
+            // the domain's minimum image along each axis (the cell is not sheared here)
             for c in (0..3).rev() {
-                let t = nearest(d[c] * Wide8::splat(inverse[c]));
-                d[c] = d[c] - Wide8::splat(period[c]) * t;
+                d[c] = nearest_image_axis(d[c], Wide8::splat(period[c]), Wide8::splat(inverse[c])).0;
             }
             let d2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
             let ri = Wide8(_mm512_setr_pd(radius[il[0] as usize], radius[il[1] as usize], radius[il[2] as usize], radius[il[3] as usize], radius[il[4] as usize], radius[il[5] as usize], radius[il[6] as usize], radius[il[7] as usize]));

@@ -2,8 +2,8 @@
 //! time (consecutive pairs of the list, across owners) with all the kernel's inputs.
 //!
 //! Every lane performs exactly the floating-point operations of the scalar path
-//! ([`super::push_pair`], [`super::eval_window`]) in the same order — the nearest-image shift by
-//! the same 1.5·2⁵² rounding (with the tilt and image velocity of a shearing cell), the squared
+//! ([`super::push_pair`], [`super::eval_window`]) in the same order — the nearest image by the
+//! domain's own lane-generic code (with the tilt and image velocity of a shearing cell), the squared
 //! distance summed x, y, z, the test `!(d² ≥ (rᵢ+rⱼ)²)` — so the window receives the same pairs
 //! with the same bits and the run is bitwise that of the scalar path (tested on whole runs,
 //! `tests/force_blocks.rs`, sheared cells included). Used when the processor has AVX-512 F and
@@ -15,7 +15,7 @@
 
 use super::{ForceStats, History, Inputs, Velocities};
 use crate::dim::{Dim, VectorOps};
-use crate::domain::TILT_AXES;
+use crate::simd512::Wide8;
 use crate::sim::lanes::{Window, CAP};
 use std::arch::x86_64::*;
 
@@ -23,8 +23,6 @@ use std::arch::x86_64::*;
 pub(super) fn available() -> bool {
     std::arch::is_x86_feature_detected!("avx512f") && std::arch::is_x86_feature_detected!("avx512vl")
 }
-
-use crate::domain::{ROUND_LIMIT as LIMIT, ROUND_SHIFT as SHIFT};
 
 use crate::simd512::first_lanes as first;
 
@@ -190,32 +188,15 @@ pub(super) unsafe fn push_pairs<D: Dim, const LIST: bool>(
         let pos = inp.pos.as_ptr() as *const f64;
         let (xi, xj) = (rows(pos, dd, &il), rows(pos, dd, &jl));
         let (ri, rj) = (rows(inp.radius.as_ptr(), 1, &il)[0], rows(inp.radius.as_ptr(), 1, &jl)[0]);
-        // nearest-image vector and, in a shearing cell, the velocity of the image
-        // (`PeriodicImage::displacement_velocity`: from the last axis down, the tilt terms of
-        // each edge after its own component)
+        // nearest-image vector and, in a shearing cell, the velocity of the image (the domain's
+        // `PeriodicImage::displacement_velocity_lanes`)
         let image = &inp.image;
-        let mut d = [_mm512_setzero_pd(); 3];
-        let mut dv = [_mm512_setzero_pd(); 3];
+        let mut d = [Wide8(_mm512_setzero_pd()); 3];
         for c in 0..dd {
-            d[c] = _mm512_sub_pd(xj[c], xi[c]);
+            d[c] = Wide8(_mm512_sub_pd(xj[c], xi[c]));
         }
-        for c in (0..dd).rev() {
-            let dk = d[c];
-            let t = _mm512_mul_pd(dk, _mm512_set1_pd(image.inverse.get(c)));
-            let t = _mm512_min_pd(_mm512_max_pd(t, _mm512_set1_pd(-LIMIT)), _mm512_set1_pd(LIMIT));
-            let t = _mm512_sub_pd(_mm512_add_pd(t, _mm512_set1_pd(SHIFT)), _mm512_set1_pd(SHIFT));
-            d[c] = _mm512_sub_pd(dk, _mm512_mul_pd(_mm512_set1_pd(image.length.get(c)), t));
-            if image.sheared {
-                for (a, &(edge, along)) in TILT_AXES.iter().enumerate() {
-                    if edge == c && image.tilt[a] != 0.0 {
-                        d[along] = _mm512_sub_pd(d[along], _mm512_mul_pd(t, _mm512_set1_pd(image.tilt[a])));
-                    }
-                    if edge == c && image.rate[a] != 0.0 {
-                        dv[along] = _mm512_sub_pd(dv[along], _mm512_mul_pd(t, _mm512_set1_pd(image.rate[a])));
-                    }
-                }
-            }
-        }
+        let (d, dv) = image.displacement_velocity_lanes(d);
+        let (d, dv) = (d.map(|x| x.0), dv.map(|x| x.0));
         // |r|² in the order of `VectorOps::dot`
         let mut dist2 = _mm512_add_pd(_mm512_mul_pd(d[0], d[0]), _mm512_mul_pd(d[1], d[1]));
         if dd == 3 {
