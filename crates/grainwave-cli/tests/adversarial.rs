@@ -75,6 +75,25 @@ fn a_tiny_profile_step_is_refused_by_check() {
 }
 
 #[test]
+fn an_e2_strip_count_beyond_memory_is_refused_by_check() {
+    // found by the allocation audit: `vec![…; strips]` after the loading stage (capacity overflow)
+    refused("e2-strips-huge.toml", "replays[0].strips", "strips");
+}
+
+#[test]
+fn an_e3_sweep_whose_lists_multiply_beyond_the_limit_is_refused_before_planning() {
+    // found by the allocation audit: 100 frictions × 100 stiffness ratios × 100 samples × 100
+    // forces = 1e8 response runs, each list short; `check` built the whole plan
+    refused("e3-runs-product.toml", "samples", "cases (sets × samples)");
+}
+
+#[test]
+fn an_e1_histogram_bin_count_beyond_memory_is_refused_by_check() {
+    // found by the allocation audit: one count per bin in the output stage (capacity overflow)
+    refused("e1-histogram-bins.toml", "characterization.histogram_bins", "histogram bins");
+}
+
+#[test]
 fn allow_large_lifts_only_the_soft_limits() {
     let cfg = fixture("e1-samples-1e9.toml");
     // 1e9 samples: the soft limit is lifted, but the plan's tasks still need more memory than any

@@ -19,6 +19,7 @@ pub mod e1;
 pub mod e2;
 pub mod e3;
 mod error;
+pub mod fuzzing;
 pub mod limits;
 pub mod protocol;
 pub mod registry;

@@ -143,6 +143,24 @@ pub fn e3(src: &ConfigSource, cfg: &crate::e3::E3Config) -> Result<(), ConfigErr
     let sizes: Vec<[usize; 2]> = if sweep { cfg.sweep.sizes.clone() } else { vec![[s.layers, s.grains_per_layer]] };
     let key = if sweep { "sweep.sizes" } else { "slab.layers" };
     check(src, "samples", "samples", cfg.samples as f64, MAX_UNITS, f64::INFINITY, 0.0)?;
+    // the plan holds one set per combination of the sweep's lists, `samples` cases per set and
+    // one run per case, force and variant (checked before the plan is built)
+    if cfg.mode != Mode::LatticeElasticity {
+        let len = |n: usize| n.max(1) as f64;
+        let sets = if cfg.mode == Mode::Sweep {
+            len(cfg.sweep.sizes.len()) * len(cfg.sweep.deltas.len()) * len(cfg.sweep.frictions.len()) * len(cfg.sweep.stiffness_ratios.len())
+        } else {
+            1.0
+        };
+        let sets_key = if cfg.mode == Mode::Sweep { "sweep" } else { "samples" };
+        check(src, sets_key, "sets (sizes × deltas × frictions × stiffness ratios)", sets, MAX_UNITS, f64::INFINITY, 256.0)?;
+        let cases = sets * cfg.samples.max(1) as f64;
+        check(src, "samples", "cases (sets × samples)", cases, MAX_UNITS, f64::INFINITY, 256.0)?;
+        if cfg.mode != Mode::Pile {
+            let variants = if cfg.mode == Mode::Superposition { 3.0 } else { 1.0 };
+            check(src, "load.forces", "response runs (cases × forces × variants)", cases * len(cfg.load.forces.len()) * variants, MAX_UNITS, f64::INFINITY, 256.0)?;
+        }
+    }
     let mut widest = 0.0f64;
     for [l, m] in &sizes {
         check(src, key, "grains (layers × grains per layer)", *l as f64 * *m as f64, MAX_GRAINS, HARD_MAX_GRAINS, BYTES_PER_GRAIN)?;

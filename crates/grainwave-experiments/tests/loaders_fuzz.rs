@@ -38,7 +38,7 @@ fn config_corpus() -> Vec<(String, String)> {
     let mut paths = files(&r.join("examples"), "toml");
     paths.extend(files(&r.join("examples/papers"), "toml"));
     paths.extend(files(&r.join("crates/grainwave-cli/tests/adversarial"), "toml"));
-    paths.extend(files(&r.join("crates/grainwave-experiments/tests/fuzz-regressions"), "toml"));
+    paths.extend(files(&r.join("crates/grainwave-experiments/tests/fuzz-regressions/config"), "toml"));
     paths.push(r.join("crates/grainwave-cli/tests/interrupt.toml"));
     paths.into_iter().map(|p| (p.display().to_string(), std::fs::read_to_string(&p).unwrap())).collect()
 }

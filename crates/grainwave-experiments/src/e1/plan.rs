@@ -184,6 +184,8 @@ pub fn plan(src: &ConfigSource, cfg: &E1Config) -> Result<Plan, ConfigError> {
     if ch.histogram_bins == 0 {
         return Err(err(src, "characterization.histogram_bins", "0 (allowed: at least 1)"));
     }
+    // the output stage allocates one count per bin (several histograms per group)
+    crate::limits::check(src, "characterization.histogram_bins", "histogram bins", ch.histogram_bins as f64, crate::limits::MAX_POINTS, f64::INFINITY, 64.0)?;
     let pu = &cfg.pulse;
     if pu.prestress == PreStressName::Full && pu.method == PulseMethod::Modal {
         return Err(err(src, "pulse.prestress", "`full` makes D non-symmetric, which the modal sum cannot use: set `pulse.method = \"direct\"`"));

@@ -158,6 +158,10 @@ pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
         if r.strips < 2 {
             return Err(src.error_at_key(&key("strips"), format!("{} (allowed: at least 2)", r.strips)));
         }
+        // sizes a replay allocates from: one bin per strip, one row of the records per sample
+        use crate::limits::{check, MAX_POINTS};
+        check(src, &key("strips"), "strips", r.strips as f64, MAX_POINTS, f64::INFINITY, 48.0)?;
+        check(src, &key("sample_interval"), "samples (duration / sample_interval)", r.duration / r.sample_interval, MAX_POINTS, f64::INFINITY, 64.0)?;
         if !(0.0 <= r.fit_range[0] && r.fit_range[0] < r.fit_range[1] && r.fit_range[1] <= 1.0) {
             return Err(src.error_at_key(&key("fit_range"), format!("{:?} (allowed: fractions 0 ≤ from < to ≤ 1)", r.fit_range)));
         }

@@ -1,0 +1,114 @@
+//! The inputs of the libFuzzer targets of `fuzz/` (docs/fuzzing.md), shared with the ordinary
+//! tests that replay the regression inputs (`tests/fuzz_regressions.rs`), so that a replayed
+//! input goes through exactly the code that the fuzzer ran.
+//!
+//! Each function takes the raw bytes of one input and checks the property of its loader: it
+//! returns normally (the input was loaded or refused with a message of at most
+//! [`MAX_MESSAGE_BYTES`]), or `Err` with a description when the property fails. A panic, an
+//! abort or an allocation beyond the fuzzer's memory limit is a failure too; the fuzzer reports
+//! those itself, the replay tests catch the panics.
+
+use crate::config::ConfigSource;
+
+/// Longest error message accepted [bytes]: a message quotes at most 200 characters of the input
+/// (`grainwave_io::lammps::MAX_ECHO_CHARS`, the config excerpt), plus its own words.
+pub const MAX_MESSAGE_BYTES: usize = 2000;
+
+/// The protocols whose config loaders are fuzzed, one target each (`config_<protocol>`).
+pub const PROTOCOLS: [&str; 4] = ["simulation", "e1", "e2", "e3"];
+
+fn message_ok(what: &str, message: &str) -> Result<(), String> {
+    if message.is_empty() || message.len() >= MAX_MESSAGE_BYTES {
+        return Err(format!("{what}: a message of {} bytes (allowed: 1 to {MAX_MESSAGE_BYTES})", message.len()));
+    }
+    Ok(())
+}
+
+/// TOML text → validated spec of `protocol`: the shape check against the protocol's schema, then
+/// its validation (what `grainwave check` runs, sizes and cross-field rules included). Returns
+/// whether the config was accepted. Bytes that are not UTF-8 are refused by the file reader
+/// before any loader sees them, and are accepted here as refused.
+pub fn config(protocol: &str, data: &[u8]) -> Result<bool, String> {
+    let Ok(text) = std::str::from_utf8(data) else { return Ok(false) };
+    let src = ConfigSource::from_text("fuzz.toml", text);
+    if let Err(e) = crate::registry::check_shapes(&src, protocol) {
+        message_ok("shape check", &e.message)?;
+        return Ok(false);
+    }
+    let refused = match protocol {
+        "simulation" => crate::simulation::prepare(&src).err(),
+        "e1" => crate::e1::prepare(&src).err(),
+        "e2" => crate::e2::prepare(&src).err(),
+        "e3" => crate::e3::prepare(&src).err(),
+        other => return Err(format!("no config target for protocol `{other}`")),
+    };
+    match refused {
+        Some(e) => message_ok("validation", &e.message).map(|_| false),
+        None => Ok(true),
+    }
+}
+
+/// Checkpoint bytes → the state of every protocol. Each input is decoded as it is, then with its
+/// checksum recomputed ([`refresh_crc`]), so that mutations reach the payload decoder instead of
+/// stopping at the checksum.
+pub fn checkpoint(data: &[u8]) -> Result<(), String> {
+    decode_all(data)?;
+    let mut bytes = data.to_vec();
+    if refresh_crc(&mut bytes) {
+        decode_all(&bytes)?;
+    }
+    Ok(())
+}
+
+fn decode_all(bytes: &[u8]) -> Result<(), String> {
+    use grainwave_core::checkpoint::decode;
+    if let Err(e) = grainwave_core::checkpoint::verify(bytes, "fuzz") {
+        message_ok("checkpoint header", &e.to_string())?;
+    }
+    let messages = [
+        decode::<crate::simulation::SimulationState>(bytes, crate::simulation::TAG, "fuzz").err().map(|e| e.to_string()),
+        decode::<crate::e1::E1State>(bytes, crate::e1::TAG, "fuzz").err().map(|e| e.to_string()),
+        decode::<crate::e2::E2State>(bytes, crate::e2::TAG, "fuzz").err().map(|e| e.to_string()),
+        decode::<crate::e3::E3State>(bytes, crate::e3::TAG, "fuzz").err().map(|e| e.to_string()),
+    ];
+    for m in messages.iter().flatten() {
+        message_ok("checkpoint", m)?;
+    }
+    Ok(())
+}
+
+/// Recomputes the CRC-32 of tag + payload where `grainwave_core::checkpoint::encode` writes it
+/// (header: 8-byte magic, u32 version, u32 tag length, tag, u64 payload length, u32 CRC);
+/// false when the header is too short to hold one.
+pub fn refresh_crc(bytes: &mut [u8]) -> bool {
+    if bytes.len() < 16 {
+        return false;
+    }
+    let tag_len = u32::from_le_bytes([bytes[12], bytes[13], bytes[14], bytes[15]]) as usize;
+    let head = 16usize.saturating_add(tag_len).saturating_add(12);
+    if tag_len > 256 || bytes.len() < head {
+        return false;
+    }
+    let mut h = crc32fast::Hasher::new();
+    h.update(&bytes[16..16 + tag_len]);
+    h.update(&bytes[head..]);
+    let crc = h.finalize().to_le_bytes();
+    bytes[24 + tag_len..28 + tag_len].copy_from_slice(&crc);
+    true
+}
+
+/// LAMMPS data file bytes → grains, by both the 3D and the 2D import. Bytes that are not UTF-8
+/// are refused by the file reader first ([`grainwave_io::lammps::bounded_text`]).
+pub fn lammps(data: &[u8]) -> Result<(), String> {
+    use grainwave_io::lammps::{parse_data, ImportOptions};
+    let Ok(text) = std::str::from_utf8(data) else { return Ok(()) };
+    match parse_data(text, "fuzz.data") {
+        Ok(d) => {
+            for e in [d.to_packing_3d(&ImportOptions::default()).err(), d.to_packing_2d(&ImportOptions::default()).err()].into_iter().flatten() {
+                message_ok("LAMMPS import", &e.to_string())?;
+            }
+            Ok(())
+        }
+        Err(e) => message_ok("LAMMPS data file", &e.to_string()),
+    }
+}
