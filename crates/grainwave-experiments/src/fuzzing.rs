@@ -25,10 +25,20 @@ fn message_ok(what: &str, message: &str) -> Result<(), String> {
 }
 
 /// TOML text → validated spec of `protocol`: the shape check against the protocol's schema, then
-/// its validation (what `grainwave check` runs, sizes and cross-field rules included). Returns
-/// whether the config was accepted. Bytes that are not UTF-8 are refused by the file reader
+/// its validation (what `grainwave check` runs, sizes and cross-field rules included); for
+/// `simulation`, whose validation places the grains, under the tighter soft limit of
+/// [`crate::limits::fuzz_limits`] (at most 500 grains: a larger config is refused by the size
+/// check, before any placement). Returns whether the config was accepted. Bytes that are not UTF-8 are refused by the file reader
 /// before any loader sees them, and are accepted here as refused.
 pub fn config(protocol: &str, data: &[u8]) -> Result<bool, String> {
+    if protocol == "simulation" {
+        crate::limits::fuzz_limits::with(|| config_checked(protocol, data))
+    } else {
+        config_checked(protocol, data)
+    }
+}
+
+fn config_checked(protocol: &str, data: &[u8]) -> Result<bool, String> {
     let Ok(text) = std::str::from_utf8(data) else { return Ok(false) };
     let src = ConfigSource::from_text("fuzz.toml", text);
     if let Err(e) = crate::registry::check_shapes(&src, protocol) {

@@ -49,6 +49,56 @@ pub fn available_memory() -> Option<f64> {
     Some(kib * 1024.0)
 }
 
+/// [`available_memory`], read again when the last reading is older than a second: a `check`
+/// compares several sizes with it, and the fuzzer validates thousands of configs a second.
+fn available_memory_recent() -> Option<f64> {
+    use std::sync::Mutex;
+    use std::time::{Duration, Instant};
+    static LAST: Mutex<Option<(Instant, Option<f64>)>> = Mutex::new(None);
+    let mut last = LAST.lock().unwrap_or_else(|e| e.into_inner());
+    match *last {
+        Some((at, value)) if at.elapsed() < Duration::from_secs(1) => value,
+        _ => {
+            let value = available_memory();
+            *last = Some((Instant::now(), value));
+            value
+        }
+    }
+}
+
+/// The tighter soft limit on grains of the `config_simulation` fuzz target (docs/fuzzing.md).
+///
+/// Validating a `simulation` config builds it, as `grainwave check` does: the grains are placed
+/// and a first force evaluation runs, a cost proportional to the grains asked for. While fuzzing,
+/// a config that asks for more than [`fuzz_limits::GRAINS`] is refused by [`check`] like any
+/// oversized config (before anything is placed or allocated); smaller ones go through all of
+/// their validation, placement included. The other protocols validate without building anything
+/// sized by the config, and are fuzzed under the documented limits.
+pub mod fuzz_limits {
+    use std::cell::Cell;
+    /// Grains of one simulation while fuzzing (instead of [`super::MAX_GRAINS`]): above every
+    /// seed config of the target (at most 400 grains), so that the seeds reach the placement.
+    pub const GRAINS: f64 = 500.0;
+    thread_local! {
+        static ON: Cell<bool> = const { Cell::new(false) };
+    }
+    /// True while [`with`] runs on this thread.
+    pub fn on() -> bool {
+        ON.with(Cell::get)
+    }
+    /// Runs `f` with the fuzzing limit in force on this thread (restored afterwards, panic or not).
+    pub fn with<T>(f: impl FnOnce() -> T) -> T {
+        struct Restore(bool);
+        impl Drop for Restore {
+            fn drop(&mut self) {
+                ON.with(|c| c.set(self.0));
+            }
+        }
+        let _restore = Restore(ON.with(|c| c.replace(true)));
+        f()
+    }
+}
+
 fn gib(bytes: f64) -> String {
     format!("{:.3} GiB", bytes / (1u64 << 30) as f64)
 }
@@ -60,13 +110,17 @@ pub fn check(src: &ConfigSource, key: &str, what: &str, n: f64, soft: f64, hard:
         return Err(src.error_at_key(key, format!("{n:.4e} {what} (allowed: at most {hard:.4e}; not representable)")));
     }
     let bytes = n * bytes_each;
-    if let Some(avail) = available_memory() {
+    if let Some(avail) = if bytes > 0.0 { available_memory_recent() } else { None } {
         if bytes > avail {
             return Err(src.error_at_key(
                 key,
                 format!("{n:.4e} {what} need about {} of memory; this machine has {} available (allowed: what fits)", gib(bytes), gib(avail)),
             ));
         }
+    }
+    if soft == MAX_GRAINS && fuzz_limits::on() && n > fuzz_limits::GRAINS {
+        let tight = fuzz_limits::GRAINS;
+        return Err(src.error_at_key(key, format!("{n:.4e} {what} exceed the fuzzing limit of {tight} (allowed: at most {tight} while fuzzing; documented limit {soft:.0e})")));
     }
     if n > soft && !allow_large() {
         return Err(src.error_at_key(

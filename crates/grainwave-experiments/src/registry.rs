@@ -30,16 +30,19 @@ pub fn experiment_name(src: &ConfigSource) -> Result<String, ConfigError> {
 
 /// Checks the shapes of the file's values against the schema of protocol `name`
 /// ([`crate::config::check_shapes`]).
+/// The schema of each protocol is generated once per process (it depends on the types only);
+/// generating it took most of the time of a `check` of a small config.
 pub fn check_shapes(src: &ConfigSource, name: &str) -> Result<(), ConfigError> {
-    let schema = match name {
-        "simulation" => serde_json::to_value(schema_for!(simulation::SimulationConfig)),
-        "e1" => serde_json::to_value(schema_for!(e1::E1Config)),
-        "e2" => serde_json::to_value(schema_for!(e2::E2Config)),
-        "e3" => serde_json::to_value(schema_for!(e3::E3Config)),
+    use std::sync::OnceLock;
+    static SCHEMAS: [OnceLock<serde_json::Value>; 4] = [OnceLock::new(), OnceLock::new(), OnceLock::new(), OnceLock::new()];
+    let (slot, make): (usize, fn() -> serde_json::Value) = match name {
+        "simulation" => (0, || serde_json::to_value(schema_for!(simulation::SimulationConfig)).expect("schema serializes")),
+        "e1" => (1, || serde_json::to_value(schema_for!(e1::E1Config)).expect("schema serializes")),
+        "e2" => (2, || serde_json::to_value(schema_for!(e2::E2Config)).expect("schema serializes")),
+        "e3" => (3, || serde_json::to_value(schema_for!(e3::E3Config)).expect("schema serializes")),
         _ => return Ok(()),
-    }
-    .expect("schema serializes");
-    crate::config::check_shapes(src, &schema)
+    };
+    crate::config::check_shapes(src, SCHEMAS[slot].get_or_init(make))
 }
 
 /// What `grainwave check` prints about a valid config.

@@ -51,6 +51,12 @@ impl ConfigSource {
 
     /// Parses the text into the raw struct `T`; errors carry positions and suggestions.
     pub fn parse<T: DeserializeOwned>(&self) -> Result<T, ConfigError> {
+        // the common case first: one parse; the document (for the positions and the better
+        // messages of the errors) only when that fails
+        let first = match toml::from_str::<T>(&self.text) {
+            Ok(v) => return Ok(v),
+            Err(e) => e,
+        };
         let doc = toml_edit::Document::parse(self.text.as_str()).map_err(|e| {
             let mut message = e.message().trim_end().to_string();
             // the parser's "duplicate key" names nothing: quote the line that repeats it
@@ -63,14 +69,9 @@ impl ConfigSource {
             }
             self.error_at_span(e.span(), None, message)
         })?;
-        match toml::from_str::<T>(&self.text) {
-            Ok(v) => Ok(v),
-            Err(e) => {
-                let span = e.span();
-                let key = span.as_ref().and_then(|s| key_at(&doc, s.start));
-                Err(self.error_at_span(span, key, improve_message(e.message())))
-            }
-        }
+        let span = first.span();
+        let key = span.as_ref().and_then(|s| key_at(&doc, s.start));
+        Err(self.error_at_span(span, key, improve_message(first.message())))
     }
 
     /// An error about the value of key `path` (e.g. `contact.friction`, `walls[1].mass`).
