@@ -47,7 +47,7 @@ if [[ " ${targets[*]} " == *" checkpoint "* ]]; then
     adv=crates/grainwave-cli/tests/adversarial
     sed 's/count = 400/count = 30/' "$adv/quick.toml" > "$tmp/small.toml"
     "$bin" --threads 1 --quiet run "$tmp/small.toml" --out "$tmp/simulation" >/dev/null
-    "$bin" --threads 1 --quiet run "$adv/e1-max-acceleration-1.5.toml" --out "$tmp/e1" 2>/dev/null || true
+    "$bin" --threads 1 --quiet run "$adv/e1-step-limit.toml" --out "$tmp/e1" 2>/dev/null || true
     "$bin" --threads 1 --quiet run "$adv/e2-replay-blow-up.toml" --out "$tmp/e2" 2>/dev/null || true
     "$bin" --threads 1 --quiet run examples/e3-slab.toml --out "$tmp/e3" >/dev/null
     for p in simulation e1 e2 e3; do

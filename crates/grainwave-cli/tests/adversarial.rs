@@ -240,6 +240,37 @@ fn a_checkpoint_of_another_run_is_refused_by_resume() {
 }
 
 #[test]
+fn a_damaged_checkpoint_is_an_input_error_that_says_what_is_wrong() {
+    // before: bytes appended exited 1 (and were called "truncated"), while a checkpoint of
+    // another run exited 2; both are a checkpoint that does not fit the directory: exit 2
+    let dir = out("damaged");
+    let d = dir.to_str().unwrap();
+    assert_eq!(gw(&["run", quick().to_str().unwrap(), "--out", d]).0, 0);
+    let ck = dir.join("checkpoint.gwck");
+    let good = std::fs::read(&ck).unwrap();
+    let mut longer = good.clone();
+    longer.extend_from_slice(b"xxxxxxxx");
+    std::fs::write(&ck, &longer).unwrap();
+    let (code, err) = gw(&["resume", d]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("8 unexpected bytes after the end of the checkpoint"), "{err}");
+    std::fs::write(&ck, &good[..good.len() - 5]).unwrap();
+    let (code, err) = gw(&["resume", d]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("truncated") && err.contains("5 bytes missing"), "{err}");
+    let mut flipped = good.clone();
+    let k = flipped.len() - 3;
+    flipped[k] ^= 0x40;
+    std::fs::write(&ck, &flipped).unwrap();
+    let (code, err) = gw(&["resume", d]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("checksum mismatch"), "{err}");
+    std::fs::write(&ck, &good).unwrap();
+    assert_eq!(gw(&["resume", d]).0, 0, "the undamaged checkpoint resumes");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
 fn a_wall_time_function_error_names_the_whole_key() {
     // before: `walls[3].times` for `walls[3].speed.times`
     refused("sim-wall-speed-times.toml", "walls[3].speed.times", "strictly increasing");
@@ -296,8 +327,10 @@ fn marked_failed(dir: &Path, first: &str) {
 
 #[test]
 fn e1_every_sample_failing_exits_1_with_the_list() {
-    // before: every sample failed, then the plot step failed ("no data series", exit 1, no summary)
-    let (code, err, dir) = run_fixture("e1-max-acceleration-1.5.toml");
+    // before (with `max_acceleration = 1.5`, now refused by `check`): every sample failed, then
+    // the plot step failed ("no data series", exit 1, no summary). A step limit far too small is
+    // a failure that only the run can find.
+    let (code, err, dir) = run_fixture("e1-step-limit.toml");
     assert_eq!(code, 1, "{err}");
     assert!(err.starts_with("error: every one of the 8 samples failed"), "{err}");
     // one line per sample (2 heights × 2 pressures × 2 seeds), each naming its group and seed
@@ -307,8 +340,16 @@ fn e1_every_sample_failing_exits_1_with_the_list() {
         }
     }
     assert!(!err.contains("no data series") && !err.contains("panicked"), "{err}");
+    assert!(err.contains("no equilibrium after"), "{err}");
     marked_failed(&dir, "every one of the 8 samples failed");
     let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn an_e1_tolerance_met_by_the_uncompressed_gas_is_refused_by_check() {
+    // before: `check` passed it, then `run` made every sample fail ("no free grain is in contact
+    // with wall `bottom`": the preparation stopped at step 0, before compressing the gas)
+    refused("e1-max-acceleration-1.5.toml", "preparation.max_acceleration", "met by the uncompressed gas at step 0");
 }
 
 #[test]

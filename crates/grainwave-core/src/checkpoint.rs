@@ -114,10 +114,13 @@ pub fn verify<'a>(bytes: &'a [u8], path: &str) -> Result<(String, &'a [u8])> {
     let crc = u32::from_le_bytes(bytes[24 + tag_len..28 + tag_len].try_into().unwrap());
     let body = &bytes[head..];
     if body.len() < len {
-        return Err(bad(format!("truncated: payload has {} bytes, header says {len}", body.len())));
+        return Err(bad(format!("truncated: payload has {} bytes, header says {len} ({} bytes missing)", body.len(), len - body.len())));
     }
     if body.len() > len {
-        return Err(bad(format!("{} bytes after the end of the payload (header says {len}): the file was appended to or corrupted", body.len() - len)));
+        return Err(bad(format!(
+            "{} unexpected bytes after the end of the checkpoint (payload of {len} bytes, as its header says): the file was appended to or corrupted",
+            body.len() - len
+        )));
     }
     let mut h = crc32fast::Hasher::new();
     h.update(tag.as_bytes());
@@ -230,7 +233,7 @@ mod tests {
         let mut longer = bytes.clone();
         longer.extend_from_slice(b"junk");
         let e = decode::<Vec<f64>>(&longer, "state", "c").unwrap_err().to_string();
-        assert!(e.contains("4 bytes after the end of the payload"), "{e}");
+        assert!(e.contains("4 unexpected bytes after the end of the checkpoint"), "{e}");
         let e = decode::<Vec<f64>>(&bytes[..bytes.len() - 3], "state", "c").unwrap_err().to_string();
         assert!(e.contains("truncated"), "{e}");
         // a payload whose vector length claims 2^60 elements, with a valid checksum: refused by

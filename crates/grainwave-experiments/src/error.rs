@@ -104,7 +104,15 @@ impl ExperimentError {
                 | ExperimentError::Resume { .. }
                 | ExperimentError::Busy { .. }
                 | ExperimentError::UsedDirectory { .. }
-                | ExperimentError::Core(CoreError::InvalidParameter { .. } | CoreError::UnknownName { .. } | CoreError::Inconsistent(_) | CoreError::InitialOverlap { .. })
+                | ExperimentError::Core(
+                    CoreError::InvalidParameter { .. }
+                        | CoreError::UnknownName { .. }
+                        | CoreError::Inconsistent(_)
+                        | CoreError::InitialOverlap { .. }
+                        // a checkpoint that cannot be read (damaged, foreign, other version) is
+                        // bad input, like a checkpoint of another run
+                        | CoreError::Checkpoint { .. }
+                )
         )
     }
 }

@@ -44,6 +44,7 @@ row "LAMMPS gzip file, one 200 MB line (bench)" /usr/bin/time -f "peak RSS %M kB
 row "sim duplicate wall name (check)" gw check $ADV/sim-duplicate-wall.toml
 row "e1 max_acceleration = 1.5 (check)" gw check $ADV/e1-max-acceleration-1.5.toml
 row "e1 max_acceleration = 1.5 (run)" gw run $ADV/e1-max-acceleration-1.5.toml --out $W/ma
+row "e1 step_limit = 30 (run: every sample fails)" gw run $ADV/e1-step-limit.toml --out $W/sl
 row "e1 pressures = [1e308] (check)" gw check $ADV/e1-pressure-1e308.toml
 row "sim normal_stiffness = 5e-324 (check)" gw check $ADV/sim-normal-stiffness-5e-324.toml
 row "e1 pulse = [] (check)" gw check $ADV/e1-pulse-array.toml
@@ -64,13 +65,16 @@ sed 's/^seed = 3/seed = 4/' $Q > $W/seed4.toml
 gw run $W/seed4.toml --out $W/other >/dev/null 2>&1
 cp $W/other/checkpoint.gwck $W/used/checkpoint.gwck
 row "resume with a checkpoint of another run (other seed)" gw resume $W/used
-gw run $ADV/e1-max-acceleration-1.5.toml --out $W/e1ck >/dev/null 2>&1
+gw run $ADV/e1-step-limit.toml --out $W/e1ck >/dev/null 2>&1
 gw run $Q --out $W/kind >/dev/null 2>&1
 cp $W/e1ck/checkpoint.gwck $W/kind/checkpoint.gwck 2>/dev/null
 row "resume with a checkpoint of another experiment (e1 into simulation)" gw resume $W/kind
 gw run $Q --out $W/app >/dev/null 2>&1
 printf 'xxxxxxxx' >> $W/app/checkpoint.gwck
 row "checkpoint with 8 bytes appended (resume)" gw resume $W/app
+gw run $Q --out $W/cut >/dev/null 2>&1
+head -c -5 $W/cut/checkpoint.gwck > $W/cut/ck && mv $W/cut/ck $W/cut/checkpoint.gwck
+row "checkpoint with its last 5 bytes cut (resume)" gw resume $W/cut
 row "e2 replay blow-up (run)" gw run $ADV/e2-replay-blow-up.toml --out $W/e2b
 echo "| e2 blow-up: run.log has it | $(grep -c 'failed:' $W/e2b/run.log) line(s) | $(grep -m1 'failed:' $W/e2b/run.log | cut -c1-160) | |"
 echo "| e2 blow-up: inspect | | $("$BIN" inspect $W/e2b 2>&1 | grep -m1 -i 'fail' | cut -c1-160) | |"

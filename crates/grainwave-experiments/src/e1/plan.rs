@@ -99,6 +99,48 @@ fn err(src: &ConfigSource, key: &str, msg: impl Into<String>) -> ConfigError {
     src.error_at_key(key, msg)
 }
 
+/// Refuses a `preparation.max_acceleration` that the gas meets before it is compressed.
+///
+/// The preparation stops at the first check (every `check_every` steps, step 0 included) where
+/// the largest grain acceleration and the piston's are below the tolerance. At step 0 the grains
+/// of the gas do not touch (zero force) and the piston is pushed by F alone: its acceleration is
+/// a₀ = F/M. A tolerance above a₀ is met at step 0, so the "packing" is the loose gas with no
+/// contact network, and every sample of the group fails afterwards. a₀ depends on the sampled
+/// diameters (mean d̄ₛ, each in [1 − a, 1 + a]); its upper bound, for the smallest pressure p:
+///
+/// * default piston (one layer of mean grains: F = p L d̄ₛ and M = (L/d̄ₛ) m̄ in 2D, F = p L² and
+///   M = (L²/d̄ₛ²) m̄ in 3D; `sphere2d` grains are spheres too, so m̄ = π⟨d³⟩ₛ/6 ≥ π d̄ₛ³/6 by
+///   Jensen in both): a₀ = p d̄ₛ²/m̄ ≤ 6p/(π d̄ₛ) ≤ 6p/(π(1 − a));
+/// * given `piston_mass` M: a₀ = p L d̄ₛ/M ≤ p L (1 + a)/M (2D), = p L²/M (3D).
+///
+/// A tolerance above this bound certainly stops the preparation at step 0 for the groups at
+/// pressure p, and is refused; a tolerance just below it may still work for some samples and is
+/// left to the run. Published protocols use tolerances many orders of magnitude smaller (default
+/// 10⁻¹⁰ against p ≥ 10⁻⁶).
+fn max_acceleration_bound(src: &ConfigSource, cfg: &E1Config, dimension: usize, width: f64, spread: f64, pressures: &[f64]) -> Result<(), ConfigError> {
+    let pc = &cfg.preparation;
+    let p = pressures.iter().cloned().fold(f64::INFINITY, f64::min);
+    if !(p.is_finite() && p > 0.0) || !pc.max_acceleration.is_finite() {
+        return Ok(());
+    }
+    let bound = match (pc.piston_mass, dimension) {
+        (None, _) => 6.0 * p / (PI * (1.0 - spread)),
+        (Some(m), 2) => p * width * (1.0 + spread) / m,
+        (Some(m), _) => p * width * width / m,
+    };
+    if pc.max_acceleration > bound {
+        return Err(err(
+            src,
+            "preparation.max_acceleration",
+            format!(
+                "{} (allowed: below {bound:.4e}, the acceleration of the piston under the smallest pressure {p:.4e} before any contact; a larger tolerance is met by the uncompressed gas at step 0, and every sample would fail)",
+                pc.max_acceleration
+            ),
+        ));
+    }
+    Ok(())
+}
+
 fn pressures(src: &ConfigSource, key: &str, p: &[f64]) -> Result<(), ConfigError> {
     if p.is_empty() {
         return Err(err(src, key, "empty (allowed: at least one pressure)"));
@@ -265,6 +307,7 @@ pub fn plan(src: &ConfigSource, cfg: &E1Config) -> Result<Plan, ConfigError> {
         if !(fraction > 0.0 && fraction < 1.0) {
             return Err(err(src, "packing.estimated_fraction", format!("{fraction} (allowed: a fraction in (0, 1))")));
         }
+        max_acceleration_bound(src, cfg, dimension, width, spread, &p.pressures)?;
         // mean grain measure for diameters uniform in [1 − a, 1 + a]: ⟨d²⟩ = 1 + a²/3, ⟨d³⟩ = 1 + a²
         let cross = if dimension == 2 { width } else { width * width };
         let grain_measure = if dimension == 2 { PI / 4.0 * (1.0 + spread * spread / 3.0) } else { PI / 6.0 * (1.0 + spread * spread) };
