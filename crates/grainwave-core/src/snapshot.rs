@@ -206,13 +206,9 @@ impl<D: Dim> Snapshot<D> {
 
     /// Storage index of every stable id: `index_by_id()[id]` is the position of grain `id` in the
     /// per-grain arrays (`usize::MAX` for ids not present). Contact records name grains by id.
-    pub fn index_by_id(&self) -> Vec<usize> {
-        let len = self.id.iter().copied().max().map_or(0, |m| m as usize + 1);
-        let mut index = vec![usize::MAX; len];
-        for (k, &id) in self.id.iter().enumerate() {
-            index[id as usize] = k;
-        }
-        index
+    /// Its memory is bounded by the number of grains, whatever the ids ([`IdIndex`]).
+    pub fn index_by_id(&self) -> IdIndex {
+        IdIndex::new(&self.id)
     }
 
     /// Sum of the normal loads of all contacts with wall `w`: the force the grains exert on it
@@ -220,5 +216,118 @@ impl<D: Dim> Snapshot<D> {
     pub fn wall_load(&self, w: u32) -> f64 {
         let n = self.domain.walls[w as usize].normal;
         self.contacts.iter().filter(|c| c.j == Counterpart::Wall(w)).map(|c| c.force_on_i().dot(n)).sum()
+    }
+}
+
+/// Storage index of the grains of a snapshot by stable id ([`Snapshot::index_by_id`]):
+/// `index[id]` is the position of grain `id` in the per-grain arrays, `usize::MAX` for an id not
+/// present; [`IdIndex::get`] is `None` beyond the largest id.
+///
+/// Dense (one entry per id up to the largest) when the ids are dense, as in any snapshot of a
+/// simulation (ids are handed out in order; removed grains leave gaps): at most
+/// [`IdIndex::DENSE_FACTOR`] entries per grain plus [`IdIndex::DENSE_SLACK`]. Sparser ids (a
+/// checkpoint crafted with ids up to 2³²) are kept as sorted (id, position) pairs instead, so the
+/// memory is bounded by the number of grains, never by the value of an id.
+#[derive(Clone, Debug)]
+pub struct IdIndex {
+    dense: Vec<usize>,
+    sparse: Vec<(u32, usize)>,
+}
+
+impl IdIndex {
+    /// Largest number of dense entries per grain.
+    pub const DENSE_FACTOR: usize = 4;
+    /// Dense entries allowed beyond `DENSE_FACTOR` per grain (small snapshots with gaps).
+    pub const DENSE_SLACK: usize = 1024;
+
+    /// The index of `ids` (position k holds id `ids[k]`).
+    pub fn new(ids: &[u32]) -> Self {
+        let len = ids.iter().copied().max().map_or(0, |m| m as usize + 1);
+        if len <= Self::DENSE_FACTOR.saturating_mul(ids.len()).saturating_add(Self::DENSE_SLACK) {
+            let mut dense = vec![usize::MAX; len];
+            for (k, &id) in ids.iter().enumerate() {
+                dense[id as usize] = k;
+            }
+            IdIndex { dense, sparse: Vec::new() }
+        } else {
+            let mut sparse: Vec<(u32, usize)> = ids.iter().copied().zip(0..).collect();
+            // a repeated id keeps its last position, as the dense index does
+            sparse.sort_by_key(|&(id, k)| (id, std::cmp::Reverse(k)));
+            sparse.dedup_by_key(|p| p.0);
+            IdIndex { dense: Vec::new(), sparse }
+        }
+    }
+
+    /// Position of grain `id`: `Some(usize::MAX)` for an id below the largest that is not
+    /// present, `None` beyond the largest (as `Vec::get` of the dense index).
+    pub fn get(&self, id: usize) -> Option<&usize> {
+        if self.sparse.is_empty() {
+            return self.dense.get(id);
+        }
+        let last = self.sparse.last().map_or(0, |p| p.0 as usize);
+        if id > last {
+            return None;
+        }
+        match self.sparse.binary_search_by_key(&id, |p| p.0 as usize) {
+            Ok(k) => Some(&self.sparse[k].1),
+            Err(_) => Some(&MISSING),
+        }
+    }
+
+    /// Entries held (dense: largest id + 1; sparse: grains).
+    pub fn stored(&self) -> usize {
+        self.dense.len() + self.sparse.len()
+    }
+}
+
+static MISSING: usize = usize::MAX;
+
+impl std::ops::Index<usize> for IdIndex {
+    type Output = usize;
+    /// Position of grain `id`, `usize::MAX` when absent; panics beyond the largest id (as a `Vec`).
+    fn index(&self, id: usize) -> &usize {
+        match self.get(id) {
+            Some(k) => k,
+            None => panic!("grain id {id} is beyond the largest id of the snapshot"),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::IdIndex;
+
+    #[test]
+    fn dense_ids_are_indexed_directly() {
+        let ids = [3u32, 0, 5, 1];
+        let index = IdIndex::new(&ids);
+        for (k, &id) in ids.iter().enumerate() {
+            assert_eq!(index[id as usize], k);
+        }
+        assert_eq!(index[2], usize::MAX, "an id in a gap is absent");
+        assert_eq!(index.get(6), None, "beyond the largest id");
+        assert_eq!(index.stored(), 6, "one entry per id up to the largest");
+    }
+
+    #[test]
+    fn a_huge_id_allocates_by_the_grains_not_by_the_id() {
+        // before: `vec![usize::MAX; max id + 1]`, 32 GiB for an id of 2³² − 1 (a crafted
+        // checkpoint with a valid checksum)
+        let ids = [7u32, u32::MAX - 1, 2, 7];
+        let index = IdIndex::new(&ids);
+        assert_eq!(index.stored(), 3, "sparse ids: one entry per distinct grain");
+        assert_eq!(index[(u32::MAX - 1) as usize], 1);
+        assert_eq!(index.get(u32::MAX as usize), None);
+        // the answer of a plain scan (the last position of the id; absent: usize::MAX up to
+        // the largest id, None beyond), for ids in the gaps, at the ends and repeated
+        let scan = |id: usize| -> Option<usize> {
+            if id > (u32::MAX - 1) as usize {
+                return None;
+            }
+            Some(ids.iter().rposition(|&x| x as usize == id).unwrap_or(usize::MAX))
+        };
+        for id in [0usize, 1, 2, 3, 6, 7, 8, 1000, (u32::MAX - 2) as usize, (u32::MAX - 1) as usize, u32::MAX as usize] {
+            assert_eq!(index.get(id).copied(), scan(id), "id {id}");
+        }
     }
 }

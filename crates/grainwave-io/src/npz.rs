@@ -132,6 +132,9 @@ impl Npz {
 
     /// Parses a complete `.npz` file; `name` only labels errors. Every entry must be a `.npy`
     /// file; its name without `.npy` becomes the array name.
+    /// Every size read from the archive is checked against `bytes` before anything is reserved:
+    /// an entry may declare at most [`MAX_EXPANSION`] times its compressed size (itself at most
+    /// the length of `bytes`), and may hold no more than it declares.
     pub fn from_bytes(name: &str, bytes: &[u8]) -> Result<Self> {
         let zip_error = |reason: String| OutputError::Zip { name: name.to_string(), reason };
         let mut archive = ZipArchive::new(Cursor::new(bytes)).map_err(|e| zip_error(e.to_string()))?;
@@ -142,8 +145,25 @@ impl Npz {
             let Some(array_name) = entry_name.strip_suffix(".npy") else {
                 return Err(zip_error(format!("entry `{entry_name}` is not a .npy file")));
             };
-            let mut data = Vec::with_capacity(entry.size() as usize);
-            entry.read_to_end(&mut data).map_err(|e| zip_error(format!("entry `{entry_name}`: {e}")))?;
+            // the sizes in the zip directory are the file's word: bound them by the bytes at hand
+            // before reserving anything. An entry's data lies within the file, and deflate expands
+            // at most 1032-fold (a stored entry not at all), so no honest entry is larger.
+            let compressed = entry.compressed_size().min(bytes.len() as u64);
+            let most = compressed.saturating_mul(MAX_EXPANSION);
+            if entry.size() > most {
+                return Err(zip_error(format!(
+                    "entry `{entry_name}` declares {} bytes, more than its {} compressed bytes can hold (at most {MAX_EXPANSION} times as many): the archive is corrupted",
+                    entry.size(),
+                    entry.compressed_size()
+                )));
+            }
+            let declared = entry.size();
+            let mut data = Vec::with_capacity(declared as usize);
+            // and read no more than declared, whatever the compressed stream holds
+            (&mut entry).take(declared.saturating_add(1)).read_to_end(&mut data).map_err(|e| zip_error(format!("entry `{entry_name}`: {e}")))?;
+            if data.len() as u64 != declared {
+                return Err(zip_error(format!("entry `{entry_name}` holds {} bytes or more, but declares {declared}: the archive is corrupted", data.len())));
+            }
             let array = NpyArray::from_npy_bytes(&format!("{name}/{entry_name}"), &data)?;
             out.push(array_name, array)?;
         }
@@ -166,6 +186,10 @@ impl Npz {
         Self::from_bytes(&path.display().to_string(), &bytes)
     }
 }
+
+/// Largest ratio of an `.npz` entry's size to its compressed size accepted by [`Npz::from_bytes`]:
+/// deflate expands at most 1032-fold (a stored entry is its own size).
+pub const MAX_EXPANSION: u64 = 1100;
 
 /// Writes the named arrays to `path` as an `.npz` archive, atomically (see [`Npz`]).
 pub fn write_npz(path: &Path, npz: &Npz, compression: NpzCompression) -> Result<()> {
@@ -245,5 +269,35 @@ mod tests {
         assert!(err.to_string().contains("notes.txt"), "{err}");
         let err = read_npz(Path::new("/nonexistent/grainwave.npz")).unwrap_err();
         assert!(matches!(err, OutputError::Read { .. }), "{err}");
+    }
+
+    /// `bytes` with the uncompressed size of the first entry set to `size` in the central
+    /// directory (which the reader trusts) and in the local header.
+    fn with_declared_size(bytes: &[u8], size: u32) -> Vec<u8> {
+        let mut b = bytes.to_vec();
+        let find = |b: &[u8], sig: [u8; 4]| b.windows(4).position(|w| w == sig).unwrap();
+        let local = find(&b, [0x50, 0x4b, 0x03, 0x04]);
+        b[local + 22..local + 26].copy_from_slice(&size.to_le_bytes());
+        let central = find(&b, [0x50, 0x4b, 0x01, 0x02]);
+        b[central + 24..central + 28].copy_from_slice(&size.to_le_bytes());
+        b
+    }
+
+    #[test]
+    fn declared_sizes_are_bounded_by_the_archive_before_allocating() {
+        let bytes = sample().to_bytes(NpzCompression::Stored).unwrap();
+        assert!(Npz::from_bytes("ok.npz", &bytes).is_ok());
+        // before: `Vec::with_capacity(entry.size())` reserved what the directory said, here 4 GiB
+        // for a file of under a kilobyte
+        let huge = with_declared_size(&bytes, 0xFFFF_FFF0);
+        let err = Npz::from_bytes("huge.npz", &huge).unwrap_err().to_string();
+        assert!(err.contains("entry `time.npy` declares 4294967280 bytes, more than its"), "{err}");
+        // an entry holding more than it declares is refused, not read on
+        let small = with_declared_size(&bytes, 16);
+        let err = Npz::from_bytes("small.npz", &small).unwrap_err().to_string();
+        assert!(err.contains("time.npy") && err.contains("declares 16"), "{err}");
+        // deflated: a size within 1100 × the compressed size is read as usual
+        let deflated = sample().to_bytes(NpzCompression::Deflated).unwrap();
+        assert!(Npz::from_bytes("d.npz", &deflated).is_ok());
     }
 }
