@@ -20,7 +20,7 @@ pub mod strain;
 pub use config::E2Config;
 pub use outputs::E2Summary;
 
-use crate::config::{positive, ConfigError, ConfigSource};
+use crate::config::{non_negative, positive, ConfigError, ConfigSource};
 use crate::error::{ExperimentError, Result};
 use crate::protocol::RunContext;
 use biaxial::{Loading, PreparationInfo};
@@ -64,13 +64,6 @@ pub struct E2State {
     pub replays: Vec<outputs::ReplayReport>,
 }
 
-fn non_negative(src: &ConfigSource, key: &str, v: f64) -> Result<(), ConfigError> {
-    if v.is_finite() && v >= 0.0 {
-        Ok(())
-    } else {
-        Err(src.error_at_key(key, format!("{v} (allowed: a finite number ≥ 0)")))
-    }
-}
 
 /// Parses and validates an `e2` config.
 pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
@@ -343,7 +336,7 @@ impl E2State {
         let cfg = self.config.clone();
         let started = std::time::Instant::now();
         if self.stage != Stage::Finished {
-            write_resolved_config(ctx, &cfg)?;
+            crate::outputs::write_resolved_config(ctx.out_dir(), "e2", &cfg, "")?;
         }
         if self.stage == Stage::Preparing {
             if self.sim.is_none() {
@@ -458,17 +451,6 @@ impl E2State {
     }
 }
 
-/// Writes `config.resolved.toml`.
-fn write_resolved_config(ctx: &RunContext<'_>, config: &E2Config) -> Result<()> {
-    let text = toml::to_string_pretty(config).expect("a config serializes to TOML");
-    let header = format!(
-        "# The config of this run with every default filled in (grainwave {}). Running it again gives\n\
-         # the same results.\n\n",
-        grainwave_core::VERSION
-    );
-    grainwave_core::checkpoint::atomic_write(&ctx.path("config.resolved.toml"), format!("{header}{text}").as_bytes())?;
-    Ok(())
-}
 
 /// Re-makes the plots and the summary of the finished run in `dir` (`grainwave plot DIR`).
 pub fn replot(dir: &std::path::Path, state: &E2State) -> Result<Vec<String>> {

@@ -951,7 +951,7 @@ pub fn write_summary(dir: &Path, state: &E2State, wall_seconds: f64) -> Result<E
         wall_seconds,
         files,
     };
-    grainwave_io::write_json_atomic(&dir.join("summary.json"), &s)?;
+    crate::outputs::write_summary(dir, &s)?;
     let _ = Stage::Finished;
     Ok(s)
 }
