@@ -265,8 +265,6 @@ fn a_damaged_checkpoint_is_an_input_error_that_says_what_is_wrong() {
     let (code, err) = gw(&["resume", d]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("checksum mismatch"), "{err}");
-    std::fs::write(&ck, &good).unwrap();
-    assert_eq!(gw(&["resume", d]).0, 0, "the undamaged checkpoint resumes");
     let _ = std::fs::remove_dir_all(&dir);
 }
 

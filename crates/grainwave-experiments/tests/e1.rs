@@ -444,7 +444,7 @@ fn lattice_first_peak_is_the_first_airy_lobe() {
 /// `preparation.max_acceleration` against the acceleration a₀ of the piston before any contact
 /// (e1::plan: a tolerance above the bound 6p/(π(1 − a)) is met by the uncompressed gas at step 0,
 /// so every sample would fail). The bound is checked on built gases: the grains feel no force and
-/// the piston's a₀ lies below the bound, and within a factor 2 of it (the bound is not loose: 1.6 at a = 0.3 in 3D, from ⟨d³⟩ = 1 + a² against (1 − a)).
+/// the piston's a₀ lies below the bound (equal to it, to rounding, for equal grains), and within a factor 2 of it (the bound is not loose: 1.6 at a = 0.3 in 3D, from ⟨d³⟩ = 1 + a² against (1 − a)).
 #[test]
 fn a_tolerance_met_by_the_uncompressed_gas_is_refused_by_check() {
     fn gas<D: Dim>(spread: f64, pressure: f64, piston_mass: Option<f64>) -> (f64, f64) {
@@ -459,11 +459,11 @@ fn a_tolerance_met_by_the_uncompressed_gas_is_refused_by_check() {
     for (dim, spread, (grains, a0)) in [(2, 0.2, gas::<D2>(0.2, p, None)), (3, 0.0, gas::<D3>(0.0, p, None)), (3, 0.3, gas::<D3>(0.3, p, None))] {
         let bound = 6.0 * p / (std::f64::consts::PI * (1.0 - spread));
         assert_eq!(grains, 0.0, "{dim}D: the gas grains do not touch");
-        assert!(a0 <= bound && a0 > bound / 2.0, "{dim}D, a = {spread}: a₀ = {a0:e}, bound {bound:e}");
+        assert!(a0 <= bound * (1.0 + 1e-12) && a0 > bound / 2.0, "{dim}D, a = {spread}: a₀ = {a0:e}, bound {bound:e}");
     }
     let (_, a0) = gas::<D2>(0.2, p, Some(2.0));
     let bound = p * 10.0 * 1.2 / 2.0;
-    assert!(a0 <= bound && a0 > bound / 2.0, "given piston mass: a₀ = {a0:e}, bound {bound:e}");
+    assert!(a0 <= bound * (1.0 + 1e-12) && a0 > bound / 2.0, "given piston mass: a₀ = {a0:e}, bound {bound:e}");
     // check: just above the bound refused (naming key, value and range), just below accepted
     let text = |tol: f64, extra: &str| {
         format!("experiment = \"e1\"\nsamples = 1\n[packing]\nwidth = 10.0\nheights = [6.0]\npressures = [1e-5, 1e-4]\n[preparation]\nmax_acceleration = {tol:e}\n{extra}")

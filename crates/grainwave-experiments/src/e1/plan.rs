@@ -128,7 +128,8 @@ fn max_acceleration_bound(src: &ConfigSource, cfg: &E1Config, dimension: usize, 
         (Some(m), 2) => p * width * (1.0 + spread) / m,
         (Some(m), _) => p * width * width / m,
     };
-    if pc.max_acceleration > bound {
+    // (the bound is exact for equal grains: allow for its rounding)
+    if pc.max_acceleration > bound * (1.0 + 1e-12) {
         return Err(err(
             src,
             "preparation.max_acceleration",
