@@ -115,12 +115,6 @@ impl Real for F64x4 {
         // SAFETY: as above.
         unsafe { F64x4(_mm256_blendv_pd(b.0, a.0, m)) }
     }
-    #[inline(always)]
-    fn map3(a: Self, b: Self, c: Self, f: impl Fn(f64, f64, f64) -> f64) -> Self {
-        let (a, b, c) = (lanes_of(a.0), lanes_of(b.0), lanes_of(c.0));
-        // SAFETY: as above.
-        unsafe { F64x4(_mm256_setr_pd(f(a[0], b[0], c[0]), f(a[1], b[1], c[1]), f(a[2], b[2], c[2]), f(a[3], b[3], c[3]))) }
-    }
 }
 
 #[inline(always)]
@@ -300,10 +294,6 @@ impl<H: Real> Real for Pair<H> {
     #[inline(always)]
     fn select(m: Self::Mask, a: Self, b: Self) -> Self {
         Pair(H::select(m.0, a.0, b.0), H::select(m.1, a.1, b.1))
-    }
-    #[inline(always)]
-    fn map3(a: Self, b: Self, c: Self, f: impl Fn(f64, f64, f64) -> f64) -> Self {
-        Pair(H::map3(a.0, b.0, c.0, &f), H::map3(a.1, b.1, c.1, &f))
     }
 }
 
