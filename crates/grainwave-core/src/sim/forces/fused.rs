@@ -335,14 +335,14 @@ impl Lanes for F64x8 {
     }
 }
 
-/// [`Lanes::rows`] for eight lanes of 512 bits ([`super::simd::rows_at`]).
+/// [`Lanes::rows`] for eight lanes of 512 bits ([`super::window512::rows_at`]).
 ///
 /// # Safety
 /// As [`Lanes::rows`]; AVX-512 F and VL are available.
 #[inline(always)]
 unsafe fn wide_rows(base: *const f64, n: usize, off: &[u32; 8]) -> [Wide8; 3] {
     // SAFETY: the caller's contract.
-    unsafe { super::simd::rows_at(n, |l| base.wrapping_add(off[l] as usize)).map(Wide8) }
+    unsafe { super::window512::rows_at(n, |l| base.wrapping_add(off[l] as usize)).map(Wide8) }
 }
 
 impl Lanes for Wide8 {
