@@ -32,6 +32,15 @@ pub(crate) trait Real: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Outp
     fn gt(self, o: Self) -> Self::Mask;
     /// `if m { a } else { b }` lane by lane.
     fn select(m: Self::Mask, a: Self, b: Self) -> Self;
+    /// `if m { a() } else { b() }` for a value made of lanes, joined lane by lane by `blend`
+    /// ([`Real::select`] or [`select3`]). Vector types evaluate both sides and blend them
+    /// (branch-free); `f64` evaluates only the side taken (a branch), so that the one-lane
+    /// instance of a lane-generic part skips the square roots and divisions it does not use.
+    /// The same bits either way.
+    #[inline(always)]
+    fn choose<T>(m: Self::Mask, a: impl FnOnce() -> T, b: impl FnOnce() -> T, blend: impl FnOnce(Self::Mask, T, T) -> T) -> T {
+        blend(m, a(), b())
+    }
 }
 
 impl Real for f64 {
@@ -82,6 +91,14 @@ impl Real for f64 {
             b
         }
     }
+    #[inline(always)]
+    fn choose<T>(m: bool, a: impl FnOnce() -> T, b: impl FnOnce() -> T, _blend: impl FnOnce(bool, T, T) -> T) -> T {
+        if m {
+            a()
+        } else {
+            b()
+        }
+    }
 }
 
 /// A vector over lanes: component `c` of every lane in `v[c]`; the components at and past the
@@ -96,6 +113,13 @@ pub(crate) fn dot<R: Real, const N: usize>(a: Vec3<R>, b: Vec3<R>) -> R {
         s = s + a[c] * b[c];
     }
     s
+}
+
+/// `if m { a } else { b }` lane by lane on every component of a [`Vec3`] (the `blend` of
+/// [`Real::choose`] for vectors).
+#[inline(always)]
+pub(crate) fn select3<R: Real>(m: R::Mask, a: Vec3<R>, b: Vec3<R>) -> Vec3<R> {
+    [R::select(m, a[0], b[0]), R::select(m, a[1], b[1]), R::select(m, a[2], b[2])]
 }
 
 /// The components of `v` as a one-lane [`Vec3`] (zero past `V::LEN`).

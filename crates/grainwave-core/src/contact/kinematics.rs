@@ -1,7 +1,7 @@
 //! Contact kinematics: the geometry and relative motion that every contact-law part consumes.
 
 use crate::dim::{Dim, VectorOps};
-use crate::real::{dot, from_lanes, to_lanes, Real, Vec3};
+use crate::real::{dot, from_lanes, select3, to_lanes, Real, Vec3};
 
 /// Geometry and relative motion of one contact (grain i with grain j, or grain i with a wall).
 ///
@@ -194,12 +194,14 @@ pub(crate) fn into_tangent_plane_lanes<R: Real, const N: usize>(v: Vec3<R>, n: V
         p[c] = v[c] - n[c] * vdn;
     }
     let p2 = dot::<R, N>(p, p);
-    let scale = (len2 / p2).sqrt();
-    let (p_zero, p_same, len_zero) = (p2.eq(zero), p2.eq(len2), len2.eq(zero));
-    let mut out = [zero; 3];
-    for c in 0..N {
-        let rotated = R::select(p_zero, zero, R::select(p_same, p[c], p[c] * scale));
-        out[c] = R::select(len_zero, v[c], rotated);
-    }
-    out
+    let scaled = || {
+        let scale = (len2 / p2).sqrt();
+        let mut q = [zero; 3];
+        for c in 0..N {
+            q[c] = p[c] * scale;
+        }
+        q
+    };
+    let rotated = || R::choose(p2.eq(zero), || [zero; 3], || R::choose(p2.eq(len2), || p, scaled, select3::<R>), select3::<R>);
+    R::choose(len2.eq(zero), || v, rotated, select3::<R>)
 }

@@ -6,7 +6,7 @@
 //! −k_t s − γ_t v_t as in SPEC §2.3).
 
 use super::coulomb::coulomb_cap_lanes;
-use crate::real::{Real, Vec3};
+use crate::real::{select3, Real, Vec3};
 use serde::{Deserialize, Serialize};
 
 /// Tangential elastic law.
@@ -172,10 +172,6 @@ pub(crate) fn spring_step<R: Real, const N: usize>(
 ) -> (Vec3<R>, Vec3<R>, R::Mask) {
     let (trial, kept) = law.trial_lanes::<R, N>(rotated, v_t, k_t, gamma_t, dt);
     let (f, sliding) = coulomb_cap_lanes::<R, N>(trial, cap);
-    let reset = law.history_for_force_lanes::<R, N>(f);
-    let mut history = [R::splat(0.0); 3];
-    for c in 0..N {
-        history[c] = R::select(sliding, reset[c], kept[c]);
-    }
+    let history = R::choose(sliding, || law.history_for_force_lanes::<R, N>(f), || kept, select3::<R>);
     (f, history, sliding)
 }
