@@ -32,14 +32,19 @@ pub(crate) trait Real: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Outp
     fn gt(self, o: Self) -> Self::Mask;
     /// `if m { a } else { b }` lane by lane.
     fn select(m: Self::Mask, a: Self, b: Self) -> Self;
-    /// `if m { a() } else { b() }` for a value made of lanes, joined lane by lane by `blend`
-    /// ([`Real::select`] or [`select3`]). Vector types evaluate both sides and blend them
-    /// (branch-free); `f64` evaluates only the side taken (a branch), so that the one-lane
-    /// instance of a lane-generic part skips the square roots and divisions it does not use.
-    /// The same bits either way.
+    /// `m`, on one lane (`f64`), where the one-lane instance of a lane-generic part may branch
+    /// past work that it does not need; `false` on vector types, which stay branch-free (a
+    /// branch taken only when no lane of a vector needs the work was mispredicted often enough
+    /// to cost 3–4 % on `hooke2d`, BENCHMARKS.md). Either way the result has the same bits: the
+    /// code after the branch selects the same values.
     #[inline(always)]
-    fn choose<T>(m: Self::Mask, a: impl FnOnce() -> T, b: impl FnOnce() -> T, blend: impl FnOnce(Self::Mask, T, T) -> T) -> T {
-        blend(m, a(), b())
+    fn branch_if(_m: Self::Mask) -> bool {
+        false
+    }
+    /// `!m` on one lane (`f64`), `false` on vector types (see [`Real::branch_if`]).
+    #[inline(always)]
+    fn branch_unless(_m: Self::Mask) -> bool {
+        false
     }
 }
 
@@ -92,12 +97,12 @@ impl Real for f64 {
         }
     }
     #[inline(always)]
-    fn choose<T>(m: bool, a: impl FnOnce() -> T, b: impl FnOnce() -> T, _blend: impl FnOnce(bool, T, T) -> T) -> T {
-        if m {
-            a()
-        } else {
-            b()
-        }
+    fn branch_if(m: bool) -> bool {
+        m
+    }
+    #[inline(always)]
+    fn branch_unless(m: bool) -> bool {
+        !m
     }
 }
 
@@ -115,8 +120,7 @@ pub(crate) fn dot<R: Real, const N: usize>(a: Vec3<R>, b: Vec3<R>) -> R {
     s
 }
 
-/// `if m { a } else { b }` lane by lane on every component of a [`Vec3`] (the `blend` of
-/// [`Real::choose`] for vectors).
+/// `if m { a } else { b }` lane by lane on every component of a [`Vec3`].
 #[inline(always)]
 pub(crate) fn select3<R: Real>(m: R::Mask, a: Vec3<R>, b: Vec3<R>) -> Vec3<R> {
     [R::select(m, a[0], b[0]), R::select(m, a[1], b[1]), R::select(m, a[2], b[2])]

@@ -1,7 +1,7 @@
 //! Contact kinematics: the geometry and relative motion that every contact-law part consumes.
 
 use crate::dim::{Dim, VectorOps};
-use crate::real::{dot, from_lanes, select3, to_lanes, Real, Vec3};
+use crate::real::{dot, from_lanes, to_lanes, Real, Vec3};
 
 /// Geometry and relative motion of one contact (grain i with grain j, or grain i with a wall).
 ///
@@ -188,20 +188,28 @@ pub(crate) fn pair_kinematics_lanes<R: Real, const DIM: usize, const ROT: usize>
 pub(crate) fn into_tangent_plane_lanes<R: Real, const N: usize>(v: Vec3<R>, n: Vec3<R>) -> Vec3<R> {
     let zero = R::splat(0.0);
     let len2 = dot::<R, N>(v, v);
+    if R::branch_if(len2.eq(zero)) {
+        return v;
+    }
     let vdn = dot::<R, N>(v, n);
     let mut p = [zero; 3];
     for c in 0..N {
         p[c] = v[c] - n[c] * vdn;
     }
     let p2 = dot::<R, N>(p, p);
-    let scaled = || {
-        let scale = (len2 / p2).sqrt();
-        let mut q = [zero; 3];
-        for c in 0..N {
-            q[c] = p[c] * scale;
-        }
-        q
-    };
-    let rotated = || R::choose(p2.eq(zero), || [zero; 3], || R::choose(p2.eq(len2), || p, scaled, select3::<R>), select3::<R>);
-    R::choose(len2.eq(zero), || v, rotated, select3::<R>)
+    let (p_zero, p_same, len_zero) = (p2.eq(zero), p2.eq(len2), len2.eq(zero));
+    if R::branch_if(p_zero) {
+        return [zero; 3];
+    }
+    if R::branch_if(p_same) {
+        return p;
+    }
+    // on one lane, only reached when the rotation changes the length (f64 branches above)
+    let scale = (len2 / p2).sqrt();
+    let mut out = [zero; 3];
+    for c in 0..N {
+        let rotated = R::select(p_zero, zero, R::select(p_same, p[c], p[c] * scale));
+        out[c] = R::select(len_zero, v[c], rotated);
+    }
+    out
 }

@@ -172,6 +172,9 @@ pub(crate) fn spring_step<R: Real, const N: usize>(
 ) -> (Vec3<R>, Vec3<R>, R::Mask) {
     let (trial, kept) = law.trial_lanes::<R, N>(rotated, v_t, k_t, gamma_t, dt);
     let (f, sliding) = coulomb_cap_lanes::<R, N>(trial, cap);
-    let history = R::choose(sliding, || law.history_for_force_lanes::<R, N>(f), || kept, select3::<R>);
+    if R::branch_unless(sliding) {
+        return (f, kept, sliding);
+    }
+    let history = select3::<R>(sliding, law.history_for_force_lanes::<R, N>(f), kept);
     (f, history, sliding)
 }
