@@ -104,8 +104,8 @@ fn describe_checkpoint(path: &Path, bytes: &[u8]) -> Result<Vec<String>> {
                 state.runs_done.len()
             ));
         }
-        grainwave_experiments::e3::units::REFERENCE_TAG => {
-            let r: grainwave_experiments::e3::units::ReferenceResult = decode(bytes, &tag, &p)?;
+        grainwave_experiments::e3::work::REFERENCE_TAG => {
+            let r: grainwave_experiments::e3::work::ReferenceResult = decode(bytes, &tag, &p)?;
             v.push(format!(
                 "  e3 reference  {}converged after {} steps; floor load/weight {:.9}; bulk r = {:.4}",
                 if r.outcome.converged { "" } else { "NOT " },
@@ -115,8 +115,8 @@ fn describe_checkpoint(path: &Path, bytes: &[u8]) -> Result<Vec<String>> {
             ));
             describe_sim(&r.sim, &mut v);
         }
-        grainwave_experiments::e3::units::RUN_TAG => {
-            let r: grainwave_experiments::e3::units::StoredRun = decode(bytes, &tag, &p)?;
+        grainwave_experiments::e3::work::RUN_TAG => {
+            let r: grainwave_experiments::e3::work::StoredRun = decode(bytes, &tag, &p)?;
             let x = &r.result;
             v.push(format!(
                 "  e3 response   F = {} m̄g: p(0)/F = {:?}, {} opened, {} created, {} sliding, {} profile",

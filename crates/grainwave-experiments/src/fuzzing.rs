@@ -14,8 +14,9 @@ use crate::config::ConfigSource;
 /// (`grainwave_io::lammps::MAX_ECHO_CHARS`, the config excerpt), plus its own words.
 pub const MAX_MESSAGE_BYTES: usize = 2000;
 
-/// The protocols whose config loaders are fuzzed, one target each (`config_<protocol>`).
-pub const PROTOCOLS: [&str; 4] = ["simulation", "e1", "e2", "e3"];
+/// The protocols whose config loaders are fuzzed, one target each (`config_<protocol>`): every
+/// protocol of the registry.
+pub const PROTOCOLS: &[&str] = crate::registry::EXPERIMENTS;
 
 fn message_ok(what: &str, message: &str) -> Result<(), String> {
     if message.is_empty() || message.len() >= MAX_MESSAGE_BYTES {
@@ -31,20 +32,10 @@ fn message_ok(what: &str, message: &str) -> Result<(), String> {
 pub fn config(protocol: &str, data: &[u8]) -> Result<bool, String> {
     let Ok(text) = std::str::from_utf8(data) else { return Ok(false) };
     let src = ConfigSource::from_text("fuzz.toml", text);
-    if let Err(e) = crate::registry::check_shapes(&src, protocol) {
-        message_ok("shape check", &e.message)?;
-        return Ok(false);
-    }
-    let refused = match protocol {
-        "simulation" => crate::simulation::prepare(&src).err(),
-        "e1" => crate::e1::prepare(&src).err(),
-        "e2" => crate::e2::prepare(&src).err(),
-        "e3" => crate::e3::prepare(&src).err(),
-        other => return Err(format!("no config target for protocol `{other}`")),
-    };
-    match refused {
-        Some(e) => message_ok("validation", &e.message).map(|_| false),
-        None => Ok(true),
+    let Some(entry) = crate::registry::protocol(protocol) else { return Err(format!("no config target for protocol `{protocol}`")) };
+    match (entry.check)(&src) {
+        Ok(_) => Ok(true),
+        Err(e) => message_ok("shape check or validation", &e.message).map(|_| false),
     }
 }
 
@@ -61,18 +52,13 @@ pub fn checkpoint(data: &[u8]) -> Result<(), String> {
 }
 
 fn decode_all(bytes: &[u8]) -> Result<(), String> {
-    use grainwave_core::checkpoint::decode;
     if let Err(e) = grainwave_core::checkpoint::verify(bytes, "fuzz") {
         message_ok("checkpoint header", &e.to_string())?;
     }
-    let messages = [
-        decode::<crate::simulation::SimulationState>(bytes, crate::simulation::TAG, "fuzz").err().map(|e| e.to_string()),
-        decode::<crate::e1::E1State>(bytes, crate::e1::TAG, "fuzz").err().map(|e| e.to_string()),
-        decode::<crate::e2::E2State>(bytes, crate::e2::TAG, "fuzz").err().map(|e| e.to_string()),
-        decode::<crate::e3::E3State>(bytes, crate::e3::TAG, "fuzz").err().map(|e| e.to_string()),
-    ];
-    for m in messages.iter().flatten() {
-        message_ok("checkpoint", m)?;
+    for p in &crate::registry::PROTOCOLS {
+        if let Some(m) = (p.decode)(bytes) {
+            message_ok("checkpoint", &m)?;
+        }
     }
     Ok(())
 }

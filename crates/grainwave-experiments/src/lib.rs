@@ -21,9 +21,12 @@ pub mod e3;
 mod error;
 pub mod fuzzing;
 pub mod limits;
+pub mod outputs;
 pub mod protocol;
 pub mod registry;
 pub mod simulation;
+pub mod study;
+pub mod work;
 
 pub use error::{ExperimentError, Result};
 /// The engine types a caller of the protocols needs.

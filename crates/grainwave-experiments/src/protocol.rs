@@ -28,7 +28,7 @@ pub const LOCK_FILE: &str = ".grainwave.lock";
 /// told `--retry`.
 pub const FAILED_FILE: &str = "run.failed";
 /// Files whose presence marks a directory as a grainwave output directory.
-pub const OUTPUT_MARKERS: &[&str] = &[CHECKPOINT_FILE, LOG_FILE, FAILED_FILE, "config.resolved.toml", "summary.json"];
+pub const OUTPUT_MARKERS: &[&str] = &[CHECKPOINT_FILE, LOG_FILE, FAILED_FILE, crate::outputs::RESOLVED_CONFIG_FILE, crate::outputs::SUMMARY_FILE];
 
 /// The diagnosis recorded in `dir`'s failure marker, if the run there failed.
 pub fn failure_of(dir: &Path) -> Option<String> {
@@ -109,7 +109,8 @@ pub trait Reporter: Send {
     fn stage(&mut self, name: &str, total_steps: Option<u64>);
     /// Progress of the current stage.
     fn progress(&mut self, p: &Progress);
-    /// Progress of an ensemble: `done` samples of `total`.
+    /// Progress of the units of work of a run (samples, reference states, response runs…):
+    /// `done` of `total` ([`crate::work::Scheduler`]).
     fn samples(&mut self, done: usize, total: usize);
     /// A line of information for the user.
     fn message(&mut self, text: &str);

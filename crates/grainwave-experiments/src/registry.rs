@@ -1,88 +1,177 @@
-//! Dispatch by the `experiment` key: check, run and resume any protocol, and the config reference.
+//! Dispatch by the `experiment` key: one table ([`PROTOCOLS`]) with an entry per protocol, built
+//! from its [`Protocol`] implementation; check, run, resume and re-plot any protocol through it,
+//! and generate the config reference.
 
 use crate::config::{did_you_mean, reference, ConfigError, ConfigSource};
+use crate::e2::{self, E2Config, E2State, E2Summary};
 use crate::error::{ExperimentError, Result};
 use crate::protocol::{checkpoint_tag, load_state, RunContext};
-use crate::{e1, e2, e3, simulation};
-use schemars::schema_for;
+use crate::study::Protocol;
+use crate::{e1, e3, simulation};
 use std::path::Path;
 
+/// One protocol, as the registry dispatches it: the functions of its [`Protocol`]
+/// implementation with the types erased.
+pub struct Entry {
+    /// The name a config selects it with (`experiment = "…"`).
+    pub name: &'static str,
+    /// Content tag of its state in `checkpoint.gwck`.
+    pub tag: &'static str,
+    /// Introduction of its section of the config reference.
+    pub reference: &'static str,
+    /// The JSON schema of its raw config.
+    pub schema: fn() -> serde_json::Value,
+    /// Shape check, validation and the description `grainwave check` prints.
+    pub check: fn(&ConfigSource) -> Result<Vec<String>, ConfigError>,
+    /// Validates and runs a config into the context's directory.
+    pub run: fn(&ConfigSource, &mut RunContext<'_>) -> Result<RunSummary>,
+    /// Continues the run of directory `dir` from its checkpoint file.
+    pub resume: fn(&Path, &Path, &mut RunContext<'_>) -> Result<RunSummary>,
+    /// Re-makes the plots of directory `dir` from its checkpoint file.
+    pub plot: fn(&Path, &Path) -> Result<Vec<String>>,
+    /// Decodes checkpoint bytes as this protocol's state: the error message, if refused.
+    pub decode: fn(&[u8]) -> Option<String>,
+}
+
+fn schema<P: Protocol>() -> serde_json::Value {
+    serde_json::to_value(schemars::schema_for!(P::Config)).expect("a schema serializes")
+}
+
+fn check_with<P: Protocol>(src: &ConfigSource) -> Result<Vec<String>, ConfigError> {
+    crate::config::check_shapes(src, &schema::<P>())?;
+    Ok(P::describe(&P::validate(src)?))
+}
+
+fn finish<P: Protocol>(state: &mut P::State, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
+    let out = ctx.out_dir().to_path_buf();
+    let report = P::run(state, ctx)?;
+    Ok(RunSummary { lines: P::summary_lines(&report, &out), report: serde_json::to_value(&report).unwrap_or_default() })
+}
+
+fn run_with<P: Protocol>(src: &ConfigSource, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
+    crate::config::check_shapes(src, &schema::<P>())?;
+    let mut state = P::start(P::validate(src)?);
+    finish::<P>(&mut state, ctx)
+}
+
+fn resume_with<P: Protocol>(dir: &Path, file: &Path, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
+    let mut state: P::State = load_state(file, P::TAG)?;
+    belongs_to(dir, P::config(&state))?;
+    ctx.log(&format!("resuming from {}", file.display()));
+    finish::<P>(&mut state, ctx)
+}
+
+fn plot_with<P: Protocol>(dir: &Path, file: &Path) -> Result<Vec<String>> {
+    let state: P::State = load_state(file, P::TAG)?;
+    P::replot(dir, &state)
+}
+
+fn decode_with<P: Protocol>(bytes: &[u8]) -> Option<String> {
+    grainwave_core::checkpoint::decode::<P::State>(bytes, P::TAG, "fuzz").err().map(|e| e.to_string())
+}
+
+/// The registry entry of protocol `P`.
+pub const fn entry<P: Protocol>() -> Entry {
+    Entry {
+        name: P::NAME,
+        tag: P::TAG,
+        reference: P::REFERENCE,
+        schema: schema::<P>,
+        check: check_with::<P>,
+        run: run_with::<P>,
+        resume: resume_with::<P>,
+        plot: plot_with::<P>,
+        decode: decode_with::<P>,
+    }
+}
+
+/// `e2` (its driver is not yet ported onto the shape of the other studies: its spec is its raw
+/// config and its stages run in `E2State::run`).
+pub struct E2Protocol;
+
+impl Protocol for E2Protocol {
+    const NAME: &'static str = "e2";
+    const TAG: &'static str = e2::TAG;
+    const REFERENCE: &'static str = "Acoustics of a 2D packing under biaxial loading, with frictional sliding (SPEC §6; see docs/e2.md). Units:\n\
+         pressure p* (force/length), total grain mass M*, L* = √(M*/ρ*), t* = √(M*/p*), v_a = d̄√(K_n/m̄), t_a = L*/v_a;\n\
+         grain sizes in mean diameters d̄.";
+    type Config = E2Config;
+    type Spec = E2Config;
+    type State = E2State;
+    type Report = E2Summary;
+
+    fn validate(src: &ConfigSource) -> Result<E2Config, ConfigError> {
+        e2::prepare(src)
+    }
+    fn describe(spec: &E2Config) -> Vec<String> {
+        e2::describe(spec)
+    }
+    fn start(spec: E2Config) -> E2State {
+        E2State::new(spec)
+    }
+    fn config(state: &E2State) -> &E2Config {
+        &state.config
+    }
+    fn run(state: &mut E2State, ctx: &mut RunContext<'_>) -> Result<E2Summary> {
+        state.run(ctx)
+    }
+    fn summary_lines(report: &E2Summary, out: &Path) -> Vec<String> {
+        e2::summary_lines(report, out)
+    }
+    fn replot(dir: &Path, state: &E2State) -> Result<Vec<String>> {
+        e2::replot(dir, state)
+    }
+}
+
+/// Every protocol, in the order of the config reference.
+pub static PROTOCOLS: [Entry; 4] =
+    [entry::<simulation::SimulationProtocol>(), entry::<e1::E1Protocol>(), entry::<E2Protocol>(), entry::<e3::E3Protocol>()];
+
 /// Names of the protocols a config can select with `experiment = "…"`.
-pub const EXPERIMENTS: &[&str] = &["simulation", "e1", "e2", "e3"];
+pub const EXPERIMENTS: &[&str] = &[PROTOCOLS[0].name, PROTOCOLS[1].name, PROTOCOLS[2].name, PROTOCOLS[3].name];
+
+/// The entry of protocol `name`.
+pub fn protocol(name: &str) -> Option<&'static Entry> {
+    PROTOCOLS.iter().find(|p| p.name == name)
+}
 
 /// The protocol a config selects, from its top-level `experiment` key.
-pub fn experiment_name(src: &ConfigSource) -> Result<String, ConfigError> {
+pub fn experiment(src: &ConfigSource) -> Result<&'static Entry, ConfigError> {
     let table: toml::Table = src.parse()?;
     match table.get("experiment") {
         None => Err(src.error_at_key("experiment", format!("missing: say which protocol this file configures (allowed: {})", EXPERIMENTS.join(", ")))),
-        Some(toml::Value::String(name)) if EXPERIMENTS.contains(&name.as_str()) => Ok(name.clone()),
-        Some(toml::Value::String(name)) => {
-            let mut msg = format!("unknown experiment `{name}`");
-            if let Some(best) = did_you_mean(name, EXPERIMENTS) {
-                msg.push_str(&format!(" — did you mean `{best}`?"));
+        Some(toml::Value::String(name)) => match protocol(name) {
+            Some(p) => Ok(p),
+            None => {
+                let mut msg = format!("unknown experiment `{name}`");
+                if let Some(best) = did_you_mean(name, EXPERIMENTS) {
+                    msg.push_str(&format!(" — did you mean `{best}`?"));
+                }
+                msg.push_str(&format!(" (allowed: {})", EXPERIMENTS.join(", ")));
+                Err(src.error_at_key("experiment", msg))
             }
-            msg.push_str(&format!(" (allowed: {})", EXPERIMENTS.join(", ")));
-            Err(src.error_at_key("experiment", msg))
-        }
+        },
         Some(other) => Err(src.error_at_key("experiment", format!("{other} is not a name (allowed: {})", EXPERIMENTS.join(", ")))),
     }
 }
 
+/// The name of the protocol a config selects, from its top-level `experiment` key.
+pub fn experiment_name(src: &ConfigSource) -> Result<String, ConfigError> {
+    experiment(src).map(|p| p.name.to_string())
+}
+
 /// Checks the shapes of the file's values against the schema of protocol `name`
-/// ([`crate::config::check_shapes`]).
+/// ([`crate::config::check_shapes`]); a name that is not a protocol's passes.
 pub fn check_shapes(src: &ConfigSource, name: &str) -> Result<(), ConfigError> {
-    let schema = match name {
-        "simulation" => serde_json::to_value(schema_for!(simulation::SimulationConfig)),
-        "e1" => serde_json::to_value(schema_for!(e1::E1Config)),
-        "e2" => serde_json::to_value(schema_for!(e2::E2Config)),
-        "e3" => serde_json::to_value(schema_for!(e3::E3Config)),
-        _ => return Ok(()),
+    match protocol(name) {
+        Some(p) => crate::config::check_shapes(src, &(p.schema)()),
+        None => Ok(()),
     }
-    .expect("schema serializes");
-    crate::config::check_shapes(src, &schema)
 }
 
 /// What `grainwave check` prints about a valid config.
 pub fn check(src: &ConfigSource) -> Result<Vec<String>, ConfigError> {
-    let name = experiment_name(src)?;
-    check_shapes(src, &name)?;
-    match name.as_str() {
-        "simulation" => {
-            let p = simulation::prepare(src)?;
-            Ok(describe(&p))
-        }
-        "e1" => Ok(e1::describe(&e1::prepare(src)?)),
-        "e2" => Ok(e2::describe(&e2::prepare(src)?)),
-        "e3" => Ok(e3::describe(&e3::prepare(src)?)),
-        other => unreachable!("experiment `{other}` is listed but not dispatched"),
-    }
-}
-
-fn describe(p: &simulation::Prepared) -> Vec<String> {
-    fn lines<D: grainwave_core::dim::Dim>(s: &grainwave_core::sim::Simulation<D>, c: &simulation::SimulationConfig) -> Vec<String> {
-        let (rmin, rmax) = s.grains.radius_range();
-        let mut v = vec![
-            format!("experiment   simulation, seed {}", c.seed),
-            format!("grains       {} {} ({}D), radii {:.4}–{:.4}", s.len(), s.grains.kind.name(), D::D, rmin, rmax),
-            format!("contacts     {} at the start; law {:?} / {:?} / {:?}, μ = {}", s.counters.contacts, s.law.normal, s.law.damping, s.law.tangential, s.law.friction),
-            format!("walls        {}", if s.domain.walls.is_empty() { "none".into() } else { s.domain.walls.iter().map(|w| w.name.clone()).collect::<Vec<_>>().join(", ") }),
-            format!("time step    {:.4e} (suggested {:.4e})", s.dt, s.suggested_dt),
-            format!(
-                "stop         step limit {:?}, time limit {:?}, equilibrium criteria: {}",
-                c.stop.step_limit,
-                c.stop.time_limit,
-                if c.stop.has_equilibrium_criterion() { "yes" } else { "none" }
-            ),
-        ];
-        for w in &s.warnings {
-            v.push(format!("warning      {w}"));
-        }
-        v
-    }
-    match &p.sim {
-        simulation::AnySim::D2(s) => lines(s, &p.config),
-        simulation::AnySim::D3(s) => lines(s, &p.config),
-    }
+    (experiment(src)?.check)(src)
 }
 
 /// The outcome of a run, for the command line.
@@ -94,95 +183,16 @@ pub struct RunSummary {
     pub report: serde_json::Value,
 }
 
-fn summarize(r: &simulation::SimulationReport, out: &Path) -> RunSummary {
-    let mut lines = vec![
-        format!("stopped      {:?} after {} steps (simulated time {:.6})", r.stop_reason, r.steps, r.time),
-        format!("grains       {} {} ({}D), seed {}", r.grains, r.grain_kind, r.dimension, r.seed),
-        format!("final state  KE/grain {:.3e}, max acceleration {:.3e}, {} contacts, {} sliding", r.kinetic_energy_per_grain, r.max_acceleration, r.contacts, r.sliding),
-    ];
-    if let Some(s) = r.support_over_weight {
-        lines.push(format!("walls carry  {:.9} × the weight {:.6}", s, r.weight));
-    }
-    for w in &r.warnings {
-        lines.push(format!("warning      {w}"));
-    }
-    lines.push(format!("outputs      {}/", out.display()));
-    RunSummary { lines, report: serde_json::to_value(r).unwrap_or_default() }
-}
-
-fn summarize_e1(r: &e1::E1Report, out: &Path) -> RunSummary {
-    RunSummary { lines: e1::summary_lines(r, out), report: serde_json::to_value(r).unwrap_or_default() }
-}
-
-fn summarize_e2(r: &e2::E2Summary, out: &Path) -> RunSummary {
-    RunSummary { lines: e2::summary_lines(r, out), report: serde_json::to_value(r).unwrap_or_default() }
-}
-
-fn summarize_e3(r: &e3::E3Summary, out: &Path) -> RunSummary {
-    let mut lines = vec![format!("e3 {}: {} parameter set(s)", r.mode, r.groups.len())];
-    for g in &r.groups {
-        for c in g.cases.iter().take(3) {
-            lines.push(format!(
-                "reference    {} seed {}: floor carries {:.9} × the weight, max acceleration {:.2e}",
-                g.label, c.seed, c.floor_over_weight, c.max_acceleration
-            ));
-        }
-        for a in &g.responses {
-            lines.push(format!(
-                "response     F = {} ({}): p(0)/F = {:.4e}, {} opened, {} sliding, {} peak",
-                a.force,
-                a.variant.name(),
-                a.response_at_zero.first().copied().unwrap_or(f64::NAN),
-                a.opened,
-                a.sliding,
-                a.classification.shape.name()
-            ));
-        }
-        if let Some(f) = &g.first_opening {
-            if let Some(e) = f.linear_estimate {
-                lines.push(format!("first opening  ≈ {e:.4} m̄g (linear estimate from F = {})", f.estimated_from.unwrap_or(f64::NAN)));
-            }
-        }
-    }
-    for s in &r.superposition {
-        lines.push(format!("superposition F = {}: per-contact deviation {:.2e}, profile {:.2e}", s.force, s.contact_max_deviation, s.profile_max_deviation.first().copied().unwrap_or(f64::NAN)));
-    }
-    for p in &r.piles {
-        lines.push(format!("pile         {}: floor/weight {:.9}, {} floor profile ({}, dip {:.4})", p.group, p.floor_over_weight, p.shape.name(), p.verdict_basis, p.dip));
-    }
-    if let Some(l) = &r.lattice {
-        lines.push(format!("lattice      a = {:.4}, b = {:.4}, c = {:.4}, d = {:.4}, r = {:.4} ({})", l.moduli.a, l.moduli.b, l.moduli.c, l.moduli.d, l.moduli.r, l.verdict));
-    }
-    if !r.not_converged.is_empty() {
-        lines.push(format!("warning      {} relaxation(s) did not converge: {}", r.not_converged.len(), r.not_converged.join(", ")));
-    }
-    lines.push(format!("outputs      {}/", out.display()));
-    RunSummary { lines, report: serde_json::to_value(r).unwrap_or_default() }
-}
-
 /// Parses, validates and runs a config.
 pub fn run(src: &ConfigSource, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
-    let name = experiment_name(src)?;
-    check_shapes(src, &name)?;
-    match name.as_str() {
-        "simulation" => {
-            let out = ctx.out_dir().to_path_buf();
-            Ok(summarize(&simulation::run_config(src, ctx)?, &out))
-        }
-        "e1" => {
-            let out = ctx.out_dir().to_path_buf();
-            Ok(summarize_e1(&e1::run_config(src, ctx)?, &out))
-        }
-        "e2" => {
-            let out = ctx.out_dir().to_path_buf();
-            Ok(summarize_e2(&e2::run_config(src, ctx)?, &out))
-        }
-        "e3" => {
-            let out = ctx.out_dir().to_path_buf();
-            Ok(summarize_e3(&e3::run_config(src, ctx)?, &out))
-        }
-        other => unreachable!("experiment `{other}` is listed but not dispatched"),
-    }
+    (experiment(src)?.run)(src, ctx)
+}
+
+fn by_tag(dir: &Path, tag: &str, what: &str) -> Result<&'static Entry> {
+    PROTOCOLS
+        .iter()
+        .find(|p| p.tag == tag)
+        .ok_or_else(|| ExperimentError::Resume { path: dir.to_path_buf(), reason: format!("its checkpoint holds `{tag}`, which {what}") })
 }
 
 /// Continues the run whose checkpoint is in `dir`.
@@ -192,37 +202,7 @@ pub fn resume(dir: &Path, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
     for stale in grainwave_core::checkpoint::remove_stale_temporaries(dir) {
         ctx.log(&format!("removed the temporary file {} left by an interrupted write", stale.display()));
     }
-    match tag.as_str() {
-        simulation::TAG => {
-            let mut state: simulation::SimulationState = load_state(&file, &tag)?;
-            belongs_to(dir, &state.config)?;
-            ctx.log(&format!("resuming from {}", file.display()));
-            let out = ctx.out_dir().to_path_buf();
-            Ok(summarize(&state.run(ctx)?, &out))
-        }
-        e1::TAG => {
-            let mut state: e1::E1State = load_state(&file, &tag)?;
-            belongs_to(dir, &state.config)?;
-            ctx.log(&format!("resuming from {}", file.display()));
-            let out = ctx.out_dir().to_path_buf();
-            Ok(summarize_e1(&state.run(ctx)?, &out))
-        }
-        e2::TAG => {
-            let mut state: e2::E2State = load_state(&file, &tag)?;
-            belongs_to(dir, &state.config)?;
-            ctx.log(&format!("resuming from {}", file.display()));
-            let out = ctx.out_dir().to_path_buf();
-            Ok(summarize_e2(&state.run(ctx)?, &out))
-        }
-        e3::TAG => {
-            let mut state: e3::E3State = load_state(&file, &tag)?;
-            belongs_to(dir, &state.config)?;
-            ctx.log(&format!("resuming from {}", file.display()));
-            let out = ctx.out_dir().to_path_buf();
-            Ok(summarize_e3(&state.run(ctx)?, &out))
-        }
-        other => Err(ExperimentError::Resume { path: dir.to_path_buf(), reason: format!("its checkpoint holds `{other}`, which is not a protocol state") }),
-    }
+    (by_tag(dir, &tag, "is not a protocol state")?.resume)(dir, &file, ctx)
 }
 
 /// Checks that a checkpoint belongs to output directory `dir`: the config it carries (every
@@ -230,7 +210,7 @@ pub fn resume(dir: &Path, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
 /// (experiment, seed and every other key). A checkpoint copied from another run is refused,
 /// naming the first key that differs.
 pub fn belongs_to<C: serde::Serialize>(dir: &Path, config: &C) -> Result<()> {
-    let path = dir.join("config.resolved.toml");
+    let path = dir.join(crate::outputs::RESOLVED_CONFIG_FILE);
     let Ok(text) = std::fs::read_to_string(&path) else { return Ok(()) }; // written at the start of a run; absent before
     let refuse = |reason: String| ExperimentError::Resume { path: dir.to_path_buf(), reason };
     let on_disk: toml::Table = toml::from_str(&text).map_err(|e| refuse(format!("its config.resolved.toml cannot be read: {}", crate::config::clip(e.message(), 200))))?;
@@ -280,26 +260,7 @@ fn first_difference(a: &toml::Value, b: &toml::Value, path: &str) -> Option<(Str
 /// the files written, relative to `dir`.
 pub fn plot(dir: &Path) -> Result<Vec<String>> {
     let (file, tag) = checkpoint_tag(dir)?;
-    match tag.as_str() {
-        simulation::TAG => {
-            let state: simulation::SimulationState = load_state(&file, &tag)?;
-            let series = grainwave_io::Series::read_npz(&dir.join("series.npz"))?;
-            Ok(simulation::make_plots(dir, &series, state.picture().as_ref())?)
-        }
-        e1::TAG => {
-            let state: e1::E1State = load_state(&file, &tag)?;
-            e1::replot(dir, &state)
-        }
-        e2::TAG => {
-            let state: e2::E2State = load_state(&file, &tag)?;
-            e2::replot(dir, &state)
-        }
-        e3::TAG => {
-            let state: e3::E3State = load_state(&file, &tag)?;
-            e3::replot(dir, &state)
-        }
-        other => Err(ExperimentError::Resume { path: dir.to_path_buf(), reason: format!("its checkpoint holds `{other}`, which has no plots") }),
-    }
+    (by_tag(dir, &tag, "has no plots")?.plot)(dir, &file)
 }
 
 /// The config reference (`docs/config.md`), generated from the key definitions.
@@ -311,38 +272,8 @@ pub fn reference_markdown() -> String {
          of the user's choice (grainwave is unit-agnostic): `length`, `time`, `mass`, `force` and their combinations;\n\
          keys without a unit are dimensionless. Unknown keys are refused.\n\n",
     );
-    let schema = schema_for!(simulation::SimulationConfig);
-    let value = serde_json::to_value(&schema).expect("schema serializes");
-    s.push_str(&reference::markdown(
-        "`experiment = \"simulation\"`",
-        "A general discrete-element run (see docs/simulation.md). The `[contact]` keys are those of the presets\n\
-         (docs/engine.md); `[wall_contact]` and `walls[].contact` take the same keys and replace the grain–grain values.",
-        &reference::sections(&value),
-    ));
-    let schema = schema_for!(e1::E1Config);
-    let value = serde_json::to_value(&schema).expect("schema serializes");
-    s.push_str(&reference::markdown(
-        "`experiment = \"e1\"`",
-        "Pulse transmission through confined, pressurized Hertz–Mindlin packings (SPEC §5; see docs/e1.md). Units:\n\
-         length d̄ (the mean diameter), grain density ρ = 1, pressure E* = E/(1 − ν²) = 1, time d̄ √(ρ/E*).",
-        &reference::sections(&value),
-    ));
-    let schema = schema_for!(e2::E2Config);
-    let value = serde_json::to_value(&schema).expect("schema serializes");
-    s.push_str(&reference::markdown(
-        "`experiment = \"e2\"`",
-        "Acoustics of a 2D packing under biaxial loading, with frictional sliding (SPEC §6; see docs/e2.md). Units:\n\
-         pressure p* (force/length), total grain mass M*, L* = √(M*/ρ*), t* = √(M*/p*), v_a = d̄√(K_n/m̄), t_a = L*/v_a;\n\
-         grain sizes in mean diameters d̄.",
-        &reference::sections(&value),
-    ));
-    let schema = schema_for!(e3::E3Config);
-    let value = serde_json::to_value(&schema).expect("schema serializes");
-    s.push_str(&reference::markdown(
-        "`experiment = \"e3\"`",
-        "The response of a gravity-loaded granular slab to a localized force (SPEC §7; see docs/e3.md). Units: length R̄\n\
-         (the largest radius), mass m̄ (a disk of radius R̄), time τ = √(R̄/g), force m̄g.",
-        &reference::sections(&value),
-    ));
+    for p in &PROTOCOLS {
+        s.push_str(&reference::markdown(&format!("`experiment = \"{}\"`", p.name), p.reference, &reference::sections(&(p.schema)())));
+    }
     s
 }

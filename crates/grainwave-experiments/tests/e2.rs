@@ -191,9 +191,30 @@ name = "px"
 from = "top"
 amplitudes = [1e-6]
 duration = 1.5
+[[replays]]
+name = "top2"
+from = "stop_mu2"
+modification = "top_piston"
+duration = 0.2
+[[replays]]
+name = "py2"
+from = "top2"
+pulse_wall = "top"
+amplitudes = [1e-6]
+duration = 1.5
+[[replays]]
+name = "px2"
+from = "top2"
+amplitudes = [1e-6]
+duration = 1.5
 [anisotropy]
 along_y = "py"
 along_x = "px"
+state = "stopped"
+[[anisotropy.states]]
+state = "stopped_mu2"
+along_y = "py2"
+along_x = "px2"
 "#;
         let src = ConfigSource::from_text("small e2", text);
         let mut rep = SilentReporter;
@@ -253,6 +274,31 @@ fn small_run_writes_checkpoints_series_replays_and_plots() {
     assert!(cy > 0.2 && cy < 1.2 && cx > 0.2 && cx < 1.2, "c_y {cy}, c_x {cx}");
     assert!((a["anisotropy"].as_f64().unwrap() - 2.0 * (cy - cx) / (cy + cx)).abs() < 1e-12);
     assert!(dir.join("anisotropy.csv").exists());
+    // one row per state and amplitude, each A from its own two replays
+    let rows = summary["anisotropy"].as_array().unwrap();
+    assert_eq!(rows.iter().map(|r| r["state"].as_str().unwrap()).collect::<Vec<_>>(), ["stopped", "stopped_mu2"]);
+    let speed = |n: &str| summary["replays"].as_array().unwrap().iter().find(|r| r["name"] == n).unwrap()["pairs"][0]["speed"].as_f64().unwrap();
+    let (cy2, cx2) = (speed("py2"), speed("px2"));
+    assert_eq!(rows[1]["along_y"].as_f64().unwrap(), cy2);
+    assert!((rows[1]["anisotropy"].as_f64().unwrap() - 2.0 * (cy2 - cx2) / (cy2 + cx2)).abs() < 1e-12);
+    let csv = std::fs::read_to_string(dir.join("anisotropy.csv")).unwrap();
+    assert_eq!(csv.lines().count(), 3, "{csv}");
+    // pulses.csv: every amplitude of every paired replay, with M_s before and after the pulse
+    let pulses = std::fs::read_to_string(dir.join("pulses.csv")).unwrap();
+    let paired: usize = summary["replays"].as_array().unwrap().iter().map(|r| r["pairs"].as_array().unwrap().len()).sum();
+    assert_eq!(pulses.lines().count(), paired + 1, "{pulses}");
+    assert_eq!(summary["pulses"].as_array().unwrap().len(), paired);
+    for r in summary["pulses"].as_array().unwrap() {
+        let rep = summary["replays"].as_array().unwrap().iter().find(|x| x["name"] == r["replay"]).unwrap();
+        let pair = rep["pairs"].as_array().unwrap().iter().find(|p| p["amplitude"] == r["amplitude"]).unwrap();
+        assert_eq!(r["mobilised"], pair["mobilised"]);
+        assert_eq!(r["speed"], pair["speed"]);
+    }
+    // μ = 2 releases the mobilised contacts: measured 1 left (a contact closing at F_n ≈ 0 in
+    // this briefly stopped, not static, packing) against 18 at μ = 0.2; at most a quarter
+    let row = |n: &str| summary["pulses"].as_array().unwrap().iter().find(|r| r["replay"] == n).unwrap().clone();
+    let (m2, m02) = (row("px2")["mobilised"][0].as_u64().unwrap(), row("px")["mobilised"][0].as_u64().unwrap());
+    assert!(m02 > 0 && 4 * m2 <= m02, "mobilised at the start: μ = 2 {m2}, μ = 0.2 {m02}");
     let single = &summary["replays"][1]["single"];
     assert!(single["kinetic_energy"][1].as_f64().unwrap() < single["kinetic_energy"][0].as_f64().unwrap(), "the stopped packing calms down");
 }
@@ -309,7 +355,7 @@ fn sliding_at_rest_is_counted_by_mobilisation() {
     // was enforced before) brings it to zero.
     let dir = small_run();
     let ck: grainwave_experiments::e2::biaxial::StrainCheckpoint =
-        grainwave_core::checkpoint::load(&dir.join("replays/stop/final.gwck"), grainwave_experiments::e2::biaxial::CHECKPOINT_TAG).unwrap();
+        grainwave_experiments::e2::biaxial::read_full_checkpoint(&dir.join("replays/stop/final.gwck")).unwrap();
     let mu = ck.sim.law.friction;
     assert_eq!(mu, 0.2);
     let records = ck.sim.contact_records();
@@ -508,7 +554,10 @@ fn bad_e2_configs_name_the_key_the_value_and_what_is_allowed() {
     check("[[replays]]\nname = \"a\"\n[[replays]]\nname = \"b\"\nfrom = \"a\"", "replays[1].from", "single replay");
     check("[[replays]]\namplitudes = []", "replays[0].amplitudes", "one or more");
     check("[static_limit]\nundeformed = \"x\"", "static_limit", "all of undeformed");
+    check("[static_limit]\nvariants = [\"nope\"]", "static_limit.variants[0]", "the name of a wall_pulse replay");
+    check("[[anisotropy.states]]\nstate = \"a\"\nalong_y = \"nope\"\nalong_x = \"nope\"", "anisotropy.states[0].along_y", "the name of a wall_pulse replay");
     check("[loading]\ndirection = \"sideways\"", "direction", "compression");
+    check("[loading]\nfull_checkpoint_every = 0", "loading.full_checkpoint_every", "at least 1");
 }
 
 /// Records, for each progress report, the stage it came in and whether the preparation had
@@ -743,4 +792,87 @@ strips = 12
     // state's (0) and the old protocol's (0.0049 v_a)
     assert!((sp - sn).abs() > 0.006, "static: c(+1e-9) = {sp}, c(−1e-9) = {sn}: the sign asymmetry is gone");
     assert!((dp - dn).abs() < 0.006, "deforming: c(+1e-9) = {dp}, c(−1e-9) = {dn}");
+}
+
+#[test]
+fn reference_checkpoints_regenerate_the_same_bits_and_take_less_space() {
+    // The loading of `small_run` keeps full states only in checkpoints 0 and the last
+    // (`full_checkpoint_every` = 10 > the 5 checkpoints); the same run with
+    // `full_checkpoint_every = 1` keeps every state. Every regenerated state must be the kept one
+    // to the bit, and so must a pulse replayed from a regenerated state.
+    let sparse = small_run();
+    let dense = tmp("dense");
+    let text = r#"
+experiment = "e2"
+seed = 5
+[packing]
+columns = 12
+rows = 12
+[loading]
+strain_rate = 0.005
+final_strain = 2e-4
+checkpoint_strain = 5e-5
+full_checkpoint_every = 1
+reference_strain = 1e-5
+sample_every = 5
+[[replays]]
+name = "pulse"
+checkpoint = 2
+amplitudes = [1e-4, 0.0]
+duration = 1.5
+"#;
+    let src = ConfigSource::from_text("dense e2", text);
+    let mut rep = SilentReporter;
+    let mut ctx = RunContext::new(&dense, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
+    registry::run(&src, &mut ctx).unwrap();
+    drop(ctx);
+    use grainwave_experiments::e2::biaxial::{checkpoint_path, read_checkpoint, StoredCheckpoint};
+    let indices = grainwave_experiments::e2::outputs::checkpoint_indices(&dense);
+    assert_eq!(indices, grainwave_experiments::e2::outputs::checkpoint_indices(sparse));
+    assert!(indices.len() >= 5, "{indices:?}");
+    let (mut bytes_sparse, mut bytes_dense, mut references) = (0u64, 0u64, 0);
+    for &k in &indices {
+        let file_sparse = checkpoint_path(sparse, k);
+        let file_dense = checkpoint_path(&dense, k);
+        bytes_sparse += std::fs::metadata(&file_sparse).unwrap().len();
+        bytes_dense += std::fs::metadata(&file_dense).unwrap().len();
+        assert!(matches!(read_checkpoint(&file_dense).unwrap(), StoredCheckpoint::Full(_)), "dense checkpoint {k}");
+        let is_reference = matches!(read_checkpoint(&file_sparse).unwrap(), StoredCheckpoint::Reference(_));
+        // checkpoint 0 and the last are always full, every other one is a reference here
+        assert_eq!(is_reference, k != 0 && k != *indices.last().unwrap(), "checkpoint {k}");
+        references += is_reference as usize;
+        let a = bincode_of(&load_checkpoint(sparse, k as i64).unwrap());
+        let b = bincode_of(&load_checkpoint(&dense, k as i64).unwrap());
+        assert!(a == b, "checkpoint {k}: the regenerated state differs from the kept one");
+    }
+    assert_eq!(references, indices.len() - 2);
+    // a reference is a few hundred bytes against the compressed state of 144 disks (~ 10 kB)
+    assert!(bytes_sparse * 2 < bytes_dense, "sparse {bytes_sparse} B, dense {bytes_dense} B");
+    // compression: the full file is smaller than the bincode of its state (measured ≈ 0.7 at
+    // 64 × 64; 0.9 leaves room for small packings whose state holds more fixed-size fields)
+    let raw = bincode_of(&load_checkpoint(&dense, 0).unwrap()).len() as u64;
+    let file = std::fs::metadata(checkpoint_path(&dense, 0)).unwrap().len();
+    assert!((file as f64) < 0.9 * raw as f64, "compressed {file} B, raw {raw} B");
+    // the replay from the regenerated checkpoint 2 gives the same perturbation field, bit for bit
+    for a in ["a0_field.npy", "a1_field.npy", "a0_arrivals.csv"] {
+        let x = std::fs::read(sparse.join("replays/pulse").join(a)).unwrap();
+        let y = std::fs::read(dense.join("replays/pulse").join(a)).unwrap();
+        assert!(x == y, "replays/pulse/{a} differs");
+    }
+    let log = std::fs::read_to_string(sparse.join("run.log")).unwrap();
+    assert!(log.contains("regenerating its state from full checkpoint 0"), "{log}");
+    // a corrupted compressed state (checksum made to match) is refused with a message, no panic
+    let mut bytes = std::fs::read(checkpoint_path(&dense, 1)).unwrap();
+    let n = bytes.len();
+    for b in &mut bytes[n / 2..n / 2 + 64] {
+        *b ^= 0x5a;
+    }
+    assert!(grainwave_experiments::fuzzing::refresh_crc(&mut bytes));
+    let e = grainwave_experiments::e2::biaxial::decode_checkpoint(&bytes, "bad.gwck").unwrap_err().to_string();
+    assert!(e.contains("bad.gwck") && (e.contains("cannot decompress") || e.contains("cannot decode")), "{e}");
+    let _ = std::fs::remove_dir_all(&dense);
+}
+
+fn bincode_of(ck: &grainwave_experiments::e2::biaxial::StrainCheckpoint) -> Vec<u8> {
+    grainwave_core::checkpoint::encode("state", ck).unwrap()
 }

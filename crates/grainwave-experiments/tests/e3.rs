@@ -7,7 +7,7 @@ use common::Interrupter;
 
 use grainwave_analysis::coarse_grain::smooth_1d;
 use grainwave_experiments::config::ConfigSource;
-use grainwave_experiments::e3::{self, units::StoredRun};
+use grainwave_experiments::e3::{self, work::StoredRun};
 use grainwave_experiments::protocol::{RunContext, SilentReporter};
 use grainwave_experiments::{registry, ExperimentError};
 use serde_json::Value;
@@ -32,7 +32,7 @@ fn run_text(text: &str, out: &Path) -> Value {
 fn stored_run(out: &Path, label: &str) -> StoredRun {
     let units = out.join("units");
     let case = std::fs::read_dir(&units).unwrap().next().unwrap().unwrap().path();
-    grainwave_core::checkpoint::load(&case.join(format!("{label}.gwck")), e3::units::RUN_TAG).unwrap()
+    grainwave_core::checkpoint::load(&case.join(format!("{label}.gwck")), e3::work::RUN_TAG).unwrap()
 }
 
 /// A 5-layer slab of 8 (and 7) grains, frictionless side walls, tight relaxation (`acceleration`
@@ -409,7 +409,7 @@ plots = false
 fn mean_horizontal_force(out: &Path) -> (f64, usize) {
     let units = out.join("units");
     let case = std::fs::read_dir(&units).unwrap().next().unwrap().unwrap().path();
-    let r: e3::units::ReferenceResult = grainwave_core::checkpoint::load(&case.join("reference.gwck"), e3::units::REFERENCE_TAG).unwrap();
+    let r: e3::work::ReferenceResult = grainwave_core::checkpoint::load(&case.join("reference.gwck"), e3::work::REFERENCE_TAG).unwrap();
     let snap = r.sim.snapshot();
     let index = snap.index_by_id();
     let mut forces = Vec::new();

@@ -189,6 +189,15 @@ pub fn positive(src: &ConfigSource, key: &str, v: f64) -> Result<(), ConfigError
     }
 }
 
+/// Checks that `v` (the value of `key`) is a finite number ≥ 0.
+pub fn non_negative(src: &ConfigSource, key: &str, v: f64) -> Result<(), ConfigError> {
+    if v.is_finite() && v >= 0.0 {
+        Ok(())
+    } else {
+        Err(src.error_at_key(key, format!("{v} (allowed: a finite number ≥ 0)")))
+    }
+}
+
 /// `#[serde(with = "crate::config::toml_text")]`: stores a config as TOML text inside binary
 /// checkpoints (its tagged enums and "number or table" values need a self-describing format).
 pub mod toml_text {

@@ -1,6 +1,6 @@
-//! Running the samples: several at once (worker threads pull tasks in order), each prepared (or
-//! loaded from its `packing.gwck`), analysed and persisted as `result.gwck` in its own directory
-//! `samples/<group>/s<seed>/`. A sample whose result is there with the right fingerprint is not
+//! The samples of an `e1` run as units of work ([`crate::work`]): run several at once by the
+//! scheduler, each prepared (or loaded from its `packing.gwck`), analysed and persisted as
+//! `result.gwck` in its own directory `samples/<group>/s<seed>/`. A sample whose result is there with the right fingerprint is not
 //! redone; an interrupted preparation continues from its `preparing.gwck`. Results do not depend
 //! on the number of threads or of samples run at once: each sample is a deterministic function of
 //! its seed and the config.
@@ -11,11 +11,10 @@ use super::sample::{analyze_chain, analyze_packing, chain_spec, SampleResult};
 use crate::error::Result;
 use crate::protocol::RunContext;
 use crate::simulation::AnySim;
+use crate::work::{store, Finished, Scheduler, Unit, UnitEnv, UnitResult, UnitStop, Work};
 use grainwave_core::prelude::*;
 use grainwave_linear::reference::TriangularLatticeSpec;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::Mutex;
 
 /// Checkpoint tag of prepared packings.
 pub const PACKING_TAG: &str = "e1-packing";
@@ -46,108 +45,62 @@ pub fn load_packing(out: &Path, plan: &Plan, task: &Task) -> Option<PackingFile>
     (f.fingerprint == plan.packing_fingerprint(task) && f.info.converged).then_some(f)
 }
 
-/// What the workers share.
-struct Shared<'c, 'r> {
-    ctx: Mutex<&'c mut RunContext<'r>>,
-    interrupt: std::sync::Arc<AtomicBool>,
+/// The samples of a plan as units of work: one per task, without inputs.
+pub struct Samples<'p> {
+    plan: &'p Plan,
     out: PathBuf,
-    done: AtomicUsize,
-    total: usize,
-    error: Mutex<Option<crate::ExperimentError>>,
-    interrupted: AtomicBool,
+    units: Vec<Unit>,
 }
 
-impl Shared<'_, '_> {
-    fn log(&self, text: &str) {
-        if let Ok(mut c) = self.ctx.lock() {
-            c.log(text);
-        }
-    }
-    fn log_quiet(&self, text: &str) {
-        if let Ok(mut c) = self.ctx.lock() {
-            c.log_quiet(text);
-        }
-    }
-    fn bump(&self) {
-        let done = self.done.fetch_add(1, Ordering::SeqCst) + 1;
-        if let Ok(mut c) = self.ctx.lock() {
-            c.reporter.samples(done, self.total);
-        }
+impl<'p> Samples<'p> {
+    /// The units of `plan`, whose results go under `out`.
+    pub fn new(plan: &'p Plan, out: &Path) -> Self {
+        let units = plan.tasks.iter().map(|t| Unit { id: sample_dir(plan, t).display().to_string(), kind: "samples", inputs: vec![] }).collect();
+        Samples { plan, out: out.to_path_buf(), units }
     }
 }
 
-/// How the ensemble ended.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum EnsembleStatus {
-    /// Every task has a result.
-    Complete,
-    /// Interrupted; finished samples are saved.
-    Interrupted,
+impl Work for Samples<'_> {
+    type Output = SampleResult;
+
+    fn units(&self) -> &[Unit] {
+        &self.units
+    }
+
+    fn is_done(&self, k: usize) -> bool {
+        load_result(&self.out, self.plan, &self.plan.tasks[k]).is_some()
+    }
+
+    fn run(&self, k: usize, env: &UnitEnv<'_, '_, '_>) -> UnitResult<SampleResult> {
+        run_sample(self.plan, &self.plan.tasks[k], &self.out, env)
+    }
+
+    fn record(&self, k: usize, result: &SampleResult) -> Result<()> {
+        store(&self.out.join(sample_dir(self.plan, &self.plan.tasks[k])).join("result.gwck"), RESULT_TAG, result, None)
+    }
+
+    fn recorded(&self, k: usize, result: &SampleResult, ctx: &mut RunContext<'_>, _done: &[bool]) -> Result<()> {
+        let mut line = format!("{} done in {:.1} s", self.units[k].id, result.seconds);
+        if let Some(p) = &result.preparation {
+            line.push_str(&format!(" (preparation {} steps, {:.1} s)", p.steps, p.seconds));
+        }
+        if let Some(s) = &result.statistics {
+            line.push_str(&format!(", L = {:.2}, z* = {:.3}", result.height, s.coordination_star));
+        }
+        if let Some(m) = result.pulse.as_ref().and_then(|p| p.metrics.as_ref()) {
+            line.push_str(&format!(", leading edge at t = {:.4}", m.leading_edge_time));
+        }
+        ctx.log(&line);
+        Ok(())
+    }
 }
 
-/// Runs every task of `plan` that has no result yet.
-pub fn run_ensemble(plan: &Plan, ctx: &mut RunContext<'_>) -> Result<EnsembleStatus> {
-    let out = ctx.out_dir().to_path_buf();
-    let todo: Vec<Task> = plan.tasks.iter().copied().filter(|t| load_result(&out, plan, t).is_none()).collect();
-    let total = plan.tasks.len();
-    let already = total - todo.len();
-    ctx.reporter.stage("e1 samples", None);
-    ctx.reporter.samples(already, total);
-    if already > 0 {
-        ctx.log(&format!("{already} of {total} samples already done (their results are reused)"));
-    }
-    if todo.is_empty() {
-        return Ok(EnsembleStatus::Complete);
-    }
-    let workers = plan.config.parallel_samples.unwrap_or_else(rayon::current_num_threads).max(1).min(todo.len());
-    ctx.log(&format!("{} samples to run, {workers} at a time", todo.len()));
-    let interrupt = ctx.interrupt_flag();
-    let shared = Shared {
-        ctx: Mutex::new(ctx),
-        interrupt,
-        out,
-        done: AtomicUsize::new(already),
-        total,
-        error: Mutex::new(None),
-        interrupted: AtomicBool::new(false),
-    };
-    let next = AtomicUsize::new(0);
-    rayon::scope(|s| {
-        for _ in 0..workers {
-            s.spawn(|_| loop {
-                if shared.interrupt.load(Ordering::Relaxed) || shared.error.lock().map(|e| e.is_some()).unwrap_or(true) {
-                    if shared.interrupt.load(Ordering::Relaxed) {
-                        shared.interrupted.store(true, Ordering::SeqCst);
-                    }
-                    return;
-                }
-                let k = next.fetch_add(1, Ordering::SeqCst);
-                if k >= todo.len() {
-                    return;
-                }
-                match run_task(plan, &todo[k], &shared) {
-                    Ok(true) => shared.bump(),
-                    Ok(false) => {
-                        shared.interrupted.store(true, Ordering::SeqCst);
-                        return;
-                    }
-                    Err(e) => {
-                        if let Ok(mut slot) = shared.error.lock() {
-                            slot.get_or_insert(e);
-                        }
-                        return;
-                    }
-                }
-            });
-        }
-    });
-    if let Some(e) = shared.error.into_inner().ok().flatten() {
-        return Err(e);
-    }
-    if shared.interrupted.load(Ordering::SeqCst) {
-        return Ok(EnsembleStatus::Interrupted);
-    }
-    Ok(EnsembleStatus::Complete)
+/// Runs every task of `plan` that has no result yet (at most `parallel_samples` at once).
+pub fn run_ensemble(plan: &Plan, ctx: &mut RunContext<'_>) -> Result<Finished> {
+    let samples = Samples::new(plan, ctx.out_dir());
+    let mut scheduler = Scheduler::new(&samples);
+    scheduler.max_parallel = plan.config.parallel_samples;
+    scheduler.run(ctx)
 }
 
 fn save_file(path: &Path, tag: &str, file: &PackingFile) -> Result<()> {
@@ -166,11 +119,11 @@ fn prepare<D: Dim>(
     wrap: fn(Simulation<D>) -> AnySim,
     plan: &Plan,
     dir: &Path,
-    shared: &Shared<'_, '_>,
+    env: &UnitEnv<'_, '_, '_>,
 ) -> Result<Option<(AnySim, PreparationInfo)>> {
     let preparing = dir.join("preparing.gwck");
     let mut save = |s: &Simulation<D>, i: &PreparationInfo| save_file(&preparing, PREPARING_TAG, &PackingFile { fingerprint, sim: wrap(s.clone()), info: i.clone() });
-    let status = relax(&mut sim, &mut info, &plan.config.preparation, &shared.interrupt, plan.config.output.save_every_seconds, &mut save)?;
+    let status = relax(&mut sim, &mut info, &plan.config.preparation, env.interrupt_flag(), plan.config.output.save_every_seconds, &mut save)?;
     match status {
         RelaxStatus::Interrupted => {
             save(&sim, &info)?;
@@ -186,10 +139,10 @@ fn prepare<D: Dim>(
 }
 
 /// The static system of a Hertz task: loaded, continued or prepared; `None` when interrupted.
-fn obtain_system(plan: &Plan, task: &Task, dir: &Path, shared: &Shared<'_, '_>) -> Result<Option<(AnySim, Option<PreparationInfo>)>> {
+fn obtain_system(plan: &Plan, task: &Task, out: &Path, dir: &Path, env: &UnitEnv<'_, '_, '_>) -> Result<Option<(AnySim, Option<PreparationInfo>)>> {
     let group = &plan.groups[task.group];
     let fingerprint = plan.packing_fingerprint(task);
-    if let Some(f) = load_packing(&shared.out, plan, task) {
+    if let Some(f) = load_packing(out, plan, task) {
         return Ok(Some((f.sim, Some(f.info))));
     }
     let pressure = group.pressure.expect("Hertz groups have a pressure");
@@ -216,7 +169,7 @@ fn obtain_system(plan: &Plan, task: &Task, dir: &Path, shared: &Shared<'_, '_>) 
         grainwave_core::checkpoint::load::<PackingFile>(&preparing, PREPARING_TAG).ok().filter(|f| f.fingerprint == fingerprint);
     let (sim, info) = match resumed {
         Some(f) => {
-            shared.log_quiet(&format!("{}: continuing its preparation at step {}", dir.display(), f.info.steps));
+            env.log_quiet(&format!("{}: continuing its preparation at step {}", dir.display(), f.info.steps));
             (f.sim, f.info)
         }
         None => {
@@ -264,57 +217,48 @@ fn obtain_system(plan: &Plan, task: &Task, dir: &Path, shared: &Shared<'_, '_>) 
         }
     };
     let r = match sim {
-        AnySim::D2(s) => prepare(s, info, fingerprint, AnySim::D2, plan, dir, shared)?,
-        AnySim::D3(s) => prepare(s, info, fingerprint, AnySim::D3, plan, dir, shared)?,
+        AnySim::D2(s) => prepare(s, info, fingerprint, AnySim::D2, plan, dir, env)?,
+        AnySim::D3(s) => prepare(s, info, fingerprint, AnySim::D3, plan, dir, env)?,
     };
     Ok(r.map(|(s, i)| (s, Some(i))))
 }
 
-/// Runs one task: `Ok(true)` when its result is saved, `Ok(false)` when interrupted.
-fn run_task(plan: &Plan, task: &Task, shared: &Shared<'_, '_>) -> Result<bool> {
+/// Runs one sample (preparation or its saved packing, then the analysis). A failure of the
+/// sample's physics (a preparation that does not converge, a singular matrix…) is part of its
+/// result (`failure`, reported per sample); an output error or an interruption stops the unit.
+fn run_sample(plan: &Plan, task: &Task, out: &Path, env: &UnitEnv<'_, '_, '_>) -> UnitResult<SampleResult> {
     let group = &plan.groups[task.group];
     let rel = sample_dir(plan, task);
-    let dir = shared.out.join(&rel);
+    let dir = out.join(&rel);
     std::fs::create_dir_all(&dir).map_err(|e| CoreError::Io { action: "cannot create".into(), path: dir.display().to_string(), error: e })?;
     let fingerprint = plan.result_fingerprint(task);
     let mut result = SampleResult::new(fingerprint, task.group, task.sample, task.seed);
     let started = std::time::Instant::now();
-    let outcome: Result<()> = (|| {
+    let outcome: std::result::Result<(), UnitStop> = (|| {
         if plan.kind == StudyKind::Chain {
             let spec = chain_spec(plan, group, task.seed);
-            return analyze_chain(&spec, plan, group, &mut result);
+            return Ok(analyze_chain(&spec, plan, group, &mut result)?);
         }
-        let Some((sim, info)) = obtain_system(plan, task, &dir, shared)? else {
-            return Err(crate::ExperimentError::Resume { path: dir.clone(), reason: "interrupted".into() });
+        let Some((sim, info)) = obtain_system(plan, task, out, &dir, env)? else {
+            return Err(UnitStop::Interrupted);
         };
         result.preparation = info;
         match &sim {
-            AnySim::D2(s) => analyze_packing(s, plan, group, task.sample, &mut result),
-            AnySim::D3(s) => analyze_packing(s, plan, group, task.sample, &mut result),
+            AnySim::D2(s) => analyze_packing(s, plan, group, task.sample, &mut result)?,
+            AnySim::D3(s) => analyze_packing(s, plan, group, task.sample, &mut result)?,
         }
+        Ok(())
     })();
     match outcome {
         Ok(()) => {}
-        Err(crate::ExperimentError::Resume { reason, .. }) if reason == "interrupted" => return Ok(false),
-        Err(e @ crate::ExperimentError::Output(_)) => return Err(e),
-        Err(e) => {
+        Err(UnitStop::Interrupted) => return Err(UnitStop::Interrupted),
+        Err(UnitStop::Failed(e @ crate::ExperimentError::Output(_))) => return Err(UnitStop::Failed(e)),
+        Err(UnitStop::Failed(e)) => {
             let text = e.to_string();
-            shared.log(&format!("{}: failed: {text}", rel.display()));
+            env.log(&format!("{}: failed: {text}", rel.display()));
             result.failure = Some(text);
         }
     }
     result.seconds = started.elapsed().as_secs_f64();
-    grainwave_core::checkpoint::save(&dir.join("result.gwck"), RESULT_TAG, &result)?;
-    let mut line = format!("{} done in {:.1} s", rel.display(), result.seconds);
-    if let Some(p) = &result.preparation {
-        line.push_str(&format!(" (preparation {} steps, {:.1} s)", p.steps, p.seconds));
-    }
-    if let Some(s) = &result.statistics {
-        line.push_str(&format!(", L = {:.2}, z* = {:.3}", result.height, s.coordination_star));
-    }
-    if let Some(m) = result.pulse.as_ref().and_then(|p| p.metrics.as_ref()) {
-        line.push_str(&format!(", leading edge at t = {:.4}", m.leading_edge_time));
-    }
-    shared.log(&line);
-    Ok(true)
+    Ok(result)
 }

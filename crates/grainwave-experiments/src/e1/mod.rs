@@ -33,7 +33,7 @@ pub use plan::Plan;
 use crate::config::{ConfigError, ConfigSource};
 use crate::error::Result;
 use crate::protocol::RunContext;
-use ensemble::EnsembleStatus;
+use crate::work::Finished;
 use serde::{Deserialize, Serialize};
 
 /// Content tag of this protocol's checkpoints.
@@ -113,12 +113,12 @@ impl E1State {
     /// Runs (or continues) every sample, then writes the outputs.
     pub fn run(&mut self, ctx: &mut RunContext<'_>) -> Result<E1Report> {
         let plan = self.plan()?;
-        outputs::write_resolved_config(ctx.out_dir(), &self.config)?;
+        crate::outputs::write_resolved_config(ctx.out_dir(), "e1", &self.config, "")?;
         ctx.save_checkpoint(TAG, self)?;
         let started = std::time::Instant::now();
         match ensemble::run_ensemble(&plan, ctx)? {
-            EnsembleStatus::Interrupted => return Err(ctx.interrupted_error(TAG, self)),
-            EnsembleStatus::Complete => {}
+            Finished::Interrupted => return Err(ctx.interrupted_error(TAG, self)),
+            Finished::Complete => {}
         }
         let results = outputs::collect(ctx.out_dir(), &plan);
         crate::protocol::refuse_all_failed(
@@ -132,6 +132,42 @@ impl E1State {
         ctx.save_checkpoint(TAG, self)?;
         ctx.log(&format!("done: {} samples, {} failed", report.done, report.failures.len()));
         Ok(report)
+    }
+}
+
+/// The `e1` protocol: its spec is the [`Plan`] (groups × seeds = samples, the units of work).
+pub struct E1Protocol;
+
+impl crate::study::Protocol for E1Protocol {
+    const NAME: &'static str = "e1";
+    const TAG: &'static str = TAG;
+    const REFERENCE: &'static str = "Pulse transmission through confined, pressurized Hertz–Mindlin packings (SPEC §5; see docs/e1.md). Units:\n\
+         length d̄ (the mean diameter), grain density ρ = 1, pressure E* = E/(1 − ν²) = 1, time d̄ √(ρ/E*).";
+    type Config = E1Config;
+    type Spec = Plan;
+    type State = E1State;
+    type Report = E1Report;
+
+    fn validate(src: &ConfigSource) -> Result<Plan, ConfigError> {
+        prepare(src)
+    }
+    fn describe(spec: &Plan) -> Vec<String> {
+        describe(spec)
+    }
+    fn start(spec: Plan) -> E1State {
+        E1State::new(&spec)
+    }
+    fn config(state: &E1State) -> &E1Config {
+        &state.config
+    }
+    fn run(state: &mut E1State, ctx: &mut RunContext<'_>) -> Result<E1Report> {
+        state.run(ctx)
+    }
+    fn summary_lines(report: &E1Report, out: &std::path::Path) -> Vec<String> {
+        summary_lines(report, out)
+    }
+    fn replot(dir: &std::path::Path, state: &E1State) -> Result<Vec<String>> {
+        replot(dir, state)
     }
 }
 

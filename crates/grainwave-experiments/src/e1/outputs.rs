@@ -3,7 +3,6 @@
 //! files of the first sample of every group (grains, contacts, displacement fields) and plots.
 
 use super::aggregate::{aggregate, Aggregate, GroupSignals};
-use super::config::E1Config;
 use super::ensemble::{load_packing, load_result, sample_dir};
 use super::plan::{pressure_label, Plan, StudyKind};
 use super::sample::SampleResult;
@@ -13,7 +12,7 @@ use grainwave_analysis::packing::density_histogram;
 use grainwave_core::prelude::*;
 use grainwave_io::plot::{Histogram, LegendPosition, LinePlot, Network, PackingPicture};
 use grainwave_io::vtk::{grains_dataset, write_contacts_vtp, VtkValues};
-use grainwave_io::{write_csv_atomic, write_json_atomic, CsvTable, Series};
+use grainwave_io::{write_csv_atomic, CsvTable, Series};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::Path;
@@ -332,7 +331,7 @@ pub fn write_outputs(out: &Path, plan: &Plan, wall_seconds: f64) -> Result<E1Rep
         aggregate: agg,
         files,
     };
-    write_json_atomic(&out.join("summary.json"), &report)?;
+    crate::outputs::write_summary(out, &report)?;
     Ok(report)
 }
 
@@ -609,13 +608,3 @@ fn make_plots(out: &Path, plan: &Plan, agg: &Aggregate, signals: &[GroupSignals]
     Ok(files)
 }
 
-/// Writes `config.resolved.toml`.
-pub fn write_resolved_config(out: &Path, config: &E1Config) -> Result<()> {
-    let text = toml::to_string_pretty(config).expect("a config serializes to TOML");
-    let header = format!(
-        "# The config of this e1 run with every default filled in (grainwave {}).\n# Running it again gives the same results, bit for bit.\n\n",
-        grainwave_core::VERSION
-    );
-    grainwave_core::checkpoint::atomic_write(&out.join("config.resolved.toml"), format!("{header}{text}").as_bytes())?;
-    Ok(())
-}

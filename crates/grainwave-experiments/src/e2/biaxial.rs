@@ -23,8 +23,134 @@ use grainwave_core::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-/// Content tag of the strain checkpoints.
+/// Content tag of an uncompressed strain checkpoint (the bincode of a [`StrainCheckpoint`]):
+/// written by earlier versions, still read.
 pub const CHECKPOINT_TAG: &str = "e2-strain-checkpoint";
+/// Content tag of a compressed strain checkpoint: the payload is the raw-deflate stream of the
+/// bincode of a [`StrainCheckpoint`] (see [`save_checkpoint`]).
+pub const COMPRESSED_TAG: &str = "e2-strain-checkpoint-deflate";
+/// Content tag of a reference checkpoint ([`CheckpointReference`]): no state, only where the
+/// loading was; the state is regenerated from the full checkpoint before it.
+pub const REFERENCE_TAG: &str = "e2-strain-checkpoint-reference";
+
+/// A checkpoint kept as a reference (`loading.full_checkpoint_every` > 1): the state at `step`
+/// is the full checkpoint `base` run on by the loading's own steps ([`Drive::step`]) up to
+/// `step`. The loading between checkpoints changes nothing but the engine state, and the engine
+/// is deterministic, so the regenerated state is the one the loading had, to the bit (tested).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct CheckpointReference {
+    /// Index k.
+    pub index: u64,
+    /// Index of the full checkpoint the state is regenerated from.
+    pub base: u64,
+    /// Engine step of this checkpoint.
+    pub step: u64,
+    /// Strain (ε_xx, ε_yy) at this checkpoint (from the loading's strain tracker, whose
+    /// reference configurations the engine state does not hold).
+    pub strain: (f64, f64),
+}
+
+/// What a checkpoint file holds.
+#[derive(Clone, Debug)]
+pub enum StoredCheckpoint {
+    /// The complete state.
+    Full(Box<StrainCheckpoint>),
+    /// A reference to be regenerated from a full checkpoint.
+    Reference(CheckpointReference),
+}
+
+/// Writes a strain checkpoint, compressed (raw deflate, level 6, of its bincode), atomically.
+/// Positions, velocities and contact histories are float64 values with mostly random low
+/// bytes, so the gain is modest (≈ 30 %; measured in docs/e2.md) but free: compressing a
+/// 128 × 128 state takes a fraction of a second.
+pub fn save_checkpoint(path: &Path, ck: &StrainCheckpoint) -> Result<()> {
+    use std::io::Write;
+    let raw = bincode::serialize(ck).map_err(|e| CoreError::Inconsistent(format!("cannot serialize checkpoint: {e}")))?;
+    let mut enc = flate2::write::DeflateEncoder::new(Vec::with_capacity(raw.len() / 2), flate2::Compression::new(6));
+    enc.write_all(&raw).and_then(|_| enc.flush()).map_err(|e| CoreError::Inconsistent(format!("cannot compress checkpoint: {e}")))?;
+    let z = enc.finish().map_err(|e| CoreError::Inconsistent(format!("cannot compress checkpoint: {e}")))?;
+    grainwave_core::checkpoint::save(path, COMPRESSED_TAG, &z)?;
+    Ok(())
+}
+
+/// Writes a reference checkpoint atomically.
+pub fn save_reference(path: &Path, r: &CheckpointReference) -> Result<()> {
+    grainwave_core::checkpoint::save(path, REFERENCE_TAG, r)?;
+    Ok(())
+}
+
+/// Decodes checkpoint file bytes of any of the three kinds (`path` names the file in errors).
+pub fn decode_checkpoint(bytes: &[u8], path: &str) -> Result<StoredCheckpoint> {
+    use grainwave_core::checkpoint::{decode, verify};
+    let (tag, _) = verify(bytes, path)?;
+    let bad = |reason: String| CoreError::Checkpoint { path: path.into(), reason };
+    match tag.as_str() {
+        CHECKPOINT_TAG => Ok(StoredCheckpoint::Full(Box::new(decode(bytes, CHECKPOINT_TAG, path)?))),
+        REFERENCE_TAG => Ok(StoredCheckpoint::Reference(decode(bytes, REFERENCE_TAG, path)?)),
+        COMPRESSED_TAG => {
+            use bincode::Options;
+            use std::io::Read;
+            let z: Vec<u8> = decode(bytes, COMPRESSED_TAG, path)?;
+            // deflate expands at most ≈ 1032:1; the bound keeps a corrupted stream from
+            // allocating more than any valid one could
+            let limit = 1100 * z.len() as u64 + 4096;
+            let mut raw = Vec::new();
+            flate2::read::DeflateDecoder::new(&z[..])
+                .take(limit)
+                .read_to_end(&mut raw)
+                .map_err(|e| bad(format!("cannot decompress state: {e}")))?;
+            let ck = bincode::DefaultOptions::new()
+                .with_fixint_encoding()
+                .allow_trailing_bytes()
+                .with_limit(raw.len() as u64)
+                .deserialize(&raw)
+                .map_err(|e| bad(format!("cannot decode state: {e}")))?;
+            Ok(StoredCheckpoint::Full(Box::new(ck)))
+        }
+        other => Err(bad(format!("holds `{other}`, expected an e2 strain checkpoint (`{COMPRESSED_TAG}`, `{REFERENCE_TAG}` or `{CHECKPOINT_TAG}`)")).into()),
+    }
+}
+
+/// Reads a checkpoint file of any of the three kinds.
+pub fn read_checkpoint(path: &Path) -> Result<StoredCheckpoint> {
+    let bytes = std::fs::read(path).map_err(|e| CoreError::Io { action: "cannot read".into(), path: path.display().to_string(), error: e })?;
+    decode_checkpoint(&bytes, &path.display().to_string())
+}
+
+/// Reads a checkpoint file that must hold a complete state (a replay's `final.gwck`, or a full
+/// strain checkpoint).
+pub fn read_full_checkpoint(path: &Path) -> Result<StrainCheckpoint> {
+    match read_checkpoint(path)? {
+        StoredCheckpoint::Full(ck) => Ok(*ck),
+        StoredCheckpoint::Reference(r) => Err(CoreError::Checkpoint {
+            path: path.display().to_string(),
+            reason: format!("is a reference to full checkpoint {}, not a complete state", r.base),
+        }
+        .into()),
+    }
+}
+
+/// Regenerates the state of reference `r` from its full checkpoint `base`: the loading's steps
+/// (the drive of the checkpoint, set before every step) from `base.sim.step` to `r.step`.
+/// `interrupted` is asked every 1000 steps; None when it says yes.
+pub fn regenerate(base: StrainCheckpoint, r: &CheckpointReference, interrupted: &mut dyn FnMut() -> bool) -> Result<Option<StrainCheckpoint>> {
+    if base.index != r.base || base.sim.step > r.step {
+        return Err(CoreError::Inconsistent(format!(
+            "checkpoint {} refers to full checkpoint {} at a step ≤ {}, but that file holds checkpoint {} at step {}",
+            r.index, r.base, r.step, base.index, base.sim.step
+        ))
+        .into());
+    }
+    let StrainCheckpoint { sim, drive, units, .. } = base;
+    let mut sim = sim;
+    while sim.step < r.step {
+        if sim.step % 1000 == 0 && interrupted() {
+            return Ok(None);
+        }
+        drive.step(&mut sim)?;
+    }
+    Ok(Some(StrainCheckpoint { index: r.index, sim, drive, strain: r.strain, units }))
+}
 
 /// A checkpoint of the biaxial test: everything a replay needs.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -65,6 +191,14 @@ pub struct CheckpointEntry {
     pub stress_xx: f64,
     /// Sliding contacts M_s.
     pub sliding: u64,
+    /// A full checkpoint (false: a [`CheckpointReference`]). States saved by versions that
+    /// wrote only full checkpoints read as full.
+    #[serde(default = "full_default")]
+    pub full: bool,
+}
+
+fn full_default() -> bool {
+    true
 }
 
 /// Columns of the loading series.
@@ -235,11 +369,20 @@ pub fn start_loading(sim: &mut Simulation<D2>, cfg: &E2Config) -> Result<Loading
 }
 
 fn write_index(dir: &Path, entries: &[CheckpointEntry]) -> Result<()> {
-    let mut s = String::from("index,step,time,strain_yy,strain_xx,stress_yy,stress_xx,sliding,file\n");
+    let mut s = String::from("index,step,time,strain_yy,strain_xx,stress_yy,stress_xx,sliding,file,kind\n");
     for e in entries {
         s.push_str(&format!(
-            "{},{},{:.17e},{:.17e},{:.17e},{:.17e},{:.17e},{},checkpoints/ck-{:06}.gwck\n",
-            e.index, e.step, e.time, e.strain_yy, e.strain_xx, e.stress_yy, e.stress_xx, e.sliding, e.index
+            "{},{},{:.17e},{:.17e},{:.17e},{:.17e},{:.17e},{},checkpoints/ck-{:06}.gwck,{}\n",
+            e.index,
+            e.step,
+            e.time,
+            e.strain_yy,
+            e.strain_xx,
+            e.stress_yy,
+            e.stress_xx,
+            e.sliding,
+            e.index,
+            if e.full { "full" } else { "reference" }
         ));
     }
     grainwave_core::checkpoint::atomic_write(&dir.join("checkpoints").join("index.csv"), s.as_bytes())?;
@@ -300,8 +443,19 @@ pub fn load(
                 let due = lc.checkpoint_strain > 0.0 && (loading.next_checkpoint == 0 || eyy.abs() >= loading.next_checkpoint as f64 * lc.checkpoint_strain);
                 if due {
                     let k = loading.next_checkpoint;
-                    let ck = StrainCheckpoint { index: k, sim: sim.clone(), drive: loading.drive.clone(), strain: (exx, eyy), units: *units };
-                    grainwave_core::checkpoint::save(&checkpoint_path(&dir, k), CHECKPOINT_TAG, &ck)?;
+                    // full checkpoints at k = 0, every `full_checkpoint_every`-th index and at the
+                    // end of the loading (the states replays start from); references in between
+                    let last = eyy.abs() >= lc.final_strain;
+                    let every = lc.full_checkpoint_every.max(1);
+                    let base = loading.checkpoints.iter().rev().find(|e| e.full).map(|e| e.index);
+                    let full = k == 0 || last || base.is_none() || base.is_some_and(|b| k >= b + every);
+                    if full {
+                        let ck = StrainCheckpoint { index: k, sim: sim.clone(), drive: loading.drive.clone(), strain: (exx, eyy), units: *units };
+                        save_checkpoint(&checkpoint_path(&dir, k), &ck)?;
+                    } else {
+                        let r = CheckpointReference { index: k, base: base.expect("a full checkpoint before"), step: sim.step, strain: (exx, eyy) };
+                        save_reference(&checkpoint_path(&dir, k), &r)?;
+                    }
                     loading.checkpoints.push(CheckpointEntry {
                         index: k,
                         step: sim.step,
@@ -311,6 +465,7 @@ pub fn load(
                         stress_yy: row[3],
                         stress_xx: row[4],
                         sliding: sim.counters.sliding,
+                        full,
                     });
                     write_index(&dir, &loading.checkpoints)?;
                     loading.next_checkpoint = (eyy.abs() / lc.checkpoint_strain).floor() as u64 + 1;

@@ -184,6 +184,12 @@ pub struct LoadingConfig {
     pub final_strain: f64,
     /// Write a checkpoint every this much |ε_yy| (SPEC: 1e-5); 0 writes none.
     pub checkpoint_strain: f64,
+    /// Keep the complete (compressed) state only in checkpoint 0, every this-many-th checkpoint
+    /// and the last; the others are references (step and strain, a few hundred bytes) whose
+    /// state a replay regenerates, to the bit, by running the loading on from the full
+    /// checkpoint before it (at most this many − 1 checkpoint intervals of loading). 1 keeps
+    /// every state [checkpoints].
+    pub full_checkpoint_every: u64,
     /// Re-reference the displacements of the strain regression each time the strain since the
     /// last reference exceeds this (SPEC: 1e-5).
     pub reference_strain: f64,
@@ -198,6 +204,7 @@ impl Default for LoadingConfig {
             strain_rate: 2e-5,
             final_strain: 0.01,
             checkpoint_strain: 1e-5,
+            full_checkpoint_every: 10,
             reference_strain: 1e-5,
             sample_every: 20,
         }
@@ -394,16 +401,55 @@ pub struct StaticLimitConfig {
     pub static_state: Option<String>,
     /// Replay of the deforming packing (a checkpoint of the loading): c_d.
     pub deforming: Option<String>,
+    /// More wall-pulse replays (e.g. the static states stopped over other t_s, or reached from
+    /// other γ) drawn with the four states in `static_limit_speeds` (speed against |p_a|, the
+    /// Fig. 10/11 style of the published study).
+    pub variants: Vec<String>,
 }
 
-/// Names of two wall-pulse replays of the same state with equal amplitudes.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+/// Names of two wall-pulse replays of the same state with equal amplitudes, and of more such
+/// pairs (`states`) for the anisotropy of each state.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields, default)]
 pub struct AnisotropyConfig {
     /// Replay with `pulse_wall = "top"`: c₁ along y.
     pub along_y: Option<String>,
     /// Replay with `pulse_wall = "right"`: c₂ along x.
     pub along_x: Option<String>,
+    /// Label of the state of `along_y`/`along_x` in `anisotropy.csv`.
+    pub state: String,
+    /// More states, each a pair of replays like `along_y`/`along_x`.
+    pub states: Vec<AnisotropyPair>,
+}
+
+impl Default for AnisotropyConfig {
+    fn default() -> Self {
+        AnisotropyConfig { along_y: None, along_x: None, state: "static".into(), states: Vec::new() }
+    }
+}
+
+/// One state of the anisotropy table.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize, JsonSchema)]
+#[serde(deny_unknown_fields)]
+pub struct AnisotropyPair {
+    /// Label of the state in `anisotropy.csv`.
+    pub state: String,
+    /// Replay with `pulse_wall = "top"`: c₁ along y.
+    pub along_y: String,
+    /// Replay with `pulse_wall = "right"`: c₂ along x.
+    pub along_x: String,
+}
+
+impl AnisotropyConfig {
+    /// Every configured state: (label, along_y, along_x).
+    pub fn pairs(&self) -> Vec<(String, String, String)> {
+        let mut v = Vec::new();
+        if let (Some(y), Some(x)) = (&self.along_y, &self.along_x) {
+            v.push((self.state.clone(), y.clone(), x.clone()));
+        }
+        v.extend(self.states.iter().map(|p| (p.state.clone(), p.along_y.clone(), p.along_x.clone())));
+        v
+    }
 }
 
 /// What to write.

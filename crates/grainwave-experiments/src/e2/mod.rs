@@ -20,7 +20,7 @@ pub mod strain;
 pub use config::E2Config;
 pub use outputs::E2Summary;
 
-use crate::config::{positive, ConfigError, ConfigSource};
+use crate::config::{non_negative, positive, ConfigError, ConfigSource};
 use crate::error::{ExperimentError, Result};
 use crate::protocol::RunContext;
 use biaxial::{Loading, PreparationInfo};
@@ -64,13 +64,6 @@ pub struct E2State {
     pub replays: Vec<outputs::ReplayReport>,
 }
 
-fn non_negative(src: &ConfigSource, key: &str, v: f64) -> Result<(), ConfigError> {
-    if v.is_finite() && v >= 0.0 {
-        Ok(())
-    } else {
-        Err(src.error_at_key(key, format!("{v} (allowed: a finite number ≥ 0)")))
-    }
-}
 
 /// Parses and validates an `e2` config.
 pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
@@ -119,6 +112,9 @@ pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
     }
     non_negative(src, "loading.checkpoint_strain", l.checkpoint_strain)?;
     positive(src, "loading.reference_strain", l.reference_strain)?;
+    if l.full_checkpoint_every == 0 {
+        return Err(src.error_at_key("loading.full_checkpoint_every", "0 (allowed: at least 1; 1 keeps every checkpoint's state)"));
+    }
     if l.sample_every == 0 {
         return Err(src.error_at_key("loading.sample_every", "0 (allowed: at least 1 step)"));
     }
@@ -234,12 +230,39 @@ pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
             amplitudes = Some(&q.amplitudes);
         }
     }
+    for (k, name) in sl.variants.iter().enumerate() {
+        let key = format!("static_limit.variants[{k}]");
+        let Some((_, q)) = cfg.replays.iter().enumerate().find(|(j, q)| q.name.clone().unwrap_or(format!("r{j}")) == *name) else {
+            return Err(src.error_at_key(&key, format!("`{name}` (allowed: the name of a wall_pulse replay of this file)")));
+        };
+        if q.modification != config::Modification::WallPulse {
+            return Err(src.error_at_key(&key, format!("`{name}` is a `{}` replay (allowed: a wall_pulse replay)", q.modification.name())));
+        }
+    }
     let an = &cfg.anisotropy;
     if an.along_y.is_some() != an.along_x.is_some() {
         return Err(src.error_at_key("anisotropy", "one of the two replays named (allowed: both of along_y, along_x, or none)"));
     }
+    let mut pairs: Vec<[(String, Option<String>, config::PulseWall); 2]> = vec![[
+        ("anisotropy.along_y".into(), an.along_y.clone(), config::PulseWall::Top),
+        ("anisotropy.along_x".into(), an.along_x.clone(), config::PulseWall::Right),
+    ]];
+    let mut labels = std::collections::BTreeSet::new();
+    if an.along_y.is_some() {
+        labels.insert(an.state.clone());
+    }
+    for (k, p) in an.states.iter().enumerate() {
+        if p.state.is_empty() || !labels.insert(p.state.clone()) {
+            return Err(src.error_at_key(&format!("anisotropy.states[{k}].state"), format!("\"{}\" (allowed: a label not empty and not used by another state)", p.state)));
+        }
+        pairs.push([
+            (format!("anisotropy.states[{k}].along_y"), Some(p.along_y.clone()), config::PulseWall::Top),
+            (format!("anisotropy.states[{k}].along_x"), Some(p.along_x.clone()), config::PulseWall::Right),
+        ]);
+    }
+    for pair in &pairs {
     let mut amplitudes: Option<&Vec<f64>> = None;
-    for (key, name, wall) in [("anisotropy.along_y", &an.along_y, config::PulseWall::Top), ("anisotropy.along_x", &an.along_x, config::PulseWall::Right)] {
+    for (key, name, wall) in pair.iter().map(|(k, n, w)| (k.as_str(), n, *w)) {
         if let Some(name) = name {
             let Some((_, q)) = cfg.replays.iter().enumerate().find(|(j, q)| q.name.clone().unwrap_or(format!("r{j}")) == *name) else {
                 return Err(src.error_at_key(key, format!("`{name}` (allowed: the name of a wall_pulse replay of this file)")));
@@ -255,6 +278,7 @@ pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
             }
             amplitudes = Some(&q.amplitudes);
         }
+    }
     }
     positive(src, "output.save_every", cfg.output.save_every)?;
     Ok(cfg)
@@ -312,7 +336,7 @@ impl E2State {
         let cfg = self.config.clone();
         let started = std::time::Instant::now();
         if self.stage != Stage::Finished {
-            write_resolved_config(ctx, &cfg)?;
+            crate::outputs::write_resolved_config(ctx.out_dir(), "e2", &cfg, "")?;
         }
         if self.stage == Stage::Preparing {
             if self.sim.is_none() {
@@ -427,17 +451,6 @@ impl E2State {
     }
 }
 
-/// Writes `config.resolved.toml`.
-fn write_resolved_config(ctx: &RunContext<'_>, config: &E2Config) -> Result<()> {
-    let text = toml::to_string_pretty(config).expect("a config serializes to TOML");
-    let header = format!(
-        "# The config of this run with every default filled in (grainwave {}). Running it again gives\n\
-         # the same results.\n\n",
-        grainwave_core::VERSION
-    );
-    grainwave_core::checkpoint::atomic_write(&ctx.path("config.resolved.toml"), format!("{header}{text}").as_bytes())?;
-    Ok(())
-}
 
 /// Re-makes the plots and the summary of the finished run in `dir` (`grainwave plot DIR`).
 pub fn replot(dir: &std::path::Path, state: &E2State) -> Result<Vec<String>> {

@@ -144,8 +144,10 @@ pub struct E2Summary {
     pub replays: Vec<ReplayReport>,
     /// The Δc/c₀ decomposition (SPEC §6.6), one row per amplitude.
     pub static_limit: Vec<StaticLimitRow>,
-    /// The anisotropy (SPEC §6.6), one row per amplitude.
+    /// The anisotropy (SPEC §6.6), one row per state and amplitude.
     pub anisotropy: Vec<AnisotropyRow>,
+    /// Every amplitude of every paired replay: speed, M_s before and after the pulse.
+    pub pulses: Vec<PulseRow>,
     /// Wall-clock seconds of this process [s].
     pub wall_seconds: f64,
     /// Files written, relative to the output directory.
@@ -225,8 +227,15 @@ pub fn checkpoint_indices(dir: &Path) -> Vec<u64> {
     v
 }
 
-/// Loads checkpoint `k` (−1: the last) of the run in `source`.
+/// Loads checkpoint `k` (−1: the last) of the run in `source`; a reference checkpoint is
+/// regenerated from its full checkpoint ([`biaxial::regenerate`]).
 pub fn load_checkpoint(source: &Path, k: i64) -> Result<StrainCheckpoint> {
+    load_checkpoint_with(source, k, &mut |_| {}, &mut || false).map(|c| c.expect("not interrupted"))
+}
+
+/// [`load_checkpoint`], telling `log` when it regenerates a state and asking `interrupted`
+/// every 1000 steps of the regeneration (None: interrupted).
+pub fn load_checkpoint_with(source: &Path, k: i64, log: &mut dyn FnMut(&str), interrupted: &mut dyn FnMut() -> bool) -> Result<Option<StrainCheckpoint>> {
     let have = checkpoint_indices(source);
     let index = if k < 0 { have.last().copied() } else { have.iter().copied().find(|&i| i == k as u64) };
     let Some(index) = index else {
@@ -235,7 +244,18 @@ pub fn load_checkpoint(source: &Path, k: i64) -> Result<StrainCheckpoint> {
             reason: format!("no checkpoint {k} in {}/checkpoints (present: {:?})", source.display(), have),
         });
     };
-    Ok(grainwave_core::checkpoint::load(&biaxial::checkpoint_path(source, index), biaxial::CHECKPOINT_TAG)?)
+    match biaxial::read_checkpoint(&biaxial::checkpoint_path(source, index))? {
+        biaxial::StoredCheckpoint::Full(ck) => Ok(Some(*ck)),
+        biaxial::StoredCheckpoint::Reference(r) => {
+            let base = biaxial::read_full_checkpoint(&biaxial::checkpoint_path(source, r.base))?;
+            log(&format!(
+                "checkpoint {index} is a reference: regenerating its state from full checkpoint {} ({} steps of the loading)",
+                r.base,
+                r.step.saturating_sub(base.sim.step)
+            ));
+            biaxial::regenerate(base, &r, interrupted)
+        }
+    }
 }
 
 fn write_csv(path: &Path, header: &str, rows: impl Iterator<Item = String>) -> Result<()> {
@@ -284,8 +304,15 @@ pub fn run_replay(ctx: &mut RunContext<'_>, cfg: &E2Config, k: usize, source: &P
     let dir = out_root.join("replays").join(&name);
     std::fs::create_dir_all(&dir).map_err(|e| CoreError::Io { action: "cannot create".into(), path: dir.display().to_string(), error: e })?;
     let ck = match &rc.from {
-        Some(from) => grainwave_core::checkpoint::load(&out_root.join("replays").join(from).join("final.gwck"), biaxial::CHECKPOINT_TAG)?,
-        None => load_checkpoint(source, rc.checkpoint)?,
+        Some(from) => biaxial::read_full_checkpoint(&out_root.join("replays").join(from).join("final.gwck"))?,
+        None => {
+            let stop = ctx.interrupt_flag();
+            let mut log = |m: &str| ctx.log(&format!("replay {name}: {m}"));
+            match load_checkpoint_with(source, rc.checkpoint, &mut log, &mut || stop.load(std::sync::atomic::Ordering::Relaxed))? {
+                Some(ck) => ck,
+                None => return Ok(None),
+            }
+        }
     };
     let u = ck.units;
     ctx.reporter.stage(&format!("replay {name}"), None);
@@ -578,7 +605,7 @@ pub fn run_replay(ctx: &mut RunContext<'_>, cfg: &E2Config, k: usize, source: &P
             last[0]
         ));
         let end = StrainCheckpoint { index: ck.index, sim: sim.clone(), drive, strain: ck.strain, units: u };
-        grainwave_core::checkpoint::save(&dir.join("final.gwck"), biaxial::CHECKPOINT_TAG, &end)?;
+        biaxial::save_checkpoint(&dir.join("final.gwck"), &end)?;
         let _ = std::fs::remove_file(&partial_path);
         report.single =
             Some(SingleReport {
@@ -622,9 +649,11 @@ pub struct StaticLimitRow {
     pub static_mobilised: [u64; 3],
 }
 
-/// One amplitude of the anisotropy table.
+/// One amplitude of one state of the anisotropy table.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct AnisotropyRow {
+    /// Label of the state (`anisotropy.state`, `anisotropy.states[].state`).
+    pub state: String,
     /// p_a.
     pub amplitude: f64,
     /// c₁ along y [v_a].
@@ -635,19 +664,19 @@ pub struct AnisotropyRow {
     pub anisotropy: Option<f64>,
 }
 
-/// The anisotropy table of the replays named in `[anisotropy]` (empty when not configured).
+/// The anisotropy table of the replays named in `[anisotropy]`, state by state (empty when not
+/// configured; a state whose replays have not run yet is left out).
 pub fn anisotropy_rows(cfg: &E2Config, replays: &[ReplayReport]) -> Vec<AnisotropyRow> {
-    let (Some(y), Some(x)) = (&cfg.anisotropy.along_y, &cfg.anisotropy.along_x) else {
-        return Vec::new();
-    };
-    let (Some(y), Some(x)) = (replays.iter().find(|r| r.name == *y), replays.iter().find(|r| r.name == *x)) else {
-        return Vec::new();
-    };
-    (0..y.pairs.len())
-        .map(|k| {
+    let mut rows = Vec::new();
+    for (state, y, x) in cfg.anisotropy.pairs() {
+        let (Some(y), Some(x)) = (replays.iter().find(|r| r.name == y), replays.iter().find(|r| r.name == x)) else {
+            continue;
+        };
+        rows.extend((0..y.pairs.len()).map(|k| {
             let c1 = y.pairs[k].speed;
             let c2 = x.pairs.get(k).and_then(|p| p.speed);
             AnisotropyRow {
+                state: state.clone(),
                 amplitude: y.pairs[k].amplitude,
                 along_y: c1,
                 along_x: c2,
@@ -656,6 +685,48 @@ pub fn anisotropy_rows(cfg: &E2Config, replays: &[ReplayReport]) -> Vec<Anisotro
                     _ => None,
                 },
             }
+        }));
+    }
+    rows
+}
+
+/// One amplitude of one paired replay: speed and M_s at rest before and after the pulse
+/// (`pulses.csv`).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct PulseRow {
+    /// Replay name.
+    pub replay: String,
+    /// Checkpoint of the loading it descends from.
+    pub checkpoint: u64,
+    /// ε_yy of that checkpoint.
+    pub strain_yy: f64,
+    /// Amplitude (p_a [t*] for a δ pulse).
+    pub amplitude: f64,
+    /// Pulse speed [v_a].
+    pub speed: Option<f64>,
+    /// M_s by mobilisation at the start, at the end with the pulse, at the end without.
+    pub mobilised: [u64; 3],
+    /// M_s by the cap flag at the start, at the end with the pulse, at the end without.
+    pub flagged: [u64; 3],
+    /// Largest |M_s(with) − M_s(without)| (cap flag) during the replay.
+    pub max_sliding_difference: i64,
+}
+
+/// Every amplitude of every paired replay, in the order of the config.
+pub fn pulse_rows(replays: &[ReplayReport]) -> Vec<PulseRow> {
+    replays
+        .iter()
+        .flat_map(|r| {
+            r.pairs.iter().map(|p| PulseRow {
+                replay: r.name.clone(),
+                checkpoint: r.checkpoint,
+                strain_yy: r.strain_yy,
+                amplitude: p.amplitude,
+                speed: p.speed,
+                mobilised: p.mobilised,
+                flagged: p.flagged,
+                max_sliding_difference: p.max_sliding_difference,
+            })
         })
         .collect()
 }
@@ -695,7 +766,7 @@ pub fn static_limit_rows(cfg: &E2Config, replays: &[ReplayReport]) -> Vec<Static
         .collect()
 }
 
-fn write_static_limit(dir: &Path, cfg: &E2Config, rows: &[StaticLimitRow]) -> Result<()> {
+fn write_static_limit(dir: &Path, cfg: &E2Config, rows: &[StaticLimitRow], replays: &[ReplayReport]) -> Result<()> {
     if rows.is_empty() {
         return Ok(());
     }
@@ -734,6 +805,19 @@ fn write_static_limit(dir: &Path, cfg: &E2Config, rows: &[StaticLimitRow]) -> Re
                     let x: Vec<f64> = pts.iter().map(|p| p.0).collect();
                     let y: Vec<f64> = pts.iter().map(|p| p.1).collect();
                     plot = if sign > 0.0 { plot.series(&format!("{label}, {name}"), &x, &y) } else { plot.dashed(&format!("{label}, {name}"), &x, &y) };
+                }
+            }
+        }
+        // the variants (other t_s, other γ): the same axes
+        for name in &cfg.static_limit.variants {
+            let Some(r) = replays.iter().find(|r| r.name == *name) else { continue };
+            for (sign, kind) in [(1.0, "compression"), (-1.0, "rarefaction")] {
+                let pts: Vec<(f64, f64)> = r.pairs.iter().filter(|p| p.amplitude * sign > 0.0).filter_map(|p| p.speed.map(|c| (p.amplitude.abs(), c))).collect();
+                if !pts.is_empty() {
+                    any = true;
+                    let x: Vec<f64> = pts.iter().map(|p| p.0).collect();
+                    let y: Vec<f64> = pts.iter().map(|p| p.1).collect();
+                    plot = if sign > 0.0 { plot.series(&format!("{name}, {kind}"), &x, &y) } else { plot.dashed(&format!("{name}, {kind}"), &x, &y) };
                 }
             }
         }
@@ -808,14 +892,38 @@ pub fn write_summary(dir: &Path, state: &E2State, wall_seconds: f64) -> Result<E
         }
     });
     let static_limit = static_limit_rows(&state.config, &state.replays);
-    write_static_limit(dir, &state.config, &static_limit)?;
+    write_static_limit(dir, &state.config, &static_limit, &state.replays)?;
+    let f = |x: Option<f64>| x.map(|v| format!("{v:.9e}")).unwrap_or_default();
     let anisotropy = anisotropy_rows(&state.config, &state.replays);
     if !anisotropy.is_empty() {
-        let f = |x: Option<f64>| x.map(|v| format!("{v:.9e}")).unwrap_or_default();
         write_csv(
             &dir.join("anisotropy.csv"),
-            "amplitude,along_y,along_x,anisotropy",
-            anisotropy.iter().map(|r| format!("{:e},{},{},{}", r.amplitude, f(r.along_y), f(r.along_x), f(r.anisotropy))),
+            "state,amplitude,along_y,along_x,anisotropy",
+            anisotropy.iter().map(|r| format!("{},{:e},{},{},{}", r.state, r.amplitude, f(r.along_y), f(r.along_x), f(r.anisotropy))),
+        )?;
+    }
+    let pulses = pulse_rows(&state.replays);
+    if !pulses.is_empty() {
+        write_csv(
+            &dir.join("pulses.csv"),
+            "replay,checkpoint,strain_yy,amplitude,speed,mobilised_start,mobilised_end_with,mobilised_end_without,flagged_start,flagged_end_with,flagged_end_without,max_sliding_difference",
+            pulses.iter().map(|r| {
+                format!(
+                    "{},{},{:e},{:e},{},{},{},{},{},{},{},{}",
+                    r.replay,
+                    r.checkpoint,
+                    r.strain_yy,
+                    r.amplitude,
+                    f(r.speed),
+                    r.mobilised[0],
+                    r.mobilised[1],
+                    r.mobilised[2],
+                    r.flagged[0],
+                    r.flagged[1],
+                    r.flagged[2],
+                    r.max_sliding_difference
+                )
+            }),
         )?;
     }
     let mut files = Vec::new();
@@ -839,10 +947,11 @@ pub fn write_summary(dir: &Path, state: &E2State, wall_seconds: f64) -> Result<E
         replays: state.replays.clone(),
         static_limit,
         anisotropy,
+        pulses,
         wall_seconds,
         files,
     };
-    grainwave_io::write_json_atomic(&dir.join("summary.json"), &s)?;
+    crate::outputs::write_summary(dir, &s)?;
     let _ = Stage::Finished;
     Ok(s)
 }

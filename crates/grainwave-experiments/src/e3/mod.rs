@@ -3,12 +3,13 @@
 //! network changes, ensembles and sweeps with a single/double-peak classifier, superposition, a
 //! pile variant and lattice elasticity. See docs/e3.md.
 //!
-//! A run is a [`plan::Plan`] of units: one reference state per case (parameter set × seed) and
-//! one relaxation per response run (a force, or a pair of forces, applied to a reference). Units
-//! run in parallel on the rayon pool and are persisted as they complete ([`units`]); the protocol
-//! state in `checkpoint.gwck` records which are done, so `grainwave resume` redoes nothing that
-//! finished and continues interrupted units from their own checkpoints. Once every unit is done,
-//! the aggregates, tables, plots and the summary are written ([`outputs`]).
+//! A run is a [`plan::Plan`] of units of work: one reference state per case (parameter set ×
+//! seed), one relaxation per response run (a force, or a pair of forces, applied to a reference)
+//! and optionally one first-opening bisection per case ([`work`]). The scheduler
+//! ([`crate::work::Scheduler`]) runs them in parallel and persists each as it completes; the
+//! protocol state in `checkpoint.gwck` records which are done, so `grainwave resume` redoes
+//! nothing that finished and continues interrupted units from their own checkpoints. Once every
+//! unit is done, the aggregates, tables, plots and the summary are written ([`outputs`]).
 
 pub mod config;
 pub mod measure;
@@ -16,12 +17,12 @@ pub mod outputs;
 pub mod plan;
 pub mod relax;
 pub mod slab;
-pub mod units;
+pub mod work;
 
 pub use config::E3Config;
 pub use outputs::E3Summary;
 
-use crate::config::{positive, ConfigError, ConfigSource};
+use crate::config::{non_negative, positive, ConfigError, ConfigSource};
 use crate::error::Result;
 use crate::protocol::RunContext;
 use config::Mode;
@@ -45,11 +46,51 @@ pub struct E3State {
     pub finished: bool,
 }
 
-fn non_negative(src: &ConfigSource, key: &str, v: f64) -> Result<(), ConfigError> {
-    if v >= 0.0 && !v.is_nan() {
-        Ok(())
-    } else {
-        Err(src.error_at_key(key, format!("{v} (allowed: a number ≥ 0)")))
+
+/// A validated `e3` config and the plan of its units.
+pub struct E3Spec {
+    /// The config.
+    pub config: E3Config,
+    /// Its parameter sets, cases and response runs.
+    pub plan: Plan,
+}
+
+/// The `e3` protocol: its spec is the config with its [`Plan`]; its units are the reference
+/// states, response runs and bisections ([`work::E3Work`]).
+pub struct E3Protocol;
+
+impl crate::study::Protocol for E3Protocol {
+    const NAME: &'static str = "e3";
+    const TAG: &'static str = TAG;
+    const REFERENCE: &'static str = "The response of a gravity-loaded granular slab to a localized force (SPEC §7; see docs/e3.md). Units: length R̄\n\
+         (the largest radius), mass m̄ (a disk of radius R̄), time τ = √(R̄/g), force m̄g.";
+    type Config = E3Config;
+    type Spec = E3Spec;
+    type State = E3State;
+    type Report = E3Summary;
+
+    fn validate(src: &ConfigSource) -> Result<E3Spec, ConfigError> {
+        let config = prepare(src)?;
+        let plan = Plan::new(&config);
+        Ok(E3Spec { config, plan })
+    }
+    fn describe(spec: &E3Spec) -> Vec<String> {
+        describe_plan(&spec.config, &spec.plan)
+    }
+    fn start(spec: E3Spec) -> E3State {
+        E3State::new(spec.config)
+    }
+    fn config(state: &E3State) -> &E3Config {
+        &state.config
+    }
+    fn run(state: &mut E3State, ctx: &mut RunContext<'_>) -> Result<E3Summary> {
+        state.run(ctx)
+    }
+    fn summary_lines(report: &E3Summary, out: &std::path::Path) -> Vec<String> {
+        summary_lines(report, out)
+    }
+    fn replot(dir: &std::path::Path, state: &E3State) -> Result<Vec<String>> {
+        replot(dir, state)
     }
 }
 
@@ -244,7 +285,11 @@ pub fn prepare(src: &ConfigSource) -> Result<E3Config, ConfigError> {
 
 /// Lines of `grainwave check` for a valid `e3` config.
 pub fn describe(cfg: &E3Config) -> Vec<String> {
-    let plan = Plan::new(cfg);
+    describe_plan(cfg, &Plan::new(cfg))
+}
+
+/// Lines of `grainwave check` for a valid `e3` config and its plan.
+fn describe_plan(cfg: &E3Config, plan: &Plan) -> Vec<String> {
     let mut v = vec![format!("experiment   e3, mode {}, seed {}, {} sample(s) per disordered set", cfg.mode.name(), cfg.seed, cfg.samples)];
     if cfg.mode == Mode::LatticeElasticity {
         v.push(format!("lattice      spacing {}, horizontal {:?}, oblique {:?}", cfg.lattice.spacing, cfg.lattice.horizontal, cfg.lattice.oblique));
@@ -275,6 +320,10 @@ pub fn describe(cfg: &E3Config) -> Vec<String> {
     v
 }
 
+/// What `config.resolved.toml` says about the keys computed during the run.
+const RESOLVED_NOTE: &str = "Keys left out are computed per parameter set (dashpots from the stiffnesses, wall friction\n\
+                             from μ, the kinetic-energy limit from δ; see docs/e3.md).";
+
 impl E3State {
     /// A fresh state.
     pub fn new(config: E3Config) -> Self {
@@ -287,7 +336,7 @@ impl E3State {
         let cfg = self.config.clone();
         let plan = Plan::new(&cfg);
         if !self.finished {
-            write_resolved_config(ctx, &cfg)?;
+            crate::outputs::write_resolved_config(ctx.out_dir(), "e3", &cfg, RESOLVED_NOTE)?;
             ctx.log(&format!("e3 {}: {} reference state(s), {} response run(s)", cfg.mode.name(), plan.cases.len(), plan.runs.len()));
             let save = |ctx: &mut RunContext<'_>, refs: &[bool], runs: &[bool]| -> Result<()> {
                 let state = E3State { config: cfg.clone(), references_done: refs.to_vec(), runs_done: runs.to_vec(), finished: false };
@@ -302,9 +351,13 @@ impl E3State {
                              changes: &grainwave_analysis::network::NetworkChanges<grainwave_core::dim::D2>,
                              reference_field: Option<&measure::FieldData>|
              -> Result<()> { outputs::write_run_files(out, &cfg, &plan, run, result, reference, after, changes, reference_field) };
-            units::execute(ctx, &cfg, &plan, &mut self.references_done, &mut self.runs_done, &save, &write_run)?;
-            if cfg.first_opening.bisection {
-                units::bisect_first_opening(ctx, &cfg, &plan)?;
+            let out = ctx.out_dir().to_path_buf();
+            let work = work::E3Work::new(&cfg, &plan, &out, &self.references_done, &self.runs_done, &write_run, &save);
+            let mut scheduler = crate::work::Scheduler::new(&work);
+            let finished = scheduler.run(ctx);
+            (self.references_done, self.runs_done) = work.flags(scheduler.done());
+            if finished? == crate::work::Finished::Interrupted {
+                return Err(ctx.interrupted_error(TAG, self));
             }
         }
         let summary = outputs::write_final(ctx.out_dir(), &cfg, &plan)?;
@@ -314,18 +367,6 @@ impl E3State {
     }
 }
 
-/// Writes `config.resolved.toml`.
-fn write_resolved_config(ctx: &RunContext<'_>, config: &E3Config) -> Result<()> {
-    let text = toml::to_string_pretty(config).expect("a config serializes to TOML");
-    let header = format!(
-        "# The config of this run with every default filled in (grainwave {}). Keys left out are\n\
-         # computed per parameter set (dashpots from the stiffnesses, wall friction from μ, the\n\
-         # kinetic-energy limit from δ; see docs/e3.md). Running it again gives the same results.\n\n",
-        grainwave_core::VERSION
-    );
-    grainwave_core::checkpoint::atomic_write(&ctx.path("config.resolved.toml"), format!("{header}{text}").as_bytes())?;
-    Ok(())
-}
 
 /// Re-makes the aggregate outputs (tables, plots, summary) of the finished run in `dir` from its
 /// saved units (`grainwave plot DIR`); returns the files written. Per-run pictures are made when a
@@ -341,4 +382,47 @@ pub fn replot(dir: &std::path::Path, state: &E3State) -> Result<Vec<String>> {
 pub fn run_config(src: &ConfigSource, ctx: &mut RunContext<'_>) -> Result<E3Summary> {
     let cfg = prepare(src)?;
     E3State::new(cfg).run(ctx)
+}
+
+/// The lines `grainwave run` prints at the end.
+pub fn summary_lines(r: &E3Summary, out: &std::path::Path) -> Vec<String> {
+    let mut lines = vec![format!("e3 {}: {} parameter set(s)", r.mode, r.groups.len())];
+    for g in &r.groups {
+        for c in g.cases.iter().take(3) {
+            lines.push(format!(
+                "reference    {} seed {}: floor carries {:.9} × the weight, max acceleration {:.2e}",
+                g.label, c.seed, c.floor_over_weight, c.max_acceleration
+            ));
+        }
+        for a in &g.responses {
+            lines.push(format!(
+                "response     F = {} ({}): p(0)/F = {:.4e}, {} opened, {} sliding, {} peak",
+                a.force,
+                a.variant.name(),
+                a.response_at_zero.first().copied().unwrap_or(f64::NAN),
+                a.opened,
+                a.sliding,
+                a.classification.shape.name()
+            ));
+        }
+        if let Some(f) = &g.first_opening {
+            if let Some(e) = f.linear_estimate {
+                lines.push(format!("first opening  ≈ {e:.4} m̄g (linear estimate from F = {})", f.estimated_from.unwrap_or(f64::NAN)));
+            }
+        }
+    }
+    for s in &r.superposition {
+        lines.push(format!("superposition F = {}: per-contact deviation {:.2e}, profile {:.2e}", s.force, s.contact_max_deviation, s.profile_max_deviation.first().copied().unwrap_or(f64::NAN)));
+    }
+    for p in &r.piles {
+        lines.push(format!("pile         {}: floor/weight {:.9}, {} floor profile ({}, dip {:.4})", p.group, p.floor_over_weight, p.shape.name(), p.verdict_basis, p.dip));
+    }
+    if let Some(l) = &r.lattice {
+        lines.push(format!("lattice      a = {:.4}, b = {:.4}, c = {:.4}, d = {:.4}, r = {:.4} ({})", l.moduli.a, l.moduli.b, l.moduli.c, l.moduli.d, l.moduli.r, l.verdict));
+    }
+    if !r.not_converged.is_empty() {
+        lines.push(format!("warning      {} relaxation(s) did not converge: {}", r.not_converged.len(), r.not_converged.join(", ")));
+    }
+    lines.push(format!("outputs      {}/", out.display()));
+    lines
 }

@@ -4,13 +4,14 @@ use super::config::{E3Config, Mode};
 use super::measure::{self, FieldData, FloorContact, ModuliReport, RawVerdict, RunResult};
 use super::plan::{Group, Plan, RunSpec, Variant};
 use super::slab::{self, Material, Shape, Sites};
-use super::units::{self, ReferenceResult, StoredRun};
+use super::work::{self, ReferenceResult, StoredRun};
 use crate::error::Result;
 use grainwave_analysis::network::{ContactKey, NetworkChanges};
 use grainwave_analysis::peaks::{classify_profile, PeakClassification, PeakOptions, PeakShape};
 use grainwave_core::prelude::*;
 use grainwave_io::plot::{ContactChange, ContactChangePicture, ContactFate, FieldMap, LegendPosition, LinePlot, Network, PackingPicture};
 use grainwave_io::vtk::{write_grains_vtp, VtkCells, VtkDataSet, VtkFormat, VtkValues};
+use grainwave_analysis::ensemble::{mean_std, MeanStd};
 use grainwave_io::{write_csv_atomic, write_json_atomic, CsvTable, Npz, NpzCompression, Series};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -208,7 +209,7 @@ pub fn write_run_files(
     if cfg.output.plots {
         let title = format!("ΔF network, F_ext = {} m̄g ({})", run.force, plan.groups[plan.cases[run.case].group].label);
         let mut pic = ContactChangePicture::new(reference, &title).x_label("x [R̄]").y_label("z [R̄]").changes(&change_segments(changes, reference));
-        for (&(id, x, z), l) in result.loads.iter().zip(units::run_loads(cfg, plan, run)) {
+        for (&(id, x, z), l) in result.loads.iter().zip(work::run_loads(cfg, plan, run)) {
             let _ = id;
             pic = pic.force((x, z), (l.1.x, l.1.y));
         }
@@ -237,16 +238,6 @@ pub fn write_run_files(
     Ok(())
 }
 
-/// Mean and r.m.s. deviation.
-fn mean_std(v: &[f64]) -> (f64, f64) {
-    if v.is_empty() {
-        return (f64::NAN, f64::NAN);
-    }
-    let n = v.len() as f64;
-    let m = v.iter().sum::<f64>() / n;
-    let s = if v.len() > 1 { (v.iter().map(|x| (x - m) * (x - m)).sum::<f64>() / (n - 1.0)).sqrt() } else { 0.0 };
-    (m, s)
-}
 
 /// An ensemble of runs: one (group, force, variant) over the group's samples.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -330,7 +321,7 @@ pub fn aggregate(cfg: &E3Config, group: &Group, variant: Variant, rs: &[&RunResu
                     r.profiles[w][off + g]
                 })
                 .collect();
-            let (m, s) = mean_std(&vals);
+            let MeanStd { mean: m, std: s, .. } = mean_std(&vals);
             profiles[w][g] = m;
             profiles_std[w][g] = s;
         }
@@ -377,7 +368,7 @@ pub fn aggregate(cfg: &E3Config, group: &Group, variant: Variant, rs: &[&RunResu
         Some(v) => (v.shape, v.dip, "raw"),
         None => (classification.shape, classification.dip, "smoothed"),
     };
-    let field = |f: &dyn Fn(&RunResult) -> f64| mean_std(&rs.iter().map(|r| f(r)).collect::<Vec<_>>()).0;
+    let field = |f: &dyn Fn(&RunResult) -> f64| mean_std(&rs.iter().map(|r| f(r)).collect::<Vec<_>>()).mean;
     let linear: Vec<f64> = rs.iter().filter(|r| r.linear).filter_map(|r| r.first_opening_estimate).collect();
     Aggregate {
         group: group.label.clone(),
@@ -401,7 +392,7 @@ pub fn aggregate(cfg: &E3Config, group: &Group, variant: Variant, rs: &[&RunResu
         verdict_basis: verdict_basis.into(),
         r_bulk: field(&|r| r.moduli_bulk.r),
         r_load: field(&|r| r.moduli_load.r),
-        first_opening_estimate: if linear.is_empty() { None } else { Some(mean_std(&linear).0) },
+        first_opening_estimate: if linear.is_empty() { None } else { Some(mean_std(&linear).mean) },
         linear: rs.iter().filter(|r| r.linear).count(),
         grid,
         profiles,
@@ -479,7 +470,7 @@ pub struct GroupReport {
     /// First opening from the force list.
     pub first_opening: Option<FirstOpening>,
     /// First opening below the load by bisection, per reference state (`[first_opening]`).
-    pub first_opening_bisection: Vec<units::OpeningBisection>,
+    pub first_opening_bisection: Vec<work::OpeningBisection>,
 }
 
 /// Superposition check of one case and force.
@@ -638,7 +629,7 @@ pub fn write_final(out: &Path, cfg: &E3Config, plan: &Plan) -> Result<E3Summary>
     }
     let mut references: Vec<ReferenceResult> = Vec::with_capacity(plan.cases.len());
     for case in &plan.cases {
-        let r: ReferenceResult = grainwave_core::checkpoint::load(&units::reference_file(&out, case), units::REFERENCE_TAG)?;
+        let r: ReferenceResult = grainwave_core::checkpoint::load(&work::reference_file(&out, case), work::REFERENCE_TAG)?;
         timing.insert(format!("reference {}", case.label), r.wall_clock);
         if !r.outcome.converged {
             summary.not_converged.push(format!("reference {}", case.label));
@@ -647,7 +638,7 @@ pub fn write_final(out: &Path, cfg: &E3Config, plan: &Plan) -> Result<E3Summary>
     }
     let mut runs: Vec<RunResult> = Vec::with_capacity(plan.runs.len());
     for run in &plan.runs {
-        let s: StoredRun = grainwave_core::checkpoint::load(&units::run_file(&out, plan, run), units::RUN_TAG)?;
+        let s: StoredRun = grainwave_core::checkpoint::load(&work::run_file(&out, plan, run), work::RUN_TAG)?;
         timing.insert(format!("run {}/{}", plan.cases[run.case].label, run.label), s.wall_clock);
         if !s.result.outcome.converged {
             summary.not_converged.push(format!("run {}/{}", plan.cases[run.case].label, run.label));
@@ -700,14 +691,14 @@ pub fn write_final(out: &Path, cfg: &E3Config, plan: &Plan) -> Result<E3Summary>
         if cfg.first_opening.bisection && matches!(cfg.mode, Mode::Slab | Mode::Sweep) {
             for &c in &group.cases {
                 let case = &plan.cases[c];
-                let probes = units::read_bisection(&out, case)?;
+                let probes = work::read_bisection(&out, case)?;
                 for (k, p) in probes.iter().enumerate() {
                     timing.insert(format!("opening {}/opening_{k}", case.label), p.wall_clock);
                     if !p.converged {
                         summary.not_converged.push(format!("opening {}/opening_{k}", case.label));
                     }
                 }
-                bisections.push(units::summarize_bisection(cfg, case, probes));
+                bisections.push(work::summarize_bisection(cfg, case, probes));
             }
         }
         let (layers, m) = match group.shape {
@@ -745,7 +736,7 @@ pub fn write_final(out: &Path, cfg: &E3Config, plan: &Plan) -> Result<E3Summary>
         files.push("units/".into());
     }
     summary.files = files;
-    write_json_atomic(&out.join("summary.json"), &summary)?;
+    crate::outputs::write_summary(&out, &summary)?;
     write_json_atomic(&out.join("timing.json"), &timing)?;
     Ok(summary)
 }

@@ -132,7 +132,7 @@ impl SimulationState {
     /// directory. Returns the report.
     pub fn run(&mut self, ctx: &mut RunContext<'_>) -> Result<SimulationReport> {
         if self.outcome.is_none() {
-            outputs::write_resolved_config(ctx, &self.config)?;
+            crate::outputs::write_resolved_config(ctx.out_dir(), "simulation", &self.config, "")?;
             match self.sim.clone() {
                 AnySim::D2(s) => self.advance::<D2>(ctx, s, AnySim::D2)?,
                 AnySim::D3(s) => self.advance::<D3>(ctx, s, AnySim::D3)?,
@@ -212,6 +212,89 @@ impl SimulationState {
             }
         }
     }
+}
+
+/// The `simulation` protocol: one unit of work (the run itself, checkpointed as a whole at fixed
+/// step numbers), so its plan is the prepared engine state.
+pub struct SimulationProtocol;
+
+impl crate::study::Protocol for SimulationProtocol {
+    const NAME: &'static str = "simulation";
+    const TAG: &'static str = TAG;
+    const REFERENCE: &'static str = "A general discrete-element run (see docs/simulation.md). The `[contact]` keys are those of the presets\n\
+         (docs/engine.md); `[wall_contact]` and `walls[].contact` take the same keys and replace the grain–grain values.";
+    type Config = SimulationConfig;
+    type Spec = Prepared;
+    type State = SimulationState;
+    type Report = SimulationReport;
+
+    fn validate(src: &ConfigSource) -> Result<Prepared, ConfigError> {
+        prepare(src)
+    }
+    fn describe(spec: &Prepared) -> Vec<String> {
+        describe(spec)
+    }
+    fn start(spec: Prepared) -> SimulationState {
+        SimulationState::new(spec)
+    }
+    fn config(state: &SimulationState) -> &SimulationConfig {
+        &state.config
+    }
+    fn run(state: &mut SimulationState, ctx: &mut RunContext<'_>) -> Result<SimulationReport> {
+        state.run(ctx)
+    }
+    fn summary_lines(report: &SimulationReport, out: &std::path::Path) -> Vec<String> {
+        summary_lines(report, out)
+    }
+    fn replot(dir: &std::path::Path, state: &SimulationState) -> Result<Vec<String>> {
+        let series = grainwave_io::Series::read_npz(&dir.join("series.npz"))?;
+        make_plots(dir, &series, state.picture().as_ref())
+    }
+}
+
+/// What `grainwave check` prints about a valid config.
+pub fn describe(p: &Prepared) -> Vec<String> {
+    fn lines<D: Dim>(s: &Simulation<D>, c: &SimulationConfig) -> Vec<String> {
+        let (rmin, rmax) = s.grains.radius_range();
+        let mut v = vec![
+            format!("experiment   simulation, seed {}", c.seed),
+            format!("grains       {} {} ({}D), radii {:.4}–{:.4}", s.len(), s.grains.kind.name(), D::D, rmin, rmax),
+            format!("contacts     {} at the start; law {:?} / {:?} / {:?}, μ = {}", s.counters.contacts, s.law.normal, s.law.damping, s.law.tangential, s.law.friction),
+            format!("walls        {}", if s.domain.walls.is_empty() { "none".into() } else { s.domain.walls.iter().map(|w| w.name.clone()).collect::<Vec<_>>().join(", ") }),
+            format!("time step    {:.4e} (suggested {:.4e})", s.dt, s.suggested_dt),
+            format!(
+                "stop         step limit {:?}, time limit {:?}, equilibrium criteria: {}",
+                c.stop.step_limit,
+                c.stop.time_limit,
+                if c.stop.has_equilibrium_criterion() { "yes" } else { "none" }
+            ),
+        ];
+        for w in &s.warnings {
+            v.push(format!("warning      {w}"));
+        }
+        v
+    }
+    match &p.sim {
+        AnySim::D2(s) => lines(s, &p.config),
+        AnySim::D3(s) => lines(s, &p.config),
+    }
+}
+
+/// The lines `grainwave run` prints at the end.
+pub fn summary_lines(r: &SimulationReport, out: &std::path::Path) -> Vec<String> {
+    let mut lines = vec![
+        format!("stopped      {:?} after {} steps (simulated time {:.6})", r.stop_reason, r.steps, r.time),
+        format!("grains       {} {} ({}D), seed {}", r.grains, r.grain_kind, r.dimension, r.seed),
+        format!("final state  KE/grain {:.3e}, max acceleration {:.3e}, {} contacts, {} sliding", r.kinetic_energy_per_grain, r.max_acceleration, r.contacts, r.sliding),
+    ];
+    if let Some(s) = r.support_over_weight {
+        lines.push(format!("walls carry  {:.9} × the weight {:.6}", s, r.weight));
+    }
+    for w in &r.warnings {
+        lines.push(format!("warning      {w}"));
+    }
+    lines.push(format!("outputs      {}/", out.display()));
+    lines
 }
 
 /// Parses, validates and runs a `simulation` config into `ctx`'s directory.

@@ -1,12 +1,12 @@
 //! Outputs of the `simulation` protocol.
 
-use super::{SeriesData, SimulationConfig, SimulationState};
+use super::{SeriesData, SimulationState};
 use crate::error::Result;
 use crate::protocol::RunContext;
 use grainwave_core::prelude::*;
 use grainwave_io::vtk::{write_contacts_vtp, write_grains_vtp, PvdCollection};
 use grainwave_io::plot::{LinePlot, Network, PackingPicture};
-use grainwave_io::{write_grains_csv, write_json_atomic, Series};
+use grainwave_io::{write_grains_csv, Series};
 use std::path::Path;
 use serde::{Deserialize, Serialize};
 
@@ -69,16 +69,6 @@ pub struct SimulationReport {
     pub files: Vec<String>,
 }
 
-/// Writes `config.resolved.toml`.
-pub fn write_resolved_config(ctx: &RunContext<'_>, config: &SimulationConfig) -> Result<()> {
-    let text = toml::to_string_pretty(config).expect("a config serializes to TOML");
-    let header = format!(
-        "# The config of this run with every default filled in (grainwave {}).\n# Running it again gives the same results, bit for bit.\n\n",
-        grainwave_core::VERSION
-    );
-    grainwave_core::checkpoint::atomic_write(&ctx.path("config.resolved.toml"), format!("{header}{text}").as_bytes())?;
-    Ok(())
-}
 
 /// Appends the current state to the series.
 pub fn record_series<D: Dim>(series: &mut SeriesData, sim: &Simulation<D>, stop: &StopCriteria) {
@@ -186,7 +176,7 @@ pub fn write_final<D: Dim>(ctx: &mut RunContext<'_>, state: &SimulationState, si
         warnings: sim.warnings.clone(),
         files,
     };
-    write_json_atomic(&ctx.path("summary.json"), &report)?;
+    crate::outputs::write_summary(ctx.out_dir(), &report)?;
     Ok(report)
 }
 

@@ -1,9 +1,9 @@
 //! Pictures of a change of a 2D contact network: the contact-force difference between two states
 //! of a packing, with opened and created contacts marked and applied forces drawn as arrows.
 
-use super::chart::snap_zero;
+use super::frame::{data_axes, BOTTOM, BOTTOM_MARGIN, LEFT, LEFT_MARGIN, RIGHT};
 use super::geometry::{clip_polygon, clip_segment, Rect};
-use super::style::{save, text, tick_label, Figure, PlotFiles, LABEL_SIZE, TICK_SIZE, TITLE_SIZE};
+use super::style::{save, text, tick_label, Figure, PlotFiles, TICK_SIZE, TITLE_SIZE};
 use crate::error::{OutputError, Result};
 use grainwave_core::dim::{VectorOps, D2};
 use grainwave_core::snapshot::Snapshot;
@@ -80,11 +80,6 @@ const LESS: RGBColor = RGBColor(30, 90, 190);
 const OPENED: RGBColor = RGBColor(0, 160, 80);
 const CREATED: RGBColor = RGBColor(150, 60, 170);
 const WALL: RGBColor = RGBColor(60, 60, 60);
-const LEFT: u32 = 84;
-const LEFT_MARGIN: u32 = 14;
-const BOTTOM: u32 = 64;
-const BOTTOM_MARGIN: u32 = 8;
-const RIGHT: u32 = 26;
 const TOP: u32 = 82;
 
 impl<'a> ContactChangePicture<'a> {
@@ -197,30 +192,7 @@ impl Figure for Drawn<'_, '_> {
         let view = self.view;
         let r_mean = self.mean_radius;
         let px = self.plot.0 as f64 / (view.x1 - view.x0);
-        let mut chart = ChartBuilder::on(root)
-            .margin_top(TOP)
-            .margin_right(RIGHT)
-            .margin_left(LEFT_MARGIN)
-            .margin_bottom(BOTTOM_MARGIN)
-            .x_label_area_size(BOTTOM)
-            .y_label_area_size(LEFT)
-            .build_cartesian_2d(view.x0..view.x1, view.y0..view.y1)
-            .map_err(e)?;
-        let (sx, sy) = (view.x1 - view.x0, view.y1 - view.y0);
-        let x_fmt = move |v: &f64| tick_label(snap_zero(*v, sx));
-        let y_fmt = move |v: &f64| tick_label(snap_zero(*v, sy));
-        chart
-            .configure_mesh()
-            .disable_mesh()
-            .axis_style(BLACK.stroke_width(1))
-            .x_desc(p.x_label.as_str())
-            .y_desc(p.y_label.as_str())
-            .axis_desc_style(text(LABEL_SIZE))
-            .label_style(text(TICK_SIZE))
-            .x_label_formatter(&x_fmt)
-            .y_label_formatter(&y_fmt)
-            .draw()
-            .map_err(e)?;
+        let mut chart = data_axes(root, TOP, RIGHT, view.x0..view.x1, view.y0..view.y1, &p.x_label, &p.y_label)?;
         // grains
         let mut polys: Vec<(Vec<(f64, f64)>, ShapeStyle)> = Vec::new();
         let mut paths: Vec<(Vec<(f64, f64)>, ShapeStyle)> = Vec::new();
@@ -292,7 +264,7 @@ impl Figure for Drawn<'_, '_> {
         for wall in &s.domain.walls {
             let (nx, ny) = (wall.normal.get(0), wall.normal.get(1));
             let (wx, wy) = (wall.position.get(0), wall.position.get(1));
-            let reach = 2.0 * (sx + sy);
+            let reach = 2.0 * ((view.x1 - view.x0) + (view.y1 - view.y0));
             if let Some((a, b)) = clip_segment((wx - ny * reach, wy + nx * reach), (wx + ny * reach, wy - nx * reach), &view) {
                 chart.draw_series(std::iter::once(PathElement::new(vec![a, b], WALL.stroke_width(3)))).map_err(e)?;
             }

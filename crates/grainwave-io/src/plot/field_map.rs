@@ -2,7 +2,8 @@
 //! with a colour bar and equal scales on both axes.
 
 use super::chart::snap_zero;
-use super::style::{save, text, tick_label, Figure, PlotFiles, LABEL_SIZE, TICK_SIZE, TITLE_SIZE};
+use super::frame::{data_axes, BOTTOM, BOTTOM_MARGIN, LEFT, LEFT_MARGIN};
+use super::style::{save, text, tick_label, Figure, PlotFiles, TICK_SIZE, TITLE_SIZE};
 use crate::error::{OutputError, Result};
 use plotters::coord::Shift;
 use plotters::prelude::*;
@@ -46,10 +47,6 @@ pub struct FieldMap {
 }
 
 /// Pixels around the plotting area.
-const LEFT: u32 = 84;
-const LEFT_MARGIN: u32 = 14;
-const BOTTOM: u32 = 64;
-const BOTTOM_MARGIN: u32 = 8;
 const TOP: u32 = 52;
 const BAR_GAP: u32 = 24;
 const BAR_WIDTH: u32 = 22;
@@ -203,29 +200,7 @@ impl Figure for Drawn<'_> {
         let (vy0, vy1) = (y0 - 0.5 * dy, y0 + (ny as f64 - 0.5) * dy);
         let (w, h) = self.size();
         let (main, bar) = root.split_horizontally(w - BAR_GAP - BAR_WIDTH - BAR_LABELS);
-        let mut chart = ChartBuilder::on(&main)
-            .margin_top(TOP)
-            .margin_left(LEFT_MARGIN)
-            .margin_bottom(BOTTOM_MARGIN)
-            .x_label_area_size(BOTTOM)
-            .y_label_area_size(LEFT)
-            .build_cartesian_2d(vx0..vx1, vy0..vy1)
-            .map_err(e)?;
-        let (sx, sy) = (vx1 - vx0, vy1 - vy0);
-        let x_fmt = move |v: &f64| tick_label(snap_zero(*v, sx));
-        let y_fmt = move |v: &f64| tick_label(snap_zero(*v, sy));
-        chart
-            .configure_mesh()
-            .disable_mesh()
-            .axis_style(BLACK.stroke_width(1))
-            .x_desc(m.x_label.as_str())
-            .y_desc(m.y_label.as_str())
-            .axis_desc_style(text(LABEL_SIZE))
-            .label_style(text(TICK_SIZE))
-            .x_label_formatter(&x_fmt)
-            .y_label_formatter(&y_fmt)
-            .draw()
-            .map_err(e)?;
+        let mut chart = data_axes(&main, TOP, 0, vx0..vx1, vy0..vy1, &m.x_label, &m.y_label)?;
         let cells = (0..ny).flat_map(|j| (0..nx).map(move |i| (i, j))).map(|(i, j)| {
             let (cx, cy) = (x0 + i as f64 * dx, y0 + j as f64 * dy);
             Rectangle::new([(cx - 0.5 * dx, cy - 0.5 * dy), (cx + 0.5 * dx, cy + 0.5 * dy)], self.colour(m.values[j * nx + i]).filled())

@@ -18,6 +18,7 @@
 mod chart;
 mod contact_changes;
 mod field_map;
+mod frame;
 mod geometry;
 mod histogram;
 mod line;

@@ -1,8 +1,8 @@
 //! Pictures of 2D packings: grains, force and stiffness networks, arrows, arrival-time maps.
 
-use super::chart::snap_zero;
+use super::frame::{data_axes, BOTTOM, BOTTOM_MARGIN, LEFT, LEFT_MARGIN, RIGHT};
 use super::geometry::{clip_polygon, clip_segment, Rect};
-use super::style::{save, text, tick_label, Figure, PlotFiles, LABEL_SIZE, TICK_SIZE, TITLE_SIZE};
+use super::style::{save, text, tick_label, Figure, PlotFiles, TICK_SIZE, TITLE_SIZE};
 use crate::error::Result;
 use grainwave_core::dim::{Dim, VectorOps, D2};
 use grainwave_core::snapshot::{Counterpart, Snapshot};
@@ -87,11 +87,6 @@ const FORCE_WIDEST: f64 = 0.7;
 const STIFFNESS_WIDEST: f64 = 0.4;
 
 /// Pixels reserved around the plotting area.
-const LEFT: u32 = 84;
-const LEFT_MARGIN: u32 = 14;
-const BOTTOM: u32 = 64;
-const BOTTOM_MARGIN: u32 = 8;
-const RIGHT: u32 = 26;
 const TOP_TITLE: u32 = 46;
 const TOP_NOTE: u32 = 26;
 
@@ -334,30 +329,7 @@ impl Figure for Drawn<'_, '_> {
         let px_per_unit = plot.0 as f64 / (view.x1 - view.x0);
         let shifts = shifts(s);
 
-        let mut chart = ChartBuilder::on(root)
-            .margin_top(TOP_TITLE + TOP_NOTE)
-            .margin_right(RIGHT)
-            .margin_left(LEFT_MARGIN)
-            .margin_bottom(BOTTOM_MARGIN)
-            .x_label_area_size(BOTTOM)
-            .y_label_area_size(LEFT)
-            .build_cartesian_2d(view.x0..view.x1, view.y0..view.y1)
-            .map_err(e)?;
-        let (x_span, y_span) = (view.x1 - view.x0, view.y1 - view.y0);
-        let x_fmt = move |v: &f64| tick_label(snap_zero(*v, x_span));
-        let y_fmt = move |v: &f64| tick_label(snap_zero(*v, y_span));
-        chart
-            .configure_mesh()
-            .disable_mesh()
-            .axis_style(BLACK.stroke_width(1))
-            .x_desc(p.x_label.as_str())
-            .y_desc(p.y_label.as_str())
-            .axis_desc_style(text(LABEL_SIZE))
-            .label_style(text(TICK_SIZE))
-            .x_label_formatter(&x_fmt)
-            .y_label_formatter(&y_fmt)
-            .draw()
-            .map_err(e)?;
+        let mut chart = data_axes(root, TOP_TITLE + TOP_NOTE, RIGHT, view.x0..view.x1, view.y0..view.y1, &p.x_label, &p.y_label)?;
 
         // Polygon and segment drawing with periodic translates, clipped to the cell.
         let mut polygons: Vec<(Vec<(f64, f64)>, ShapeStyle)> = Vec::new();

@@ -1,10 +1,13 @@
-//! Units of work of an `e3` run — one reference state per case, one relaxation per response run —
-//! executed in parallel (rayon), each persisted when done so that a resumed run never redoes it.
+//! The units of work of an `e3` run (SPEC §7.2), as a [`Work`] for the scheduler
+//! ([`crate::work`]): one reference state per case, one relaxation per response run (a force or
+//! a pair of forces applied to a reference; input: that reference) and, when asked for, one
+//! first-opening bisection per case (a sequence of response runs; input: the reference).
 //!
 //! Files, in the output directory:
 //!
 //! * `units/<case>/reference.gwck`: the relaxed reference state and what was measured on it;
 //! * `units/<case>/<run>.gwck`: the measured response of a run;
+//! * `units/<case>/opening_<k>.gwck`: the k-th run of the case's bisection;
 //! * `units/<case>/….partial.gwck`: the engine state of a unit interrupted during its dynamics
 //!   (removed when the unit completes); a resumed unit continues from it bit for bit.
 //!
@@ -18,10 +21,10 @@ use super::relax::{self, RelaxOutcome};
 use super::slab::{self, Material, Sites};
 use crate::error::{ExperimentError, Result};
 use crate::protocol::RunContext;
+use crate::work::{store, Unit, UnitEnv, UnitResult, UnitStop, Work};
 use grainwave_core::prelude::*;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
-use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, Mutex};
 
 /// Content tag of a finished reference unit.
@@ -78,56 +81,6 @@ struct Partial {
 /// At most this many extra rounds of dynamics after zeroing the velocities.
 const MAX_ROUNDS: u8 = 4;
 
-/// Why a unit did not complete.
-enum UnitStop {
-    Interrupted,
-    Failed(ExperimentError),
-}
-
-impl From<ExperimentError> for UnitStop {
-    fn from(e: ExperimentError) -> Self {
-        UnitStop::Failed(e)
-    }
-}
-
-impl From<CoreError> for UnitStop {
-    fn from(e: CoreError) -> Self {
-        UnitStop::Failed(e.into())
-    }
-}
-
-/// What the units of a run share: the context (logging, progress, checkpoints) under a lock.
-pub(crate) struct Shared<'x, 'a> {
-    pub ctx: &'x mut RunContext<'a>,
-    pub done: usize,
-    pub total: usize,
-}
-
-/// The environment of one unit.
-struct Env<'s, 'x, 'a> {
-    shared: &'s Mutex<Shared<'x, 'a>>,
-    flag: Arc<AtomicBool>,
-    forward_progress: bool,
-    report_every: u64,
-}
-
-impl Env<'_, '_, '_> {
-    fn run(&self, sim: &mut Simulation<D2>, stop: &StopCriteria) -> grainwave_core::Result<RunOutcome> {
-        let shared = self.shared;
-        let forward = self.forward_progress;
-        let mut observer = |p: &Progress| {
-            if forward {
-                if let Ok(mut s) = shared.lock() {
-                    s.ctx.reporter.progress(p);
-                }
-            }
-            Control::Continue
-        };
-        let mut hooks = RunHooks { observer: &mut observer, report_every: self.report_every, interrupt: Some(&self.flag) };
-        sim.run_with(stop, &mut hooks)
-    }
-}
-
 /// Directory of a case's unit files.
 pub fn case_dir(out: &Path, case: &Case) -> PathBuf {
     out.join("units").join(&case.label)
@@ -171,9 +124,9 @@ fn relax_to_rest(
     not_before: Option<f64>,
     extra_time: f64,
     newton: bool,
-    env: &Env<'_, '_, '_>,
+    env: &UnitEnv<'_, '_, '_>,
     partial_path: &Path,
-) -> std::result::Result<(Simulation<D2>, RelaxOutcome), UnitStop> {
+) -> UnitResult<(Simulation<D2>, RelaxOutcome)> {
     let rc = &cfg.relaxation;
     let dt = p.sim.dt;
     loop {
@@ -241,7 +194,7 @@ fn finish(p: &Partial, converged: bool, ke: f64) -> RelaxOutcome {
 }
 
 /// Builds and relaxes the reference state of `case`.
-fn reference_unit(cfg: &E3Config, plan: &Plan, case: &Case, out: &Path, env: &Env<'_, '_, '_>) -> std::result::Result<ReferenceResult, UnitStop> {
+fn reference_unit(cfg: &E3Config, plan: &Plan, case: &Case, out: &Path, env: &UnitEnv<'_, '_, '_>) -> UnitResult<ReferenceResult> {
     let started = std::time::Instant::now();
     let group = &plan.groups[case.group];
     let sites = Sites::of(group.shape);
@@ -299,14 +252,14 @@ pub fn run_loads(cfg: &E3Config, plan: &Plan, run: &RunSpec) -> Vec<(u32, glam::
 
 /// Applies the load(s) of `run` to the reference and relaxes; returns the measured response and
 /// the final state.
-fn run_unit(
+fn response_unit(
     cfg: &E3Config,
     plan: &Plan,
     run: &RunSpec,
     reference: &ReferenceResult,
     out: &Path,
-    env: &Env<'_, '_, '_>,
-) -> std::result::Result<(RunResult, Simulation<D2>, grainwave_analysis::network::NetworkChanges<D2>), UnitStop> {
+    env: &UnitEnv<'_, '_, '_>,
+) -> UnitResult<(RunResult, Simulation<D2>, grainwave_analysis::network::NetworkChanges<D2>)> {
     let started = std::time::Instant::now();
     let group = &plan.groups[plan.cases[run.case].group];
     let material = Material::resolve(&cfg.material, group.friction, group.ratio);
@@ -378,139 +331,245 @@ pub struct StoredRun {
     pub wall_clock: f64,
 }
 
-/// Runs every pending unit in parallel; `on_reference` and `on_run` are called (under the lock)
-/// when one completes, to write its files and record it in the protocol state.
-#[allow(clippy::type_complexity)]
-pub(crate) fn execute(
-    ctx: &mut RunContext<'_>,
-    cfg: &E3Config,
-    plan: &Plan,
-    references_done: &mut [bool],
-    runs_done: &mut [bool],
-    save_state: &(dyn Fn(&mut RunContext<'_>, &[bool], &[bool]) -> Result<()> + Sync),
-    write_run: &(dyn Fn(&Path, &RunSpec, &RunResult, &Snapshot<D2>, &Snapshot<D2>, &grainwave_analysis::network::NetworkChanges<D2>, Option<&FieldData>) -> Result<()>
-          + Sync),
-) -> Result<()> {
-    use rayon::prelude::*;
-    let out = ctx.out_dir().to_path_buf();
-    let flag = ctx.interrupt_flag();
-    let report_every = ctx.report_every;
-    let pending_refs: Vec<usize> = (0..plan.cases.len()).filter(|&c| !references_done[c] || !reference_file(&out, &plan.cases[c]).exists()).collect();
-    let total = pending_refs.len() + (0..plan.runs.len()).filter(|&r| !runs_done[r] || !run_file(&out, plan, &plan.runs[r]).exists()).count();
-    let done_flags = Mutex::new((references_done.to_vec(), runs_done.to_vec()));
-    let shared = Mutex::new(Shared { ctx, done: 0, total });
-    // 1. references
-    if !pending_refs.is_empty() {
-        if let Ok(mut s) = shared.lock() {
-            s.ctx.reporter.stage(&format!("reference states ({} to relax)", pending_refs.len()), None);
+
+/// Writes the files of a finished response run (profiles, pictures) into the output directory.
+pub(crate) type WriteRun<'a> = dyn Fn(&Path, &RunSpec, &RunResult, &Snapshot<D2>, &Snapshot<D2>, &grainwave_analysis::network::NetworkChanges<D2>, Option<&FieldData>) -> Result<()>
+    + Sync
+    + 'a;
+
+/// What a unit is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+enum Kind {
+    /// The reference state of case `c`.
+    Reference(usize),
+    /// Response run `r` of the plan.
+    Run(usize),
+    /// The first-opening bisection of case `c`.
+    Bisection(usize),
+}
+
+/// What a unit produces.
+pub(crate) enum Output {
+    /// A relaxed reference state.
+    Reference(Box<ReferenceResult>),
+    /// A response run.
+    Run(Box<StoredRun>),
+    /// A bisection: its runs are persisted one by one as they complete.
+    Bisection,
+}
+
+/// The plan of an `e3` run as units of work.
+pub(crate) struct E3Work<'a> {
+    cfg: &'a E3Config,
+    plan: &'a Plan,
+    out: PathBuf,
+    units: Vec<Unit>,
+    kinds: Vec<Kind>,
+    /// Which references and runs the protocol state records as done.
+    references_done: Vec<bool>,
+    runs_done: Vec<bool>,
+    /// Reference states read back for their runs.
+    cache: Mutex<std::collections::HashMap<usize, Arc<ReferenceResult>>>,
+    write_run: &'a WriteRun<'a>,
+    /// Saves the protocol state given which references and runs are done.
+    save_state: &'a (dyn Fn(&mut RunContext<'_>, &[bool], &[bool]) -> Result<()> + Sync),
+}
+
+impl<'a> E3Work<'a> {
+    /// The units of `plan`: references (cases in order), then response runs, then bisections (one
+    /// per case, when the config asks for them). `references_done`/`runs_done` come from the
+    /// protocol state.
+    pub(crate) fn new(
+        cfg: &'a E3Config,
+        plan: &'a Plan,
+        out: &Path,
+        references_done: &[bool],
+        runs_done: &[bool],
+        write_run: &'a WriteRun<'a>,
+        save_state: &'a (dyn Fn(&mut RunContext<'_>, &[bool], &[bool]) -> Result<()> + Sync),
+    ) -> Self {
+        let mut units = Vec::new();
+        let mut kinds = Vec::new();
+        for c in &plan.cases {
+            units.push(Unit { id: format!("reference {}", c.label), kind: "reference states", inputs: vec![] });
+            kinds.push(Kind::Reference(c.index));
+        }
+        for r in &plan.runs {
+            units.push(Unit { id: format!("run {}/{}", plan.cases[r.case].label, r.label), kind: "response runs", inputs: vec![r.case] });
+            kinds.push(Kind::Run(r.index));
+        }
+        if cfg.first_opening.bisection {
+            for c in &plan.cases {
+                units.push(Unit { id: format!("bisection {}", c.label), kind: "first-opening bisections", inputs: vec![c.index] });
+                kinds.push(Kind::Bisection(c.index));
+            }
+        }
+        E3Work {
+            cfg,
+            plan,
+            out: out.to_path_buf(),
+            units,
+            kinds,
+            references_done: references_done.to_vec(),
+            runs_done: runs_done.to_vec(),
+            cache: Mutex::new(std::collections::HashMap::new()),
+            write_run,
+            save_state,
         }
     }
-    let single = pending_refs.len() == 1;
-    let outcomes: Vec<std::result::Result<(), UnitStop>> = pending_refs
-        .par_iter()
-        .with_max_len(1)
-        .map(|&c| {
-            let case = &plan.cases[c];
-            let env = Env { shared: &shared, flag: flag.clone(), forward_progress: single, report_every };
-            std::fs::create_dir_all(case_dir(&out, case)).map_err(|e| UnitStop::Failed(io_error(&case_dir(&out, case), e)))?;
-            let r = reference_unit(cfg, plan, case, &out, &env)?;
-            let path = reference_file(&out, case);
-            grainwave_core::checkpoint::save(&path, REFERENCE_TAG, &r)?;
-            let _ = std::fs::remove_file(partial_file(&path));
-            let mut guard = shared.lock().map_err(|_| UnitStop::Failed(poisoned()))?;
-            let (refs, runs) = {
-                let mut d = done_flags.lock().map_err(|_| UnitStop::Failed(poisoned()))?;
-                d.0[c] = true;
-                (d.0.clone(), d.1.clone())
-            };
-            guard.done += 1;
-            let (done, total) = (guard.done, guard.total);
-            guard.ctx.reporter.samples(done, total);
-            guard.ctx.log(&format!(
-                "reference {} relaxed: {} steps, KE/grain {:.2e}, max acceleration {:.2e}{}, {:.1} s",
+
+    /// Which references and which runs are done, from the scheduler's flags.
+    pub(crate) fn flags(&self, done: &[bool]) -> (Vec<bool>, Vec<bool>) {
+        let mut refs = vec![false; self.plan.cases.len()];
+        let mut runs = vec![false; self.plan.runs.len()];
+        for (k, kind) in self.kinds.iter().enumerate() {
+            match *kind {
+                Kind::Reference(c) => refs[c] = done[k],
+                Kind::Run(r) => runs[r] = done[k],
+                Kind::Bisection(_) => {}
+            }
+        }
+        (refs, runs)
+    }
+
+    fn reference(&self, c: usize) -> Result<Arc<ReferenceResult>> {
+        let poisoned = || ExperimentError::Core(CoreError::Inconsistent("a worker thread panicked".into()));
+        if let Some(r) = self.cache.lock().map_err(|_| poisoned())?.get(&c) {
+            return Ok(r.clone());
+        }
+        let r: ReferenceResult = grainwave_core::checkpoint::load(&reference_file(&self.out, &self.plan.cases[c]), REFERENCE_TAG)?;
+        let r = Arc::new(r);
+        self.cache.lock().map_err(|_| poisoned())?.insert(c, r.clone());
+        Ok(r)
+    }
+
+    /// The first-opening bisection (SPEC §7.2.5) of case `c`, sequential: F_low and F_high of the
+    /// bracket are run first (no opening below the load at F_low, one at F_high), then the
+    /// geometric midpoint of the current bracket until F_high/F_low − 1 ≤ the tolerance. Each run
+    /// is persisted as it completes (`units/<case>/opening_<k>.gwck`; resumable like the other
+    /// units): the k-th force depends only on the runs before it, so a resumed bisection reads
+    /// them back and continues.
+    fn bisection(&self, c: usize, env: &UnitEnv<'_, '_, '_>) -> UnitResult<()> {
+        let (cfg, plan, out) = (self.cfg, self.plan, &self.out);
+        let case = &plan.cases[c];
+        let reference = self.reference(c)?;
+        let mut probes = read_bisection(out, case)?;
+        while let Some(force) = next_force(cfg, &probes) {
+            let k = probes.len();
+            let spec = opening_spec(plan, case, k, force);
+            let started = std::time::Instant::now();
+            let (result, _, _) = response_unit(cfg, plan, &spec, &reference, out, env)?;
+            let stored = StoredRun { result, wall_clock: started.elapsed().as_secs_f64() };
+            let path = opening_file(out, case, k);
+            store(&path, RUN_TAG, &stored, Some(&partial_file(&path)))?;
+            let p = probe_of(&stored);
+            env.log(&format!(
+                "first opening {}: F = {:.6} m̄g, {} opened below the load (depth {:.2} R̄), {} anywhere{}, {:.1} s",
                 case.label,
+                p.force,
+                p.opened_below_load,
+                p.region_depth,
+                p.opened_anywhere,
+                if p.converged { "" } else { " (NOT converged)" },
+                p.wall_clock
+            ));
+            probes.push(p);
+        }
+        Ok(())
+    }
+}
+
+impl Work for E3Work<'_> {
+    type Output = Output;
+
+    fn units(&self) -> &[Unit] {
+        &self.units
+    }
+
+    fn is_done(&self, k: usize) -> bool {
+        let (out, plan) = (&self.out, self.plan);
+        match self.kinds[k] {
+            Kind::Reference(c) => self.references_done[c] && reference_file(out, &plan.cases[c]).exists(),
+            Kind::Run(r) => self.runs_done[r] && run_file(out, plan, &plan.runs[r]).exists(),
+            Kind::Bisection(c) => read_bisection(out, &plan.cases[c]).is_ok_and(|p| next_force(self.cfg, &p).is_none()),
+        }
+    }
+
+    fn run(&self, k: usize, env: &UnitEnv<'_, '_, '_>) -> UnitResult<Output> {
+        let (cfg, plan, out) = (self.cfg, self.plan, &self.out);
+        match self.kinds[k] {
+            Kind::Reference(c) => {
+                let case = &plan.cases[c];
+                let dir = case_dir(out, case);
+                std::fs::create_dir_all(&dir).map_err(|e| CoreError::Io { action: "cannot create".into(), path: dir.display().to_string(), error: e })?;
+                Ok(Output::Reference(Box::new(reference_unit(cfg, plan, case, out, env)?)))
+            }
+            Kind::Run(r) => {
+                let run = &plan.runs[r];
+                let started = std::time::Instant::now();
+                let reference = self.reference(run.case)?;
+                let (result, sim, changes) = response_unit(cfg, plan, run, &reference, out, env)?;
+                (self.write_run)(out, run, &result, &reference.sim.snapshot(), &sim.snapshot(), &changes, reference.field.as_ref())?;
+                Ok(Output::Run(Box::new(StoredRun { result, wall_clock: started.elapsed().as_secs_f64() })))
+            }
+            Kind::Bisection(c) => {
+                self.bisection(c, env)?;
+                Ok(Output::Bisection)
+            }
+        }
+    }
+
+    fn record(&self, k: usize, output: &Output) -> Result<()> {
+        let (out, plan) = (&self.out, self.plan);
+        match (self.kinds[k], output) {
+            (Kind::Reference(c), Output::Reference(r)) => {
+                let path = reference_file(out, &plan.cases[c]);
+                store(&path, REFERENCE_TAG, r.as_ref(), Some(&partial_file(&path)))
+            }
+            (Kind::Run(r), Output::Run(s)) => {
+                let path = run_file(out, plan, &plan.runs[r]);
+                store(&path, RUN_TAG, s.as_ref(), Some(&partial_file(&path)))
+            }
+            (Kind::Bisection(_), Output::Bisection) => Ok(()),
+            _ => Err(ExperimentError::Core(CoreError::Inconsistent(format!("unit {} produced the output of another kind", self.units[k].id)))),
+        }
+    }
+
+    fn recorded(&self, k: usize, output: &Output, ctx: &mut RunContext<'_>, done: &[bool]) -> Result<()> {
+        let plan = self.plan;
+        match output {
+            Output::Reference(r) => ctx.log(&format!(
+                "reference {} relaxed: {} steps, KE/grain {:.2e}, max acceleration {:.2e}{}, {:.1} s",
+                self.units[k].id.trim_start_matches("reference "),
                 r.outcome.steps,
                 r.outcome.kinetic_energy_per_grain,
                 r.outcome.max_acceleration,
                 if r.outcome.converged { "" } else { " (NOT converged)" },
                 r.wall_clock
-            ));
-            save_state(guard.ctx, &refs, &runs)?;
-            Ok(())
-        })
-        .collect();
-    let labels: Vec<String> = pending_refs.iter().map(|&c| format!("reference {}", plan.cases[c].label)).collect();
-    settle("reference states", &labels, outcomes, &shared, &done_flags, save_state)?;
-    // 2. runs
-    let pending_runs: Vec<usize> = (0..plan.runs.len())
-        .filter(|&r| {
-            let flags = done_flags.lock().map(|d| d.1[r]).unwrap_or(false);
-            !flags || !run_file(&out, plan, &plan.runs[r]).exists()
-        })
-        .collect();
-    if !pending_runs.is_empty() {
-        if let Ok(mut s) = shared.lock() {
-            s.ctx.reporter.stage(&format!("responses ({} runs)", pending_runs.len()), None);
+            )),
+            Output::Run(stored) => {
+                let Kind::Run(ri) = self.kinds[k] else { unreachable!("a run's output comes from a run") };
+                let run = &plan.runs[ri];
+                let r = &stored.result;
+                ctx.log(&format!(
+                    "run {}/{}: F = {}, p(0)/F = {:.4e}, {} opened, {} sliding, raw verdict {}, {} steps{}, {:.1} s",
+                    plan.cases[run.case].label,
+                    run.label,
+                    run.force,
+                    r.response_at_zero.first().copied().unwrap_or(f64::NAN),
+                    r.counts.opened,
+                    r.counts.sliding,
+                    r.raw.map_or(r.classification.shape, |v| v.shape).name(),
+                    r.outcome.steps,
+                    if r.outcome.converged { "" } else { " (NOT converged)" },
+                    stored.wall_clock
+                ));
+            }
+            Output::Bisection => {}
         }
+        let (refs, runs) = self.flags(done);
+        (self.save_state)(ctx, &refs, &runs)
     }
-    let single = pending_runs.len() == 1;
-    let cache: Mutex<std::collections::HashMap<usize, Arc<ReferenceResult>>> = Mutex::new(std::collections::HashMap::new());
-    let load_reference = |c: usize| -> Result<Arc<ReferenceResult>> {
-        if let Some(r) = cache.lock().map_err(|_| poisoned())?.get(&c) {
-            return Ok(r.clone());
-        }
-        let r: ReferenceResult = grainwave_core::checkpoint::load(&reference_file(&out, &plan.cases[c]), REFERENCE_TAG)?;
-        let r = Arc::new(r);
-        cache.lock().map_err(|_| poisoned())?.insert(c, r.clone());
-        Ok(r)
-    };
-    let outcomes: Vec<std::result::Result<(), UnitStop>> = pending_runs
-        .par_iter()
-        .with_max_len(1)
-        .map(|&ri| {
-            let run = &plan.runs[ri];
-            let started = std::time::Instant::now();
-            let reference = load_reference(run.case)?;
-            let env = Env { shared: &shared, flag: flag.clone(), forward_progress: single, report_every };
-            let (result, sim, changes) = run_unit(cfg, plan, run, &reference, &out, &env)?;
-            write_run(&out, run, &result, &reference.sim.snapshot(), &sim.snapshot(), &changes, reference.field.as_ref())?;
-            let stored = StoredRun { result, wall_clock: started.elapsed().as_secs_f64() };
-            let path = run_file(&out, plan, run);
-            grainwave_core::checkpoint::save(&path, RUN_TAG, &stored)?;
-            let _ = std::fs::remove_file(partial_file(&path));
-            let mut guard = shared.lock().map_err(|_| UnitStop::Failed(poisoned()))?;
-            let (refs, runs) = {
-                let mut d = done_flags.lock().map_err(|_| UnitStop::Failed(poisoned()))?;
-                d.1[ri] = true;
-                (d.0.clone(), d.1.clone())
-            };
-            guard.done += 1;
-            let (done, total) = (guard.done, guard.total);
-            guard.ctx.reporter.samples(done, total);
-            let r = &stored.result;
-            guard.ctx.log(&format!(
-                "run {}/{}: F = {}, p(0)/F = {:.4e}, {} opened, {} sliding, raw verdict {}, {} steps{}, {:.1} s",
-                plan.cases[run.case].label,
-                run.label,
-                run.force,
-                r.response_at_zero.first().copied().unwrap_or(f64::NAN),
-                r.counts.opened,
-                r.counts.sliding,
-                r.raw.map_or(r.classification.shape, |v| v.shape).name(),
-                r.outcome.steps,
-                if r.outcome.converged { "" } else { " (NOT converged)" },
-                stored.wall_clock
-            ));
-            save_state(guard.ctx, &refs, &runs)?;
-            Ok(())
-        })
-        .collect();
-    let labels: Vec<String> = pending_runs.iter().map(|&r| format!("run {}/{}", plan.cases[plan.runs[r].case].label, plan.runs[r].label)).collect();
-    settle("response runs", &labels, outcomes, &shared, &done_flags, save_state)?;
-    let d = done_flags.into_inner().map_err(|_| poisoned())?;
-    references_done.copy_from_slice(&d.0);
-    runs_done.copy_from_slice(&d.1);
-    Ok(())
 }
 
 /// One run of a first-opening bisection (SPEC §7.2.5).
@@ -642,125 +701,5 @@ pub fn read_bisection(out: &Path, case: &Case) -> Result<Vec<OpeningProbe>> {
         let stored: StoredRun = grainwave_core::checkpoint::load(&path, RUN_TAG)?;
         probes.push(probe_of(&stored));
     }
-}
-
-/// The first-opening bisection (SPEC §7.2.5) of every case, cases in parallel, each bisection
-/// sequential: F_low and F_high of the bracket are run first (no opening below the load at F_low,
-/// one at F_high), then the geometric midpoint of the current bracket until F_high/F_low − 1 ≤ the
-/// tolerance. Each run is a response unit of its own (`units/<case>/opening_<k>.gwck`; resumable
-/// like the others): the k-th force depends only on the runs before it, so a resumed bisection
-/// reads them back and continues.
-pub(crate) fn bisect_first_opening(ctx: &mut RunContext<'_>, cfg: &E3Config, plan: &Plan) -> Result<()> {
-    use rayon::prelude::*;
-    let out = ctx.out_dir().to_path_buf();
-    let flag = ctx.interrupt_flag();
-    let report_every = ctx.report_every;
-    ctx.reporter.stage(&format!("first-opening bisection ({} reference state(s))", plan.cases.len()), None);
-    let shared = Mutex::new(Shared { ctx, done: 0, total: plan.cases.len() });
-    let single = plan.cases.len() == 1;
-    let outcomes: Vec<std::result::Result<(), UnitStop>> = plan
-        .cases
-        .par_iter()
-        .with_max_len(1)
-        .map(|case| {
-            let env = Env { shared: &shared, flag: flag.clone(), forward_progress: single, report_every };
-            let reference: ReferenceResult = grainwave_core::checkpoint::load(&reference_file(&out, case), REFERENCE_TAG)?;
-            let mut probes = read_bisection(&out, case)?;
-            while let Some(force) = next_force(cfg, &probes) {
-                let k = probes.len();
-                let spec = opening_spec(plan, case, k, force);
-                let started = std::time::Instant::now();
-                let (result, _, _) = run_unit(cfg, plan, &spec, &reference, &out, &env)?;
-                let stored = StoredRun { result, wall_clock: started.elapsed().as_secs_f64() };
-                let path = opening_file(&out, case, k);
-                grainwave_core::checkpoint::save(&path, RUN_TAG, &stored)?;
-                let _ = std::fs::remove_file(partial_file(&path));
-                let p = probe_of(&stored);
-                if let Ok(mut guard) = shared.lock() {
-                    guard.ctx.log(&format!(
-                        "first opening {}: F = {:.6} m̄g, {} opened below the load (depth {:.2} R̄), {} anywhere{}, {:.1} s",
-                        case.label,
-                        p.force,
-                        p.opened_below_load,
-                        p.region_depth,
-                        p.opened_anywhere,
-                        if p.converged { "" } else { " (NOT converged)" },
-                        p.wall_clock
-                    ));
-                }
-                probes.push(p);
-            }
-            if let Ok(mut guard) = shared.lock() {
-                guard.done += 1;
-                let (d, t) = (guard.done, guard.total);
-                guard.ctx.reporter.samples(d, t);
-            }
-            Ok(())
-        })
-        .collect();
-    let mut interrupted = false;
-    let mut failures = Vec::new();
-    for (case, o) in plan.cases.iter().zip(outcomes) {
-        match o {
-            Ok(()) => {}
-            Err(UnitStop::Interrupted) => interrupted = true,
-            Err(UnitStop::Failed(e)) => failures.push(format!("bisection {}: {}", case.label, crate::protocol::failure_line(&e))),
-        }
-    }
-    if !failures.is_empty() {
-        return Err(crate::protocol::failed_units("first-opening bisections", plan.cases.len(), failures));
-    }
-    if interrupted {
-        let mut guard = shared.lock().map_err(|_| poisoned())?;
-        let checkpoint = guard.ctx.path(crate::protocol::CHECKPOINT_FILE);
-        let dir = guard.ctx.out_dir().to_path_buf();
-        guard.ctx.log(&format!("interrupted during the first-opening bisection: state saved in {}", checkpoint.display()));
-        return Err(ExperimentError::Interrupted { checkpoint, dir });
-    }
-    Ok(())
-}
-
-fn poisoned() -> ExperimentError {
-    ExperimentError::Core(CoreError::Inconsistent("a worker thread panicked".into()))
-}
-
-fn io_error(path: &Path, e: std::io::Error) -> ExperimentError {
-    ExperimentError::Core(CoreError::Io { action: "cannot create".into(), path: path.display().to_string(), error: e })
-}
-
-/// Failures take precedence: when units failed, every failure is listed with its unit (the
-/// units that completed are saved and not redone by `resume --retry`); otherwise an interruption
-/// saves the state. `labels[k]` names the unit of `outcomes[k]`; `what` is the stage's units in
-/// the plural.
-fn settle(
-    what: &str,
-    labels: &[String],
-    outcomes: Vec<std::result::Result<(), UnitStop>>,
-    shared: &Mutex<Shared<'_, '_>>,
-    done_flags: &Mutex<(Vec<bool>, Vec<bool>)>,
-    save_state: &(dyn Fn(&mut RunContext<'_>, &[bool], &[bool]) -> Result<()> + Sync),
-) -> Result<()> {
-    let mut interrupted = false;
-    let mut failures = Vec::new();
-    for (label, o) in labels.iter().zip(outcomes) {
-        match o {
-            Ok(()) => {}
-            Err(UnitStop::Interrupted) => interrupted = true,
-            Err(UnitStop::Failed(e)) => failures.push(format!("{label}: {}", crate::protocol::failure_line(&e))),
-        }
-    }
-    if !failures.is_empty() {
-        return Err(crate::protocol::failed_units(what, labels.len(), failures));
-    }
-    if interrupted {
-        let (refs, runs) = done_flags.lock().map(|d| (d.0.clone(), d.1.clone())).map_err(|_| poisoned())?;
-        let mut guard = shared.lock().map_err(|_| poisoned())?;
-        save_state(guard.ctx, &refs, &runs)?;
-        let checkpoint = guard.ctx.path(crate::protocol::CHECKPOINT_FILE);
-        let dir = guard.ctx.out_dir().to_path_buf();
-        guard.ctx.log(&format!("interrupted: state saved in {}", checkpoint.display()));
-        return Err(ExperimentError::Interrupted { checkpoint, dir });
-    }
-    Ok(())
 }
 

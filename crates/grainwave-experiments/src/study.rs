@@ -1,0 +1,66 @@
+//! The shape every study has: a [`Protocol`].
+//!
+//! ```text
+//! TOML text ──parse──► Config ──validate──► Spec ──start──► State ──run──► Report
+//!  (ConfigSource)      (serde, schema)      (always valid:    (checkpoint.gwck)  (summary.json,
+//!                                            ranges, plan)                        tables, plots)
+//! ```
+//!
+//! * `Config` is the raw serde struct of the file; its JSON schema drives the shape check and the
+//!   config reference (docs/config.md).
+//! * `Spec` is what validation returns: a value whose fields are valid (keys checked against
+//!   their ranges and each other, every error naming the key, the value and what is allowed),
+//!   with the *plan* of the run where the study has one: its units of work (samples, reference
+//!   states, response runs…) with stable ids and declared inputs ([`crate::work`]).
+//! * `State` is the whole resumable state of a run, written to `checkpoint.gwck`; it carries
+//!   the resolved config so that `grainwave resume` can check that a checkpoint belongs to its
+//!   directory.
+//! * `run` executes the plan (the units on the [`crate::work::Scheduler`], which persists each
+//!   result and skips the finished ones on resume), aggregates the results in the order of the
+//!   unit ids (so the bits do not depend on the thread count or the completion order), writes
+//!   the outputs and returns the typed `Report`.
+//!
+//! The registry ([`crate::registry::PROTOCOLS`]) holds one entry per protocol, built from its
+//! `Protocol` implementation; `grainwave check`, `run`, `resume`, `plot`, `reference`, the
+//! fuzz targets and the checkpoint decoders all go through it.
+
+use crate::config::{ConfigError, ConfigSource};
+use crate::error::Result;
+use crate::protocol::RunContext;
+use serde::{de::DeserializeOwned, Serialize};
+use std::path::Path;
+
+/// A study: config → validated spec → state → run → report.
+pub trait Protocol: 'static {
+    /// The name a config selects it with (`experiment = "…"`).
+    const NAME: &'static str;
+    /// Content tag of its state in `checkpoint.gwck`.
+    const TAG: &'static str;
+    /// The introduction of its section in the config reference (what it does, its units).
+    const REFERENCE: &'static str;
+    /// The raw config (serde; its schema checks shapes and generates the reference).
+    type Config: Serialize + DeserializeOwned + schemars::JsonSchema;
+    /// The validated config (and plan).
+    type Spec;
+    /// The resumable state of a run.
+    type State: Serialize + DeserializeOwned;
+    /// The typed result of a run (written as `summary.json`).
+    type Report: Serialize;
+
+    /// Parses and validates a config file into its spec.
+    fn validate(src: &ConfigSource) -> Result<Self::Spec, ConfigError>;
+    /// What `grainwave check` prints about a valid spec.
+    fn describe(spec: &Self::Spec) -> Vec<String>;
+    /// A fresh state for a run of `spec`.
+    fn start(spec: Self::Spec) -> Self::State;
+    /// The resolved config a state carries.
+    fn config(state: &Self::State) -> &Self::Config;
+    /// Runs (or continues) the state until the run is done, writing every output into the
+    /// context's directory.
+    fn run(state: &mut Self::State, ctx: &mut RunContext<'_>) -> Result<Self::Report>;
+    /// The lines `grainwave run` prints at the end.
+    fn summary_lines(report: &Self::Report, out: &Path) -> Vec<String>;
+    /// Re-makes the plots (and tables) of the run in `dir` from its saved data; returns the files
+    /// written, relative to `dir`.
+    fn replot(dir: &Path, state: &Self::State) -> Result<Vec<String>>;
+}
