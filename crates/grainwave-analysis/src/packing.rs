@@ -176,57 +176,8 @@ pub fn cap_volume_below(r: f64, h: f64) -> f64 {
     PI * (r + h) * (r + h) * (2.0 * r - h) / 3.0
 }
 
-/// Iterated rattler removal (see the module docs): flags per grain, storage order.
-pub fn find_rattlers<D: Dim>(snapshot: &Snapshot<D>, min_contacts: usize) -> Vec<bool> {
-    let n = snapshot.len();
-    let index = snapshot.index_by_id();
-    let links: Vec<(usize, Option<usize>)> = snapshot
-        .contacts
-        .iter()
-        .filter(|c| c.normal_force > 0.0)
-        .map(|c| {
-            let i = index[c.i as usize];
-            match c.j {
-                Counterpart::Grain(j) => (i, Some(index[j as usize])),
-                Counterpart::Wall(_) => (i, None),
-            }
-        })
-        .collect();
-    let mut removed = vec![false; n];
-    loop {
-        let mut count = vec![0usize; n];
-        for &(i, j) in &links {
-            match j {
-                Some(j) if !removed[i] && !removed[j] => {
-                    count[i] += 1;
-                    count[j] += 1;
-                }
-                None if !removed[i] => count[i] += 1,
-                _ => {}
-            }
-        }
-        let mut changed = false;
-        for g in 0..n {
-            if !removed[g] && count[g] < min_contacts {
-                removed[g] = true;
-                changed = true;
-            }
-        }
-        if !changed {
-            return removed;
-        }
-    }
-}
-
-/// Default rattler threshold: 2 when the grain–grain law has friction, d + 1 otherwise.
-pub fn default_rattler_threshold<D: Dim>(snapshot: &Snapshot<D>) -> usize {
-    let frictional = !matches!(snapshot.law.tangential, grainwave_core::contact::Tangential::None) && snapshot.law.friction > 0.0;
-    if frictional {
-        2
-    } else {
-        D::D + 1
-    }
-}
+/// The rattler finder of the engine's snapshots (one implementation for analysis and linear).
+pub use grainwave_core::rattlers::{default_rattler_threshold, find_rattlers};
 
 /// Walls closing `axis`: (lower coordinate, upper coordinate), from the walls perpendicular to it.
 pub fn wall_gap<D: Dim>(domain: &Domain<D>, axis: usize) -> Option<(f64, f64)> {

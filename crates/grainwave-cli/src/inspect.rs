@@ -2,9 +2,7 @@
 //! words.
 
 use anyhow::{Context, Result};
-use grainwave_core::checkpoint::{decode, verify};
-use grainwave_core::dim::Dim;
-use grainwave_core::sim::Simulation;
+use grainwave_experiments::engine::{decode, verify, Dim, Simulation, D2, D3};
 use grainwave_experiments::simulation::{AnySim, SimulationState, TAG as SIMULATION_TAG};
 use std::path::Path;
 
@@ -14,7 +12,7 @@ pub fn describe(path: &Path) -> Result<Vec<String>> {
         return describe_dir(path);
     }
     let bytes = std::fs::read(path).with_context(|| format!("cannot read `{}`", path.display()))?;
-    if bytes.starts_with(grainwave_core::checkpoint::MAGIC) {
+    if bytes.starts_with(grainwave_experiments::engine::MAGIC) {
         return describe_checkpoint(path, &bytes);
     }
     let name = path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default();
@@ -69,7 +67,7 @@ fn describe_checkpoint(path: &Path, bytes: &[u8]) -> Result<Vec<String>> {
     let mut v = vec![format!(
         "{}: grainwave checkpoint (format {}, {} bytes, checksum ok), holds `{tag}`",
         path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
-        grainwave_core::checkpoint::FORMAT_VERSION,
+        grainwave_experiments::engine::FORMAT_VERSION,
         body.len()
     )];
     match tag.as_str() {
@@ -171,8 +169,8 @@ fn describe_checkpoint(path: &Path, bytes: &[u8]) -> Result<Vec<String>> {
                 v.push(format!("  pulse         leading edge {:.4}, peak {:.4} (A = {:.4e})", m.leading_edge_time, m.peak_time, m.peak_amplitude));
             }
         }
-        "simulation-2d" => describe_sim::<grainwave_core::dim::D2>(&decode(bytes, &tag, &p)?, &mut v),
-        "simulation-3d" => describe_sim::<grainwave_core::dim::D3>(&decode(bytes, &tag, &p)?, &mut v),
+        "simulation-2d" => describe_sim::<D2>(&decode(bytes, &tag, &p)?, &mut v),
+        "simulation-3d" => describe_sim::<D3>(&decode(bytes, &tag, &p)?, &mut v),
         _ => {}
     }
     Ok(v)

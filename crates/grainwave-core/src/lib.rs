@@ -37,6 +37,7 @@ pub mod error;
 pub mod grains;
 pub mod neighbor;
 pub mod placement;
+pub mod rattlers;
 pub(crate) mod real;
 pub mod sim;
 #[cfg(target_arch = "x86_64")]

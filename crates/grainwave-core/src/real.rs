@@ -3,10 +3,12 @@
 //! [`Real`] is `f64` (one value: the scalar paths, and the window loops the compiler vectorizes)
 //! or a vector of several values (the explicit AVX2 and AVX-512 paths). Code written once over
 //! `R: Real` — the minimum image ([`crate::domain::PeriodicImage::displacement_velocity_lanes`]),
-//! the specialised contact law (`sim::lanes::contact`) — runs on every path. Every operation is
+//! the parts of the contact law (`contact::*_lanes`, assembled by the general kernel on `f64`
+//! and by `sim::lanes::contact` on every lane type) — runs on every path. Every operation is
 //! the IEEE operation of `f64` lane by lane (no fused multiply–add), so the results have the same
 //! bits on every path.
 
+use crate::dim::VectorOps;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// Floating-point lanes: `f64` or a vector of f64 whose every operation is the `f64` one lane by
@@ -30,8 +32,20 @@ pub(crate) trait Real: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Outp
     fn gt(self, o: Self) -> Self::Mask;
     /// `if m { a } else { b }` lane by lane.
     fn select(m: Self::Mask, a: Self, b: Self) -> Self;
-    /// `f` lane by lane (the general damping parts).
-    fn map3(a: Self, b: Self, c: Self, f: impl Fn(f64, f64, f64) -> f64) -> Self;
+    /// `m`, on one lane (`f64`), where the one-lane instance of a lane-generic part may branch
+    /// past work that it does not need; `false` on vector types, which stay branch-free (a
+    /// branch taken only when no lane of a vector needs the work was mispredicted often enough
+    /// to cost 3–4 % on `hooke2d`, BENCHMARKS.md). Either way the result has the same bits: the
+    /// code after the branch selects the same values.
+    #[inline(always)]
+    fn branch_if(_m: Self::Mask) -> bool {
+        false
+    }
+    /// `!m` on one lane (`f64`), `false` on vector types (see [`Real::branch_if`]).
+    #[inline(always)]
+    fn branch_unless(_m: Self::Mask) -> bool {
+        false
+    }
 }
 
 impl Real for f64 {
@@ -83,10 +97,67 @@ impl Real for f64 {
         }
     }
     #[inline(always)]
-    fn map3(a: Self, b: Self, c: Self, f: impl Fn(f64, f64, f64) -> f64) -> Self {
-        f(a, b, c)
+    fn branch_if(m: bool) -> bool {
+        m
+    }
+    #[inline(always)]
+    fn branch_unless(m: bool) -> bool {
+        !m
     }
 }
+
+/// A vector over lanes: component `c` of every lane in `v[c]`; the components at and past the
+/// dimension are unused.
+pub(crate) type Vec3<R> = [R; 3];
+
+/// a·b over the first `N` components, in the component order of `VectorOps::dot`.
+#[inline(always)]
+pub(crate) fn dot<R: Real, const N: usize>(a: Vec3<R>, b: Vec3<R>) -> R {
+    let mut s = a[0] * b[0];
+    for c in 1..N {
+        s = s + a[c] * b[c];
+    }
+    s
+}
+
+/// `if m { a } else { b }` lane by lane on every component of a [`Vec3`].
+#[inline(always)]
+pub(crate) fn select3<R: Real>(m: R::Mask, a: Vec3<R>, b: Vec3<R>) -> Vec3<R> {
+    [R::select(m, a[0], b[0]), R::select(m, a[1], b[1]), R::select(m, a[2], b[2])]
+}
+
+/// The components of `v` as a one-lane [`Vec3`] (zero past `V::LEN`).
+#[inline(always)]
+pub(crate) fn to_lanes<V: VectorOps>(v: V) -> Vec3<f64> {
+    let mut a = [0.0; 3];
+    for (c, x) in a.iter_mut().enumerate().take(V::LEN) {
+        *x = v.get(c);
+    }
+    a
+}
+
+/// The vector whose components are the first `V::LEN` of `a`.
+#[inline(always)]
+pub(crate) fn from_lanes<V: VectorOps>(a: Vec3<f64>) -> V {
+    let mut v = V::ZERO;
+    for (c, &x) in a.iter().enumerate().take(V::LEN) {
+        v.set(c, x);
+    }
+    v
+}
+
+/// Runs the lane-generic `$f::<f64, N>` with `N = <$v as VectorOps>::LEN` (1, 2 or 3), chosen at
+/// compile time: the one-lane instance of a function written over `[R; 3]` vectors.
+macro_rules! by_len {
+    ($v:ty, $f:ident ( $($arg:expr),* $(,)? )) => {
+        match <$v as $crate::dim::VectorOps>::LEN {
+            1 => $f::<f64, 1>($($arg),*),
+            2 => $f::<f64, 2>($($arg),*),
+            _ => $f::<f64, 3>($($arg),*),
+        }
+    };
+}
+pub(crate) use by_len;
 
 #[cfg(test)]
 mod tests {

@@ -135,12 +135,6 @@ impl Real for Wide8 {
         // SAFETY: as above (lanes of `a` where `m` is set).
         unsafe { Wide8(_mm512_mask_blend_pd(m, b.0, a.0)) }
     }
-    #[inline(always)]
-    fn map3(a: Self, b: Self, c: Self, f: impl Fn(f64, f64, f64) -> f64) -> Self {
-        let (a, b, c) = (a.lanes(), b.lanes(), c.lanes());
-        // SAFETY: as above.
-        unsafe { Wide8(_mm512_setr_pd(f(a[0], b[0], c[0]), f(a[1], b[1], c[1]), f(a[2], b[2], c[2]), f(a[3], b[3], c[3]), f(a[4], b[4], c[4]), f(a[5], b[5], c[5]), f(a[6], b[6], c[6]), f(a[7], b[7], c[7]))) }
-    }
 }
 
 impl Wide8 {

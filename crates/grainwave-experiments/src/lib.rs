@@ -33,3 +33,12 @@ pub use error::{ExperimentError, Result};
 pub use grainwave_core::sim::{Control, Progress, StopReason};
 /// Version of the engine (recorded in every report).
 pub use grainwave_core::VERSION;
+
+/// The engine types a front end needs to read a stored state (the command line's `inspect`):
+/// the checkpoint container, the dimensions and the simulation. Front ends depend on this crate
+/// only; it passes these through from `grainwave-core`.
+pub mod engine {
+    pub use grainwave_core::checkpoint::{decode, verify, FORMAT_VERSION, MAGIC};
+    pub use grainwave_core::dim::{Dim, D2, D3};
+    pub use grainwave_core::sim::Simulation;
+}

@@ -5,7 +5,8 @@
 //! until no more grain is removed. The default threshold is 2 for frictional packings and d + 1
 //! for frictionless ones (the fewest contacts that can hold a grain in equilibrium).
 //!
-//! The finder is the one of `grainwave-analysis` (which characterizes packings with it), so that
-//! the modes and the static characterization always agree on which grains rattle.
+//! The finder is the engine's (`grainwave_core::rattlers`), which `grainwave-analysis` also
+//! uses to characterize packings, so that the modes and the static characterization always agree
+//! on which grains rattle.
 
-pub use grainwave_analysis::packing::{default_rattler_threshold as default_min_contacts, find_rattlers};
+pub use grainwave_core::rattlers::{default_rattler_threshold as default_min_contacts, find_rattlers};

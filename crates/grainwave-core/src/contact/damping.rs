@@ -1,5 +1,6 @@
 //! Normal damping part (SPEC §2.2) and the conversion from a restitution coefficient.
 
+use crate::real::Real;
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
@@ -39,12 +40,19 @@ impl NormalDamping {
     /// and secant stiffness `k_secant` = F_el/ξ (see [`NormalElastic::response`](super::NormalElastic::response)).
     #[inline]
     pub fn coefficient(&self, m_eff: f64, k_n: f64, k_secant: f64) -> f64 {
+        self.coefficient_lanes(m_eff, k_n, k_secant)
+    }
+
+    /// [`NormalDamping::coefficient`] on every lane: the one implementation, run by the general
+    /// kernel (`f64`) and the engine's vector paths.
+    #[inline(always)]
+    pub(crate) fn coefficient_lanes<R: Real>(&self, m_eff: R, k_n: R, k_secant: R) -> R {
         match *self {
-            NormalDamping::None => 0.0,
-            NormalDamping::Dashpot { coefficient } => coefficient,
-            NormalDamping::CriticalFraction { zeta } => zeta * 2.0 * (m_eff * k_n).sqrt(),
-            NormalDamping::MassProportional { rate } => rate * m_eff,
-            NormalDamping::Tsuji { alpha } => alpha * (m_eff * k_secant).sqrt(),
+            NormalDamping::None => R::splat(0.0),
+            NormalDamping::Dashpot { coefficient } => R::splat(coefficient),
+            NormalDamping::CriticalFraction { zeta } => R::splat(zeta * 2.0) * (m_eff * k_n).sqrt(),
+            NormalDamping::MassProportional { rate } => R::splat(rate) * m_eff,
+            NormalDamping::Tsuji { alpha } => R::splat(alpha) * (m_eff * k_secant).sqrt(),
         }
     }
 

@@ -1,6 +1,7 @@
 //! Contact kinematics: the geometry and relative motion that every contact-law part consumes.
 
 use crate::dim::{Dim, VectorOps};
+use crate::real::{dot, from_lanes, to_lanes, Real, Vec3};
 
 /// Geometry and relative motion of one contact (grain i with grain j, or grain i with a wall).
 ///
@@ -51,20 +52,18 @@ pub fn pair_kinematics<D: Dim>(
     if dist2 >= sum * sum {
         return None;
     }
-    let dist = dist2.sqrt();
-    let overlap = sum - dist;
-    let n = r_ij / dist;
-    let lever_i = radius_i - 0.5 * overlap;
-    let lever_j = radius_j - 0.5 * overlap;
-    let v_rel = vel_j - vel_i;
-    let v_n = v_rel.dot(n);
-    // velocity of j's contact point relative to i's: v_j + ω_j × (−a_j n̂) − v_i − ω_i × (a_i n̂)
-    let v_c = v_rel - D::ang_cross(omega_i * lever_i + omega_j * lever_j, n);
-    let v_t = v_c - n * v_c.dot(n);
+    let (w_i, w_j) = (to_lanes(omega_i), to_lanes(omega_j));
+    let (r, v_rel) = (to_lanes(r_ij), to_lanes(vel_j - vel_i));
+    let k = match D::D {
+        2 => pair_kinematics_lanes::<f64, 2, 1>(r, dist2, radius_i, radius_j, v_rel, w_i, w_j),
+        _ => pair_kinematics_lanes::<f64, 3, 3>(r, dist2, radius_i, radius_j, v_rel, w_i, w_j),
+    };
+    let n: D::Vector = from_lanes(k.normal);
+    let (overlap, lever_i, lever_j, v_n, v_t) = (k.overlap, k.lever_i, k.lever_j, k.v_n, from_lanes(k.v_t));
     Some(Kinematics {
         normal: n,
         overlap,
-        r_eff: radius_i * radius_j / sum,
+        r_eff: k.r_eff,
         m_eff: mass_i * mass_j / (mass_i + mass_j),
         lever_i,
         lever_j,
@@ -109,4 +108,108 @@ pub fn wall_kinematics<D: Dim>(
         w_roll: D::ang_perp(-omega, n),
         w_twist: D::twist(-omega, n),
     })
+}
+
+/// The kinematics of one touching pair per lane (the part of [`Kinematics`] that the force law
+/// reads; components past the dimension unused).
+#[derive(Clone, Copy)]
+pub(crate) struct PairLanes<R> {
+    /// Unit normal n̂ from i towards j.
+    pub normal: Vec3<R>,
+    /// Overlap ξ.
+    pub overlap: R,
+    /// R* = R_i R_j / (R_i + R_j).
+    pub r_eff: R,
+    /// Lever arms a_i = R_i − ξ/2, a_j = R_j − ξ/2.
+    pub lever_i: R,
+    pub lever_j: R,
+    /// Relative normal velocity (v_j − v_i)·n̂.
+    pub v_n: R,
+    /// Tangential velocity of j relative to i at the contact point.
+    pub v_t: Vec3<R>,
+}
+
+/// The kinematics of a touching pair on every lane, from the centre-to-centre vector `r`
+/// (nearest image) and its squared length `dist2`, the radii, v_j − v_i and the angular
+/// velocities (`ROT` components: 1 in 2D, 3 in 3D): the one implementation behind
+/// [`pair_kinematics`] (`f64`) and the engine's vector paths. The contact point sits in the
+/// middle of the overlap; its velocity of j relative to i is
+/// v_c = v_j − v_i − (a_i ω_i + a_j ω_j) × n̂, and v_t = v_c − (v_c·n̂) n̂.
+#[inline(always)]
+pub(crate) fn pair_kinematics_lanes<R: Real, const DIM: usize, const ROT: usize>(
+    r: Vec3<R>,
+    dist2: R,
+    rad_i: R,
+    rad_j: R,
+    v_rel: Vec3<R>,
+    w_i: Vec3<R>,
+    w_j: Vec3<R>,
+) -> PairLanes<R> {
+    let zero = R::splat(0.0);
+    let sum = rad_i + rad_j;
+    let dist = dist2.sqrt();
+    let overlap = sum - dist;
+    let mut n = [zero; 3];
+    for c in 0..DIM {
+        n[c] = r[c] / dist;
+    }
+    let half = R::splat(0.5);
+    let lever_i = rad_i - half * overlap;
+    let lever_j = rad_j - half * overlap;
+    let v_n = dot::<R, DIM>(v_rel, n);
+    let mut wsum = [zero; 3];
+    for c in 0..ROT {
+        wsum[c] = w_i[c] * lever_i + w_j[c] * lever_j;
+    }
+    let mut v_c = [zero; 3];
+    if DIM == 3 {
+        // `Dim::ang_cross` in 3D: glam's DVec3::cross(wsum, n)
+        v_c[0] = v_rel[0] - (wsum[1] * n[2] - n[1] * wsum[2]);
+        v_c[1] = v_rel[1] - (wsum[2] * n[0] - n[2] * wsum[0]);
+        v_c[2] = v_rel[2] - (wsum[0] * n[1] - n[0] * wsum[1]);
+    } else {
+        // `Dim::ang_cross` in 2D: ω ẑ × n = (−ω n_y, ω n_x)
+        v_c[0] = v_rel[0] - -wsum[0] * n[1];
+        v_c[1] = v_rel[1] - wsum[0] * n[0];
+    }
+    let vcn = dot::<R, DIM>(v_c, n);
+    let mut v_t = [zero; 3];
+    for c in 0..DIM {
+        v_t[c] = v_c[c] - n[c] * vcn;
+    }
+    PairLanes { normal: n, overlap, r_eff: rad_i * rad_j / sum, lever_i, lever_j, v_n, v_t }
+}
+
+/// Rotates the vector `v` (`N` components) into the plane perpendicular to the unit vector `n`
+/// keeping its length, on every lane: p = v − (v·n̂) n̂, scaled by |v|/|p|; `v` itself when it is
+/// zero, zero when it is parallel to n̂. The one implementation behind the stored histories'
+/// rotation in the general kernel (`f64`) and the engine's vector paths.
+#[inline(always)]
+pub(crate) fn into_tangent_plane_lanes<R: Real, const N: usize>(v: Vec3<R>, n: Vec3<R>) -> Vec3<R> {
+    let zero = R::splat(0.0);
+    let len2 = dot::<R, N>(v, v);
+    if R::branch_if(len2.eq(zero)) {
+        return v;
+    }
+    let vdn = dot::<R, N>(v, n);
+    let mut p = [zero; 3];
+    for c in 0..N {
+        p[c] = v[c] - n[c] * vdn;
+    }
+    let p2 = dot::<R, N>(p, p);
+    let (p_zero, p_same, len_zero) = (p2.eq(zero), p2.eq(len2), len2.eq(zero));
+    if R::branch_if(p_zero) {
+        return [zero; 3];
+    }
+    if R::branch_if(p_same) {
+        return p;
+    }
+    // on one lane, only reached when the rotation changes the length (f64 branches above)
+    let scale = (len2 / p2).sqrt();
+    let mut out = [zero; 3];
+    for c in 0..N {
+        let rotated = R::select(p_zero, zero, R::select(p_same, p[c], p[c] * scale));
+        out[c] = R::select(len_zero, v[c], rotated);
+    }
+    out
 }

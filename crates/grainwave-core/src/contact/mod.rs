@@ -37,6 +37,10 @@ pub use params::{ContactParams, Partner, PRESETS};
 pub use parts::{HertzMindlin, HookeCundallStrack, LawParts, Specialized};
 pub use rolling::{Rolling, Twisting};
 pub use tangential::{Tangential, TangentialDamping};
+pub(crate) use kinematics::{into_tangent_plane_lanes, pair_kinematics_lanes};
+pub(crate) use tangential::spring_step;
+
+use crate::real::{by_len, from_lanes, to_lanes, Real};
 
 use crate::dim::{Dim, VectorOps};
 use crate::error::{require_non_negative, require_positive, CoreError, Result};
@@ -102,60 +106,45 @@ pub struct ContactOutput<D: Dim> {
     pub sliding: bool,
 }
 
-/// Rotates `v` into the plane perpendicular to `n`, preserving its length.
+/// Rotates `v` into the plane perpendicular to `n`, preserving its length
+/// ([`into_tangent_plane_lanes`] on one lane).
 #[inline]
 fn into_tangent_plane<V: VectorOps>(v: V, n: V) -> V {
-    let len2 = v.norm2();
-    if len2 == 0.0 {
-        return v;
-    }
-    let p = v - n * v.dot(n);
-    let p2 = p.norm2();
-    if p2 == 0.0 {
-        V::ZERO
-    } else if p2 == len2 {
-        p
-    } else {
-        p * (len2 / p2).sqrt()
-    }
+    from_lanes(by_len!(V, into_tangent_plane_lanes(to_lanes(v), to_lanes(n))))
 }
 
-/// Evaluates a contact law given by its parts (see [`LawParts`]): the one implementation behind
-/// [`ContactLaw::evaluate`] and the engine's specialised kernels, so both give the same bits.
+/// Evaluates a contact law given by its parts (see [`LawParts`]): the general kernel, and the
+/// reference for the engine's specialised kernels (`sim::lanes::contact`). Both are assembled
+/// from the same lane-generic parts — [`NormalElastic::response_lanes`],
+/// [`NormalDamping::coefficient_lanes`], [`Tangential::stiffness_lanes`],
+/// [`TangentialDamping::coefficient_lanes`], the spring step `spring_step` (increment,
+/// Coulomb cap, history kept) and the rotation into the tangent plane — run here on one lane (`f64`), so both give the same bits.
 #[inline(always)]
 pub(crate) fn evaluate_parts<D: Dim, P: LawParts>(law: &P, kin: &Kinematics<D>, state: &mut ContactState<D>, dt: f64) -> ContactOutput<D> {
     let n = kin.normal;
-    let NormalResponse { force: f_el, stiffness: k_n, secant } = law.normal().response(kin.overlap, kin.r_eff);
-    let gamma_n = law.damping().coefficient(kin.m_eff, k_n, secant);
-    let f_n = (f_el - gamma_n * kin.v_n).max(0.0);
+    let NormalResponse { force: f_el, stiffness: k_n, secant } = law.normal().response_lanes(kin.overlap, kin.r_eff);
+    let gamma_n = law.damping().coefficient_lanes(kin.m_eff, k_n, secant);
+    let f_n = (f_el - gamma_n * kin.v_n).max_zero();
 
     let tangential = law.tangential();
-    let k_t = tangential.stiffness(kin.overlap, kin.r_eff);
+    let k_t = tangential.stiffness_lanes(kin.overlap, kin.r_eff);
     let mut sliding = false;
     let f_t = match tangential {
         Tangential::None => D::Vector::ZERO,
-        Tangential::Linear { .. } => {
-            let gamma_t = law.tangential_damping().coefficient(kin.m_eff, k_t, gamma_n);
-            let s = into_tangent_plane(state.spring, n) + kin.v_t * dt;
-            let trial = s * k_t + kin.v_t * gamma_t;
-            let (f, slid) = coulomb_cap(trial, law.friction() * f_n);
-            sliding = slid;
-            state.spring = if slid { f / k_t } else { s };
-            f
-        }
-        Tangential::Mindlin { rescale_on_unloading, .. } => {
-            let gamma_t = law.tangential_damping().coefficient(kin.m_eff, k_t, gamma_n);
-            let mut elastic = into_tangent_plane(state.spring, n);
-            if rescale_on_unloading && state.overlap > 0.0 && kin.overlap < state.overlap {
-                // k_t ∝ √ξ
-                elastic *= (kin.overlap / state.overlap).sqrt();
+        Tangential::Linear { .. } | Tangential::Mindlin { .. } => {
+            let gamma_t = law.tangential_damping().coefficient_lanes(kin.m_eff, k_t, gamma_n);
+            let mut rotated = into_tangent_plane(state.spring, n);
+            if let Tangential::Mindlin { rescale_on_unloading: true, .. } = tangential {
+                if state.overlap > 0.0 && kin.overlap < state.overlap {
+                    // k_t ∝ √ξ
+                    rotated *= (kin.overlap / state.overlap).sqrt();
+                }
             }
-            elastic += kin.v_t * (k_t * dt);
-            let trial = elastic + kin.v_t * gamma_t;
-            let (f, slid) = coulomb_cap(trial, law.friction() * f_n);
+            let cap = law.friction() * f_n;
+            let (f, history, slid) = by_len!(D::Vector, spring_step(&tangential, to_lanes(rotated), to_lanes(kin.v_t), k_t, gamma_t, dt, cap));
             sliding = slid;
-            state.spring = if slid { f } else { elastic };
-            f
+            state.spring = from_lanes(history);
+            from_lanes(f)
         }
     };
 
@@ -301,15 +290,5 @@ fn into_tangent_plane_ang<D: Dim>(theta: D::AngVector, n: D::Vector) -> D::AngVe
     if D::ROT == 1 {
         return theta;
     }
-    let len2 = theta.norm2();
-    if len2 == 0.0 {
-        return theta;
-    }
-    let p = D::ang_perp(theta, n);
-    let p2 = p.norm2();
-    if p2 == 0.0 {
-        D::AngVector::ZERO
-    } else {
-        p * (len2 / p2).sqrt()
-    }
+    from_lanes(into_tangent_plane_lanes::<f64, 3>(to_lanes(theta), to_lanes(n)))
 }

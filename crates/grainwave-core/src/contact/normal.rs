@@ -1,5 +1,6 @@
 //! Normal elastic part (SPEC §2.1): Hooke and Hertz.
 
+use crate::real::Real;
 use serde::{Deserialize, Serialize};
 
 /// Normal elastic force law F_el(ξ) and its differential stiffness k_n = dF_el/dξ.
@@ -18,15 +19,16 @@ pub enum NormalElastic {
     },
 }
 
-/// What the normal elastic part gives at one overlap.
+/// What the normal elastic part gives at one overlap (`R` = `f64`), or at one overlap per lane
+/// (the engine's vector paths).
 #[derive(Clone, Copy, Debug, PartialEq)]
-pub struct NormalResponse {
+pub struct NormalResponse<R = f64> {
     /// Elastic force F_el(ξ) ≥ 0.
-    pub force: f64,
+    pub force: R,
     /// Differential stiffness k_n = dF_el/dξ.
-    pub stiffness: f64,
+    pub stiffness: R,
     /// Secant stiffness F_el/ξ (Hooke: k_n; Hertz: (4/3) E*_ij √(R* ξ) = ⅔ k_n).
-    pub secant: f64,
+    pub secant: R,
 }
 
 impl NormalElastic {
@@ -41,12 +43,23 @@ impl NormalElastic {
     /// `r_eff`.
     #[inline]
     pub fn response(&self, xi: f64, r_eff: f64) -> NormalResponse {
+        self.response_lanes(xi, r_eff)
+    }
+
+    /// [`NormalElastic::response`] on every lane: the one implementation of the normal law, run
+    /// by the general kernel (`f64`) and by the engine's vector paths (the match is on the law's
+    /// parameters, the same for every lane; the arithmetic is lane by lane).
+    #[inline(always)]
+    pub(crate) fn response_lanes<R: Real>(&self, xi: R, r_eff: R) -> NormalResponse<R> {
         match *self {
-            NormalElastic::Hooke { stiffness } => NormalResponse { force: stiffness * xi, stiffness, secant: stiffness },
+            NormalElastic::Hooke { stiffness } => {
+                let k = R::splat(stiffness);
+                NormalResponse { force: k * xi, stiffness: k, secant: k }
+            }
             NormalElastic::Hertz { effective_modulus } => {
                 let a = (r_eff * xi).sqrt(); // contact radius
-                let secant = 4.0 / 3.0 * effective_modulus * a;
-                NormalResponse { force: secant * xi, stiffness: 2.0 * effective_modulus * a, secant }
+                let secant = R::splat(4.0 / 3.0 * effective_modulus) * a;
+                NormalResponse { force: secant * xi, stiffness: R::splat(2.0 * effective_modulus) * a, secant }
             }
         }
     }

@@ -20,7 +20,7 @@
 //!
 //! **Close list (3D).** The neighbor list holds every pair within r_i + r_j + skin, and with the
 //! benchmark skin (0.1 of a diameter) only ≈ 77 % (3D) / 83 % (2D) of those pairs touch. In 3D
-//! the fused pass (`avx2`, either lane width) therefore walks a second, shorter list of each block's intra-block
+//! the fused pass (`fused`, either lane width) therefore walks a second, shorter list of each block's intra-block
 //! pairs: those within r_i + r_j + m, m = 0.3 × skin, plus any pair still holding a contact
 //! (so that its opening is seen and its history forgotten as before), in list order. A pair left
 //! out cannot touch before some grain has moved m/2 from where it was when the close list was
@@ -46,10 +46,12 @@ use crate::error::{CoreError, Result};
 use crate::neighbor::{max_displacement2_since, PairList};
 use rayon::prelude::*;
 
+/// The fused pass: on eight AVX2 lanes and on sixteen AVX-512 lanes.
 #[cfg(target_arch = "x86_64")]
-mod avx2;
+mod fused;
+/// The AVX-512 filling of the windows (touching pairs eight candidates at a time).
 #[cfg(target_arch = "x86_64")]
-mod simd;
+mod window512;
 
 /// Per-evaluation statistics, merged associatively and commutatively (so deterministically).
 #[derive(Clone, Copy, Debug, Default)]
@@ -484,7 +486,7 @@ fn push_pair<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &mut History<D>, v: Vel
 }
 
 /// Evaluates window `w` (contacts only) and stores the new histories and the statistics (as
-/// `eval_pair`). With `VEC` the window was filled by `simd::push_pairs` and the caller enables
+/// `eval_pair`). With `VEC` the window was filled by `window512::push_pairs` and the caller enables
 /// AVX-512.
 #[inline(always)]
 fn eval_window<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D>, h: &mut History<D>, w: &mut Window, st: &mut ForceStats) {
@@ -557,11 +559,11 @@ fn push_owner<D: Dim>(
 enum Path {
     /// Windows filled pair by pair, the law vectorized by the compiler.
     Portable,
-    /// The fused AVX2 pass (`avx2`).
+    /// The fused AVX2 pass (`fused`).
     Avx2,
-    /// Windows filled eight candidates at a time with AVX-512 (`simd`).
+    /// Windows filled eight candidates at a time with AVX-512 (`window512`).
     Avx512,
-    /// The fused pass on 512-bit lanes (`avx2::Wide16`, AVX-512 F and VL).
+    /// The fused pass on 512-bit lanes (`fused::Wide16`, AVX-512 F and VL).
     Fused512,
 }
 
@@ -580,13 +582,13 @@ impl Path {
 fn path(level: u8) -> Path {
     #[cfg(target_arch = "x86_64")]
     {
-        if level >= 3 && avx2::wide_available() {
+        if level >= 3 && fused::wide_available() {
             return Path::Fused512;
         }
-        if level >= 2 && simd::available() {
+        if level >= 2 && window512::available() {
             return Path::Avx512;
         }
-        if level >= 1 && avx2::available() {
+        if level >= 1 && fused::available() {
             return Path::Avx2;
         }
     }
@@ -624,7 +626,7 @@ fn cross_pairs_windowed<D: Dim, L: WindowLaw>(
     out[cross.block_slot_start[b] as usize - slot_base..cross.block_slot_start[b + 1] as usize - slot_base].fill(CrossForce::default());
     #[cfg(target_arch = "x86_64")]
     if path.fused() {
-        return lanes::with_dampers(law, avx2::CrossPass { law, inp, vel, omega, cross, b, h, out, slot_base, wide: path == Path::Fused512 });
+        return lanes::with_dampers(law, fused::CrossPass { law, inp, vel, omega, cross, b, h, out, slot_base, wide: path == Path::Fused512 });
     }
     lanes::with_window(|w| {
         #[cfg(target_arch = "x86_64")]
@@ -684,7 +686,7 @@ fn cross_block<D: Dim, L: WindowLaw, const VEC: bool>(
             // SAFETY: the slots of block b hold pairs of `h` (cross index); w.len + 8 ≤ CAP;
             // `VEC` only with AVX-512 enabled.
             unsafe {
-                simd::push_pairs::<D, true>(w, inp, &mut h, v, &cross.owner, &cross.slot_pair, g1, false, s, q, &mut st);
+                window512::push_pairs::<D, true>(w, inp, &mut h, v, &cross.owner, &cross.slot_pair, g1, false, s, q, &mut st);
             }
             s = q;
         }
@@ -750,7 +752,7 @@ fn blocks_pass_windowed<D: Dim, L: WindowLaw>(
     }
     #[cfg(target_arch = "x86_64")]
     if path.fused() {
-        return lanes::with_dampers(law, avx2::BlockPass { law, inp, cross, fin, b: blocks.start, h, g, wide: path == Path::Fused512 });
+        return lanes::with_dampers(law, fused::BlockPass { law, inp, cross, fin, b: blocks.start, h, g, wide: path == Path::Fused512 });
     }
     lanes::with_window(|w| {
         #[cfg(target_arch = "x86_64")]
@@ -836,7 +838,7 @@ fn block_windowed<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D
             // SAFETY: the block's pairs are pairs of `h` with owners in the block; intra-block
             // partners lie in the block; w.len + 8 ≤ CAP; `VEC` only with AVX-512 enabled.
             unsafe {
-                simd::push_pairs::<D, false>(w, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &cross.owner, &[], g1, true, p, q, &mut st);
+                window512::push_pairs::<D, false>(w, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &cross.owner, &[], g1, true, p, q, &mut st);
             }
             p = q;
         }
@@ -1192,7 +1194,7 @@ impl<D: Dim> CrossIndex<D> {
         let image = &domain.image();
         // 3D cells that are not sheared: eight pairs at a time on AVX-512 (the same decisions)
         #[cfg(target_arch = "x86_64")]
-        let wide = wide && D::D == 3 && !image.sheared && std::mem::size_of::<D::Vector>() == 24 && avx2::wide_available() && self.owner.len() == list.partner.len();
+        let wide = wide && D::D == 3 && !image.sheared && std::mem::size_of::<D::Vector>() == 24 && fused::wide_available() && self.owner.len() == list.partner.len();
         #[cfg(target_arch = "x86_64")]
         let (period, inverse) = image.lengths_and_inverses();
         #[cfg(not(target_arch = "x86_64"))]
@@ -1208,7 +1210,7 @@ impl<D: Dim> CrossIndex<D> {
                     let pairs = list.owner_start[g0] as usize..list.owner_start[g1] as usize;
                     // SAFETY: AVX-512 F and VL are available (`wide`); 3D vectors are three
                     // f64; the block's pairs index the list's arrays and their grains `pos`.
-                    unsafe { avx2::close_filter_wide(pos.as_ptr() as *const f64, radius, &this.owner, &list.partner, &list.overlap, pairs, g1, margin, period, inverse, &mut out) };
+                    unsafe { fused::close_filter_wide(pos.as_ptr() as *const f64, radius, &this.owner, &list.partner, &list.overlap, pairs, g1, margin, period, inverse, &mut out) };
                     return out;
                 }
                 for i in g0..g1 {

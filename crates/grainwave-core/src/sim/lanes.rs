@@ -9,7 +9,7 @@
 //! fused multiply–add), so the result is bitwise that of the general kernel (tested on whole
 //! runs).
 
-use crate::contact::{HertzMindlin, HookeCundallStrack, NormalDamping, TangentialDamping};
+use crate::contact::{into_tangent_plane_lanes, pair_kinematics_lanes, spring_step, HertzMindlin, HookeCundallStrack, LawParts, NormalDamping, NormalResponse, TangentialDamping};
 use crate::dim::{Dim, VectorOps};
 
 /// Contacts per window.
@@ -97,96 +97,12 @@ pub(super) fn with_window<R>(f: impl FnOnce(&mut Window) -> R) -> R {
 
 pub(crate) use crate::real::Real;
 
-/// The normal and tangential elastic parts of a specialised law, per contact.
-pub(super) trait WindowLaw: Copy + Send + Sync {
-    /// F_el, k_n, secant k̄ and the contact radius √(R*ξ) (0 when not used), as `NormalElastic::response`.
-    fn normal<R: Real>(&self, r_eff: R, overlap: R) -> (R, R, R, R);
-    /// k_t from the contact radius, as `Tangential::stiffness`.
-    fn tangential_stiffness<R: Real>(&self, contact_radius: R) -> R;
-    /// Trial force and the history kept when not sliding, from the rotated history.
-    fn trial<R: Real, const DIM: usize>(&self, rotated: [R; 3], v_t: [R; 3], k_t: R, gamma_t: R, dt: f64) -> ([R; 3], [R; 3]);
-    /// The history kept when sliding with force `f`.
-    fn slid<R: Real, const DIM: usize>(&self, f: [R; 3]) -> [R; 3];
-    fn damping(&self) -> NormalDamping;
-    fn tangential_damping(&self) -> TangentialDamping;
-    fn friction(&self) -> f64;
-}
-
-impl WindowLaw for HertzMindlin {
-    #[inline(always)]
-    fn normal<R: Real>(&self, r_eff: R, overlap: R) -> (R, R, R, R) {
-        let a = (r_eff * overlap).sqrt();
-        let secant = R::splat(4.0 / 3.0 * self.effective_modulus) * a;
-        (secant * overlap, R::splat(2.0 * self.effective_modulus) * a, secant, a)
-    }
-    #[inline(always)]
-    fn tangential_stiffness<R: Real>(&self, a: R) -> R {
-        R::splat(8.0 * self.effective_shear_modulus) * a
-    }
-    #[inline(always)]
-    fn trial<R: Real, const DIM: usize>(&self, rotated: [R; 3], v_t: [R; 3], k_t: R, gamma_t: R, dt: f64) -> ([R; 3], [R; 3]) {
-        // Mindlin: elastic = rotated + v_t k_t dt; trial = elastic + γ_t v_t
-        let (mut elastic, mut trial) = ([R::splat(0.0); 3], [R::splat(0.0); 3]);
-        let kdt = k_t * R::splat(dt);
-        for c in 0..DIM {
-            elastic[c] = rotated[c] + v_t[c] * kdt;
-            trial[c] = elastic[c] + v_t[c] * gamma_t;
-        }
-        (trial, elastic)
-    }
-    #[inline(always)]
-    fn slid<R: Real, const DIM: usize>(&self, f: [R; 3]) -> [R; 3] {
-        f
-    }
-    fn damping(&self) -> NormalDamping {
-        self.damping
-    }
-    fn tangential_damping(&self) -> TangentialDamping {
-        self.tangential_damping
-    }
-    fn friction(&self) -> f64 {
-        self.friction
-    }
-}
-
-impl WindowLaw for HookeCundallStrack {
-    #[inline(always)]
-    fn normal<R: Real>(&self, _r_eff: R, overlap: R) -> (R, R, R, R) {
-        let k = R::splat(self.normal_stiffness);
-        (k * overlap, k, k, R::splat(0.0))
-    }
-    #[inline(always)]
-    fn tangential_stiffness<R: Real>(&self, _a: R) -> R {
-        R::splat(self.tangential_stiffness)
-    }
-    #[inline(always)]
-    fn trial<R: Real, const DIM: usize>(&self, rotated: [R; 3], v_t: [R; 3], k_t: R, gamma_t: R, dt: f64) -> ([R; 3], [R; 3]) {
-        // Cundall–Strack: s = rotated + v_t dt; trial = k_t s + γ_t v_t
-        let (mut s, mut trial) = ([R::splat(0.0); 3], [R::splat(0.0); 3]);
-        for c in 0..DIM {
-            s[c] = rotated[c] + v_t[c] * R::splat(dt);
-            trial[c] = s[c] * k_t + v_t[c] * gamma_t;
-        }
-        (trial, s)
-    }
-    #[inline(always)]
-    fn slid<R: Real, const DIM: usize>(&self, f: [R; 3]) -> [R; 3] {
-        let mut s = [R::splat(0.0); 3];
-        for c in 0..DIM {
-            s[c] = f[c] / R::splat(self.tangential_stiffness);
-        }
-        s
-    }
-    fn damping(&self) -> NormalDamping {
-        self.damping
-    }
-    fn tangential_damping(&self) -> TangentialDamping {
-        self.tangential_damping
-    }
-    fn friction(&self) -> f64 {
-        self.friction
-    }
-}
+/// A law with a specialised kernel: its normal and tangential parts are fixed at compile time
+/// (the [`LawParts`] of the presets return a constant variant, so every `match` on a part
+/// folds away in the kernel).
+pub(super) trait WindowLaw: LawParts {}
+impl WindowLaw for HertzMindlin {}
+impl WindowLaw for HookeCundallStrack {}
 
 /// Normal and tangential damping coefficients, resolved at compile time for the combinations of
 /// the presets (the general [`Dampers`] matches on the parts at every contact).
@@ -200,70 +116,52 @@ pub(super) trait Dampers: Copy {
 impl Dampers for (NormalDamping, TangentialDamping) {
     #[inline(always)]
     fn normal<R: Real>(&self, m_eff: R, k_n: R, secant: R) -> R {
-        R::map3(m_eff, k_n, secant, |m, k, s| self.0.coefficient(m, k, s))
+        self.0.coefficient_lanes(m_eff, k_n, secant)
     }
     #[inline(always)]
     fn tangential<R: Real>(&self, m_eff: R, k_t: R, gamma_n: R) -> R {
-        R::map3(m_eff, k_t, gamma_n, |m, k, g| self.1.coefficient(m, k, g))
+        self.1.coefficient_lanes(m_eff, k_t, gamma_n)
     }
+}
+
+/// The damping parts of a preset combination, each a constant variant (their `match` folds
+/// away): the formulas are those of `NormalDamping::coefficient_lanes` and
+/// `TangentialDamping::coefficient_lanes`.
+macro_rules! fixed_dampers {
+    ($name:ident, $normal:ident { $nf:ident }, $tangential:ident { $tf:ident }) => {
+        impl Dampers for $name {
+            #[inline(always)]
+            fn normal<R: Real>(&self, m_eff: R, k_n: R, secant: R) -> R {
+                NormalDamping::$normal { $nf: self.0 }.coefficient_lanes(m_eff, k_n, secant)
+            }
+            #[inline(always)]
+            fn tangential<R: Real>(&self, m_eff: R, k_t: R, gamma_n: R) -> R {
+                TangentialDamping::$tangential { $tf: self.1 }.coefficient_lanes(m_eff, k_t, gamma_n)
+            }
+        }
+    };
 }
 
 /// Tsuji normal damping, tangential a fraction of it (`hertz_mindlin` with `tsuji_restitution`).
 #[derive(Clone, Copy)]
 struct TsujiFraction(f64, f64);
-impl Dampers for TsujiFraction {
-    #[inline(always)]
-    fn normal<R: Real>(&self, m_eff: R, _k_n: R, secant: R) -> R {
-        R::splat(self.0) * (m_eff * secant).sqrt()
-    }
-    #[inline(always)]
-    fn tangential<R: Real>(&self, _m_eff: R, _k_t: R, gamma_n: R) -> R {
-        R::splat(self.1) * gamma_n
-    }
-}
+fixed_dampers!(TsujiFraction, Tsuji { alpha }, FractionOfNormal { ratio });
 
 /// Normal damping proportional to m*, tangential a fraction of it (LAMMPS `gran/hooke/history`).
 #[derive(Clone, Copy)]
 struct RateFraction(f64, f64);
-impl Dampers for RateFraction {
-    #[inline(always)]
-    fn normal<R: Real>(&self, m_eff: R, _k_n: R, _secant: R) -> R {
-        R::splat(self.0) * m_eff
-    }
-    #[inline(always)]
-    fn tangential<R: Real>(&self, _m_eff: R, _k_t: R, gamma_n: R) -> R {
-        R::splat(self.1) * gamma_n
-    }
-}
+fixed_dampers!(RateFraction, MassProportional { rate }, FractionOfNormal { ratio });
 
 /// A fraction of critical damping on the normal part, tangential a fraction of the normal
 /// coefficient (`hooke_cundall_strack` with `restitution`).
 #[derive(Clone, Copy)]
 struct CriticalFraction(f64, f64);
-impl Dampers for CriticalFraction {
-    #[inline(always)]
-    fn normal<R: Real>(&self, m_eff: R, k_n: R, _secant: R) -> R {
-        R::splat(self.0 * 2.0) * (m_eff * k_n).sqrt()
-    }
-    #[inline(always)]
-    fn tangential<R: Real>(&self, _m_eff: R, _k_t: R, gamma_n: R) -> R {
-        R::splat(self.1) * gamma_n
-    }
-}
+fixed_dampers!(CriticalFraction, CriticalFraction { zeta }, FractionOfNormal { ratio });
 
 /// A fraction of critical damping on both parts (`hertz_mindlin` with `damping_fraction`).
 #[derive(Clone, Copy)]
 struct CriticalBoth(f64, f64);
-impl Dampers for CriticalBoth {
-    #[inline(always)]
-    fn normal<R: Real>(&self, m_eff: R, k_n: R, _secant: R) -> R {
-        R::splat(self.0 * 2.0) * (m_eff * k_n).sqrt()
-    }
-    #[inline(always)]
-    fn tangential<R: Real>(&self, m_eff: R, k_t: R, _gamma_n: R) -> R {
-        R::splat(self.1 * 2.0) * (m_eff * k_t).sqrt()
-    }
-}
+fixed_dampers!(CriticalBoth, CriticalFraction { zeta }, CriticalFraction { zeta });
 
 /// Something run with the dampers of a law as a type ([`with_dampers`]).
 pub(super) trait WithDampers {
@@ -337,15 +235,6 @@ unsafe fn compute_avx2<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, w: &m
     compute_impl::<D, L, P>(law, damp, w, dt);
 }
 
-#[inline(always)]
-fn dot<R: Real, const DIM: usize>(a: [R; 3], b: [R; 3]) -> R {
-    // component order of `VectorOps::dot`
-    let mut s = a[0] * b[0];
-    for c in 1..DIM {
-        s = s + a[c] * b[c];
-    }
-    s
-}
 
 #[inline(always)]
 fn compute_impl<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, w: &mut Window, dt: f64) {
@@ -425,85 +314,26 @@ fn lanes<const DIM: usize, const ROT: usize, L: WindowLaw, P: Dampers>(law: &L, 
 #[inline(always)]
 pub(super) fn contact<R: Real, const DIM: usize, const ROT: usize, L: WindowLaw, P: Dampers>(law: &L, damp: P, x: &ContactIn<R>, dt: f64) -> ContactOut<R> {
     let zero = R::splat(0.0);
-    let (r, v_rel, w_i, w_j, spring) = (x.r, x.v_rel, x.w_i, x.w_j, x.spring);
-    let (rad_i, rad_j, mass_i, mass_j) = (x.rad_i, x.rad_j, x.mass_i, x.mass_j);
-
-    // kinematics (as `pair_kinematics`)
-    let sum = rad_i + rad_j;
-    let dist = x.dist2.sqrt();
-    let overlap = sum - dist;
-    let mut n = [zero; 3];
-    for c in 0..DIM {
-        n[c] = r[c] / dist;
-    }
-    let half = R::splat(0.5);
-    let lever_i = rad_i - half * overlap;
-    let lever_j = rad_j - half * overlap;
-    let v_n = dot::<R, DIM>(v_rel, n);
-    let mut wsum = [zero; 3];
-    for c in 0..ROT {
-        wsum[c] = w_i[c] * lever_i + w_j[c] * lever_j;
-    }
-    let mut v_c = [zero; 3];
-    if DIM == 3 {
-        // glam's DVec3::cross(wsum, n)
-        v_c[0] = v_rel[0] - (wsum[1] * n[2] - n[1] * wsum[2]);
-        v_c[1] = v_rel[1] - (wsum[2] * n[0] - n[2] * wsum[0]);
-        v_c[2] = v_rel[2] - (wsum[0] * n[1] - n[0] * wsum[1]);
-    } else {
-        v_c[0] = v_rel[0] - -wsum[0] * n[1];
-        v_c[1] = v_rel[1] - wsum[0] * n[0];
-    }
-    let vcn = dot::<R, DIM>(v_c, n);
-    let mut v_t = [zero; 3];
-    for c in 0..DIM {
-        v_t[c] = v_c[c] - n[c] * vcn;
-    }
-    let r_eff = rad_i * rad_j / sum;
+    let k = pair_kinematics_lanes::<R, DIM, ROT>(x.r, x.dist2, x.rad_i, x.rad_j, x.v_rel, x.w_i, x.w_j);
+    let (n, overlap, r_eff) = (k.normal, k.overlap, k.r_eff);
     let m_eff = match x.m_eff {
         Some(m) => m,
-        None => mass_i * mass_j / (mass_i + mass_j),
+        None => x.mass_i * x.mass_j / (x.mass_i + x.mass_j),
     };
 
     // normal force (clamped) and stiffnesses
-    let (f_el, k_n, secant, a) = law.normal(r_eff, overlap);
+    let NormalResponse { force: f_el, stiffness: k_n, secant } = law.normal().response_lanes(overlap, r_eff);
     let gamma_n = damp.normal(m_eff, k_n, secant);
-    let f_n = (f_el - gamma_n * v_n).max_zero();
-    let k_t = law.tangential_stiffness(a);
+    let f_n = (f_el - gamma_n * k.v_n).max_zero();
+    let tangential = law.tangential();
+    let k_t = tangential.stiffness_lanes(overlap, r_eff);
     let gamma_t = damp.tangential(m_eff, k_t, gamma_n);
 
-    // history into the tangent plane keeping its length (as `into_tangent_plane`)
-    let len2 = dot::<R, DIM>(spring, spring);
-    let sdn = dot::<R, DIM>(spring, n);
-    let mut p = [zero; 3];
-    for c in 0..DIM {
-        p[c] = spring[c] - n[c] * sdn;
-    }
-    let p2 = dot::<R, DIM>(p, p);
-    let scale = (len2 / p2).sqrt();
-    let (p_zero, p_same, len_zero) = (p2.eq(zero), p2.eq(len2), len2.eq(zero));
-    let mut rotated = [zero; 3];
-    for c in 0..DIM {
-        let v = R::select(p_zero, zero, R::select(p_same, p[c], p[c] * scale));
-        rotated[c] = R::select(len_zero, spring[c], v);
-    }
-
-    // tangential force, Coulomb cap (as `coulomb_cap`), history
-    let (trial, kept) = law.trial::<R, DIM>(rotated, v_t, k_t, gamma_t, dt);
-    let t2 = dot::<R, DIM>(trial, trial);
+    // history into the tangent plane, increment, Coulomb cap, history kept
+    let rotated = into_tangent_plane_lanes::<R, DIM>(x.spring, n);
     let cap = R::splat(law.friction()) * f_n;
-    let sliding = t2.gt(cap * cap);
-    // Branch-free: the capped force is computed on every lane and selected where the lane
-    // slides (a branch skipping it when no lane of a vector slides was mispredicted often
-    // enough to cost 3–4 % on `hooke2d`, BENCHMARKS.md; the same bits either way).
-    let shrink = cap / t2.sqrt();
-    let cap_pos = cap.gt(zero);
-    let mut f = [zero; 3];
-    for c in 0..DIM {
-        let capped = R::select(cap_pos, trial[c] * shrink, zero);
-        f[c] = R::select(sliding, capped, trial[c]);
-    }
-    let slid = law.slid::<R, DIM>(f);
+    let (f, new_spring, sliding) = spring_step::<R, DIM>(&tangential, rotated, k.v_t, k_t, gamma_t, dt, cap);
+    let (lever_i, lever_j) = (k.lever_i, k.lever_j);
 
     // forces and torques: F_i = F_t − F_n n̂, τ_i = a_i n̂ × F_t, τ_j = a_j n̂ × F_t
     let mut t = [zero; 3];
@@ -514,9 +344,8 @@ pub(super) fn contact<R: Real, const DIM: usize, const ROT: usize, L: WindowLaw,
     } else {
         t[0] = n[0] * f[1] - n[1] * f[0];
     }
-    let mut out = ContactOut { overlap, sliding, new_spring: [zero; 3], force: [zero; 3], torque_i: [zero; 3], torque_j: [zero; 3] };
+    let mut out = ContactOut { overlap, sliding, new_spring, force: [zero; 3], torque_i: [zero; 3], torque_j: [zero; 3] };
     for c in 0..DIM {
-        out.new_spring[c] = R::select(sliding, slid[c], kept[c]);
         out.force[c] = f[c] - n[c] * f_n;
     }
     for c in 0..ROT {

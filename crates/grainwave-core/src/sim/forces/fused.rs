@@ -115,12 +115,6 @@ impl Real for F64x4 {
         // SAFETY: as above.
         unsafe { F64x4(_mm256_blendv_pd(b.0, a.0, m)) }
     }
-    #[inline(always)]
-    fn map3(a: Self, b: Self, c: Self, f: impl Fn(f64, f64, f64) -> f64) -> Self {
-        let (a, b, c) = (lanes_of(a.0), lanes_of(b.0), lanes_of(c.0));
-        // SAFETY: as above.
-        unsafe { F64x4(_mm256_setr_pd(f(a[0], b[0], c[0]), f(a[1], b[1], c[1]), f(a[2], b[2], c[2]), f(a[3], b[3], c[3]))) }
-    }
 }
 
 #[inline(always)]
@@ -301,10 +295,6 @@ impl<H: Real> Real for Pair<H> {
     fn select(m: Self::Mask, a: Self, b: Self) -> Self {
         Pair(H::select(m.0, a.0, b.0), H::select(m.1, a.1, b.1))
     }
-    #[inline(always)]
-    fn map3(a: Self, b: Self, c: Self, f: impl Fn(f64, f64, f64) -> f64) -> Self {
-        Pair(H::map3(a.0, b.0, c.0, &f), H::map3(a.1, b.1, c.1, &f))
-    }
 }
 
 impl Lanes for F64x8 {
@@ -345,14 +335,14 @@ impl Lanes for F64x8 {
     }
 }
 
-/// [`Lanes::rows`] for eight lanes of 512 bits ([`super::simd::rows_at`]).
+/// [`Lanes::rows`] for eight lanes of 512 bits ([`super::window512::rows_at`]).
 ///
 /// # Safety
 /// As [`Lanes::rows`]; AVX-512 F and VL are available.
 #[inline(always)]
 unsafe fn wide_rows(base: *const f64, n: usize, off: &[u32; 8]) -> [Wide8; 3] {
     // SAFETY: the caller's contract.
-    unsafe { super::simd::rows_at(n, |l| base.wrapping_add(off[l] as usize)).map(Wide8) }
+    unsafe { super::window512::rows_at(n, |l| base.wrapping_add(off[l] as usize)).map(Wide8) }
 }
 
 impl Lanes for Wide8 {
