@@ -11,7 +11,8 @@ pub fn describe(path: &Path) -> Result<Vec<String>> {
     if path.is_dir() {
         return describe_dir(path);
     }
-    let bytes = std::fs::read(path).with_context(|| format!("cannot read `{}`", path.display()))?;
+    // a checkpoint is a regular file: its size bounds the read (`inspect /dev/zero` is refused)
+    let bytes = grainwave_experiments::engine::read_bytes(path).map_err(grainwave_experiments::ExperimentError::from)?;
     if bytes.starts_with(grainwave_experiments::engine::MAGIC) {
         return describe_checkpoint(path, &bytes);
     }
@@ -244,7 +245,7 @@ fn describe_dir(dir: &Path) -> Result<Vec<String>> {
     }
     if dir.join("checkpoint.gwck").exists() {
         v.push(String::new());
-        v.extend(describe_checkpoint(&dir.join("checkpoint.gwck"), &std::fs::read(dir.join("checkpoint.gwck"))?)?);
+        v.extend(describe_checkpoint(&dir.join("checkpoint.gwck"), &grainwave_experiments::engine::read_bytes(&dir.join("checkpoint.gwck")).map_err(grainwave_experiments::ExperimentError::from)?)?);
     }
     Ok(v)
 }

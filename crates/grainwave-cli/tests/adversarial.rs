@@ -427,3 +427,45 @@ fn closed_output_pipes_neither_panic_nor_stop_a_run() {
     assert_eq!(with_closed_pipes(&["inspect", dir.to_str().unwrap()]), 0);
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+// ---- endless inputs ----
+
+#[test]
+fn an_endless_config_or_checkpoint_is_refused_without_filling_the_memory() {
+    // before: `check /dev/zero` and `inspect /dev/zero` read until the memory ran out
+    if !Path::new("/dev/zero").exists() {
+        eprintln!("skipped: no /dev/zero on this system");
+        return;
+    }
+    let (code, err) = gw(&["check", "/dev/zero"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("longer than 16 MiB"), "{err}");
+    let (code, err) = gw(&["inspect", "/dev/zero"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("not a regular file"), "{err}");
+    // a resume whose checkpoint is not a regular file
+    let dir = out("endless");
+    std::fs::create_dir_all(dir.join("checkpoint.gwck")).unwrap();
+    let (code, err) = gw(&["resume", dir.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("a directory"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_config_from_a_pipe_is_still_read() {
+    use std::io::Write;
+    use std::process::Stdio;
+    let text = std::fs::read(quick()).unwrap();
+    let mut child = Command::new(BIN)
+        .args(["check", "/dev/stdin"])
+        .stdin(Stdio::piped())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the program starts");
+    child.stdin.take().unwrap().write_all(&text).unwrap();
+    let o = child.wait_with_output().unwrap();
+    assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(String::from_utf8_lossy(&o.stdout).contains("valid"));
+}

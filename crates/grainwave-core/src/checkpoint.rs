@@ -154,9 +154,25 @@ pub fn save<T: Serialize>(path: &Path, tag: &str, payload: &T) -> Result<()> {
     atomic_write(path, &encode(tag, payload)?)
 }
 
+/// Reads the bytes of a checkpoint file. Only a regular file is read, so its size bounds the
+/// allocation: a device or a pipe (`/dev/zero`, a FIFO) would otherwise be read until memory runs
+/// out.
+pub fn read_bytes(path: &Path) -> Result<Vec<u8>> {
+    let io = |e| CoreError::Io { action: "cannot read".into(), path: path.display().to_string(), error: e };
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if !meta.is_file() {
+        let what = if meta.is_dir() { "a directory" } else { "not a regular file (a device, a pipe or a socket)" };
+        return Err(CoreError::Checkpoint { path: path.display().to_string(), reason: format!("{what}: a checkpoint is a file written by grainwave") });
+    }
+    let mut bytes = Vec::new();
+    // the size it had when opened (+1 to notice growth), never more
+    std::io::Read::read_to_end(&mut std::io::Read::take(std::fs::File::open(path).map_err(io)?, meta.len().saturating_add(1)), &mut bytes).map_err(io)?;
+    Ok(bytes)
+}
+
 /// Reads a checkpoint with content tag `tag`.
 pub fn load<T: DeserializeOwned>(path: &Path, tag: &str) -> Result<T> {
-    let bytes = std::fs::read(path).map_err(|e| CoreError::Io { action: "cannot read".into(), path: path.display().to_string(), error: e })?;
+    let bytes = read_bytes(path)?;
     decode(&bytes, tag, &path.display().to_string())
 }
 
@@ -188,7 +204,7 @@ impl<D: Dim> Simulation<D> {
 
 /// Loads a simulation checkpoint of either dimension.
 pub fn load_simulation(path: &Path) -> Result<AnySimulation> {
-    let bytes = std::fs::read(path).map_err(|e| CoreError::Io { action: "cannot read".into(), path: path.display().to_string(), error: e })?;
+    let bytes = read_bytes(path)?;
     let p = path.display().to_string();
     let (tag, _) = verify(&bytes, &p)?;
     if tag == simulation_tag::<D2>() {

@@ -38,7 +38,7 @@ pub use grainwave_core::VERSION;
 /// the checkpoint container, the dimensions and the simulation. Front ends depend on this crate
 /// only; it passes these through from `grainwave-core`.
 pub mod engine {
-    pub use grainwave_core::checkpoint::{decode, verify, FORMAT_VERSION, MAGIC};
+    pub use grainwave_core::checkpoint::{decode, read_bytes, verify, FORMAT_VERSION, MAGIC};
     pub use grainwave_core::dim::{Dim, D2, D3};
     pub use grainwave_core::sim::Simulation;
 }

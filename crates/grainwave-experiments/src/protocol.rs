@@ -324,11 +324,7 @@ pub fn checkpoint_tag(path: &Path) -> Result<(PathBuf, String)> {
             reason: format!("no `{CHECKPOINT_FILE}` there (was the run started with `grainwave run … --out {}`?)", path.display()),
         });
     }
-    let bytes = std::fs::read(&file).map_err(|e| grainwave_core::CoreError::Io {
-        action: "cannot read".into(),
-        path: file.display().to_string(),
-        error: e,
-    })?;
+    let bytes = grainwave_core::checkpoint::read_bytes(&file)?;
     let (tag, _) = grainwave_core::checkpoint::verify(&bytes, &file.display().to_string())?;
     Ok((file, tag))
 }

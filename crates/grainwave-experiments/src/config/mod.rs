@@ -20,6 +20,9 @@ use std::ops::Range;
 use std::path::Path;
 use std::sync::Arc;
 
+/// Largest config file read, in bytes (16 MiB; the configs of `examples/` are a few kB).
+pub const MAX_CONFIG_BYTES: u64 = 16 << 20;
+
 /// The text of a config and the name it is reported under.
 #[derive(Clone, Debug)]
 pub struct ConfigSource {
@@ -30,17 +33,29 @@ pub struct ConfigSource {
 }
 
 impl ConfigSource {
-    /// Reads a config file.
+    /// Reads a config file of at most [`MAX_CONFIG_BYTES`] (a pipe such as `<(sed … a.toml)` is
+    /// fine; `/dev/zero` is refused after that many bytes instead of filling the memory).
     pub fn from_file(path: &Path) -> Result<Self, ConfigError> {
-        let text = std::fs::read_to_string(path).map_err(|e| ConfigError {
+        let refuse = |message: String| ConfigError {
             file: path.display().to_string(),
             line: 0,
             column: 0,
             key: None,
-            message: format!("cannot read the config file: {e}"),
+            message,
             span: None,
             text: Arc::new(String::new()),
-        })?;
+        };
+        let mut bytes = Vec::new();
+        std::fs::File::open(path)
+            .and_then(|f| std::io::Read::read_to_end(&mut std::io::Read::take(f, MAX_CONFIG_BYTES + 1), &mut bytes))
+            .map_err(|e| refuse(format!("cannot read the config file: {e}")))?;
+        if bytes.len() as u64 > MAX_CONFIG_BYTES {
+            return Err(refuse(format!(
+                "the config file is longer than {} MiB (allowed: a config of at most {MAX_CONFIG_BYTES} bytes; data such as packings goes in the files a config names)",
+                MAX_CONFIG_BYTES >> 20
+            )));
+        }
+        let text = String::from_utf8(bytes).map_err(|_| refuse("cannot read the config file: stream did not contain valid UTF-8".into()))?;
         Ok(ConfigSource { name: path.display().to_string(), text: Arc::new(text) })
     }
 

@@ -113,7 +113,7 @@ pub fn decode_checkpoint(bytes: &[u8], path: &str) -> Result<StoredCheckpoint> {
 
 /// Reads a checkpoint file of any of the three kinds.
 pub fn read_checkpoint(path: &Path) -> Result<StoredCheckpoint> {
-    let bytes = std::fs::read(path).map_err(|e| CoreError::Io { action: "cannot read".into(), path: path.display().to_string(), error: e })?;
+    let bytes = grainwave_core::checkpoint::read_bytes(path)?;
     decode_checkpoint(&bytes, &path.display().to_string())
 }
 
