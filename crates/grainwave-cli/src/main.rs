@@ -126,10 +126,26 @@ struct OutArgs {
 
 /// Accepts a whole number of threads ≥ 1.
 fn parse_threads(s: &str) -> std::result::Result<usize, String> {
+    let max = max_threads();
     match s.parse::<usize>() {
-        Ok(n) if n >= 1 => Ok(n),
+        Ok(n) if (1..=max).contains(&n) => Ok(n),
+        Ok(n) if n > max => Err(format!(
+            "{n} threads is more than this machine can use (allowed: 1 to {max}, 4 × its {} cores, at least 64; results are the same for any thread count)",
+            cores()
+        )),
         _ => Err(format!("`{s}` is not a thread count: give a whole number ≥ 1")),
     }
+}
+
+/// Cores this process may use.
+fn cores() -> usize {
+    std::thread::available_parallelism().map_or(1, usize::from)
+}
+
+/// Largest `--threads`: more threads than cores only add switching (the results do not depend
+/// on the count), and each thread reserves a stack: `--threads 100000` took minutes to start.
+fn max_threads() -> usize {
+    (4 * cores()).max(64)
 }
 
 /// An error caused by the user's input (exit code 2) rather than by the run (exit code 1).
@@ -345,6 +361,15 @@ mod tests {
             assert!(parse_threads(bad).is_err(), "{bad}");
         }
         let err = Cli::try_parse_from(["grainwave", "demo", "--threads", "0"]).unwrap_err();
+        assert_eq!(err.exit_code(), 2);
+        // bounded: `--threads 100000` spent minutes creating threads before this check
+        let max = max_threads();
+        assert!(max >= 64 && max >= cores());
+        assert_eq!(parse_threads(&max.to_string()), Ok(max));
+        let err = parse_threads(&(max + 1).to_string()).unwrap_err();
+        assert!(err.contains(&format!("allowed: 1 to {max}")), "{err}");
+        assert!(parse_threads("100000").is_err());
+        let err = Cli::try_parse_from(["grainwave", "demo", "--threads", "100000"]).unwrap_err();
         assert_eq!(err.exit_code(), 2);
     }
 

@@ -340,6 +340,18 @@ fn e1_every_sample_failing_exits_1_with_the_list() {
     assert!(!err.contains("no data series") && !err.contains("panicked"), "{err}");
     assert!(err.contains("no equilibrium after"), "{err}");
     marked_failed(&dir, "every one of the 8 samples failed");
+    // before: `plot` of that directory failed in the plot stage ("the plot has no data series")
+    let (code, err) = gw(&["plot", dir.to_str().unwrap()]);
+    assert_eq!(code, 1, "{err}");
+    assert!(err.starts_with("error: every one of the 8 finished samples failed"), "{err}");
+    assert!(!err.contains("no data series"), "{err}");
+    // and `plot` of a directory that is not a run says `plot`, not `resume`
+    let empty = out("not-a-run");
+    std::fs::create_dir_all(&empty).unwrap();
+    let (code, err) = gw(&["plot", empty.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.starts_with("error: cannot plot"), "{err}");
+    let _ = std::fs::remove_dir_all(&empty);
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -78,6 +78,14 @@ pub enum ExperimentError {
         /// Why, and what to do.
         reason: String,
     },
+    /// The outputs of a directory cannot be (re)written by `grainwave plot`.
+    #[error("cannot plot `{}`: {reason}", .path.display())]
+    Plot {
+        /// What was given.
+        path: PathBuf,
+        /// Why.
+        reason: String,
+    },
     /// A directory or checkpoint cannot be resumed.
     #[error("cannot resume `{}`: {reason}", .path.display())]
     Resume {
@@ -102,6 +110,7 @@ impl ExperimentError {
             self,
             ExperimentError::Config(_)
                 | ExperimentError::Resume { .. }
+                | ExperimentError::Plot { .. }
                 | ExperimentError::Busy { .. }
                 | ExperimentError::UsedDirectory { .. }
                 | ExperimentError::Core(

@@ -273,7 +273,11 @@ fn first_difference(a: &toml::Value, b: &toml::Value, path: &str) -> Option<(Str
 /// Re-makes the plots of the run in `dir` from its saved data (series and checkpoint). Returns
 /// the files written, relative to `dir`.
 pub fn plot(dir: &Path) -> Result<Vec<String>> {
-    let (file, tag) = checkpoint_tag(dir)?;
+    let (file, tag) = checkpoint_tag(dir).map_err(|e| match e {
+        // the same checks as `resume`, worded for `plot`
+        ExperimentError::Resume { path, reason } => ExperimentError::Plot { path, reason },
+        e => e,
+    })?;
     (by_tag(dir, &tag, "has no plots")?.plot)(dir, &file)
 }
 

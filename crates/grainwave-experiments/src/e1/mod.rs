@@ -31,7 +31,7 @@ pub use outputs::E1Report;
 pub use plan::Plan;
 
 use crate::config::{ConfigError, ConfigSource};
-use crate::error::Result;
+use crate::error::{ExperimentError, Result};
 use crate::protocol::RunContext;
 use crate::work::Finished;
 use serde::{Deserialize, Serialize};
@@ -181,6 +181,21 @@ pub fn run_config(src: &ConfigSource, ctx: &mut RunContext<'_>) -> Result<E1Repo
 /// an unfinished run (the tables then hold the samples done so far). Returns the files written.
 pub fn replot(dir: &std::path::Path, state: &E1State) -> Result<Vec<String>> {
     let plan = state.plan()?;
+    // without one successful sample there is nothing to tabulate or plot: say why, rather than
+    // fail in the plot stage on empty data
+    let results = outputs::collect(dir, &plan);
+    if !results.iter().flatten().any(|r| r.failure.is_none()) {
+        let failures: Vec<String> = results
+            .iter()
+            .zip(&plan.tasks)
+            .filter_map(|(r, t)| r.as_ref().and_then(|r| r.failure.clone()).map(|f| format!("{} seed {}: {f}", plan.groups[t.group].name, t.seed)))
+            .collect();
+        if failures.is_empty() {
+            let reason = "no sample has finished yet (`grainwave resume DIR` continues the run)".to_string();
+            return Err(ExperimentError::Plot { path: dir.to_path_buf(), reason });
+        }
+        return Err(crate::protocol::failed_units("finished samples", failures.len(), failures));
+    }
     Ok(outputs::write_outputs(dir, &plan, 0.0)?.files)
 }
 
