@@ -36,7 +36,7 @@ pub use normal::{NormalElastic, NormalResponse};
 pub use params::{ContactParams, Partner, PRESETS};
 pub use parts::{HertzMindlin, HookeCundallStrack, LawParts, Specialized};
 pub use rolling::{Rolling, Twisting};
-pub use tangential::{Tangential, TangentialDamping};
+pub use tangential::{HistoryValue, Tangential, TangentialDamping, TangentialHistory};
 pub(crate) use kinematics::{into_tangent_plane_lanes, pair_kinematics_lanes};
 pub(crate) use tangential::spring_step;
 
@@ -69,8 +69,9 @@ pub struct ContactLaw {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(bound = "")]
 pub struct ContactState<D: Dim> {
-    /// Tangential history: the spring s (linear law) or the elastic tangential force on i (Mindlin).
-    pub spring: D::Vector,
+    /// Tangential history on grain i: the spring s (linear law, a length) or the elastic
+    /// tangential force (Mindlin, a force), read through the law ([`Tangential::read`]).
+    pub spring: TangentialHistory<D::Vector>,
     /// Rolling spring θ_r.
     pub rolling: D::AngVector,
     /// Twisting spring φ (3D).
@@ -133,7 +134,7 @@ pub(crate) fn evaluate_parts<D: Dim, P: LawParts>(law: &P, kin: &Kinematics<D>, 
         Tangential::None => D::Vector::ZERO,
         Tangential::Linear { .. } | Tangential::Mindlin { .. } => {
             let gamma_t = law.tangential_damping().coefficient_lanes(kin.m_eff, k_t, gamma_n);
-            let mut rotated = into_tangent_plane(state.spring, n);
+            let mut rotated = into_tangent_plane(state.spring.0, n);
             if let Tangential::Mindlin { rescale_on_unloading: true, .. } = tangential {
                 if state.overlap > 0.0 && kin.overlap < state.overlap {
                     // k_t ∝ √ξ
@@ -143,7 +144,7 @@ pub(crate) fn evaluate_parts<D: Dim, P: LawParts>(law: &P, kin: &Kinematics<D>, 
             let cap = law.friction() * f_n;
             let (f, history, slid) = by_len!(D::Vector, spring_step(&tangential, to_lanes(rotated), to_lanes(kin.v_t), k_t, gamma_t, dt, cap));
             sliding = slid;
-            state.spring = from_lanes(history);
+            state.spring = TangentialHistory(from_lanes(history));
             from_lanes(f)
         }
     };
@@ -193,12 +194,12 @@ impl ContactLaw {
         }
         let mut e = self.normal.energy(overlap, r_eff);
         let k_t = self.tangential.stiffness(overlap, r_eff);
-        match self.tangential {
-            Tangential::None => {}
-            Tangential::Linear { .. } => e += 0.5 * k_t * state.spring.norm2(),
-            Tangential::Mindlin { .. } => {
+        match self.tangential.read(state.spring) {
+            HistoryValue::None => {}
+            HistoryValue::Displacement(s) => e += 0.5 * k_t * s.norm2(),
+            HistoryValue::Force(f) => {
                 if k_t > 0.0 {
-                    e += 0.5 * state.spring.norm2() / k_t
+                    e += 0.5 * f.norm2() / k_t
                 }
             }
         }

@@ -25,6 +25,7 @@
 //! (indices, and three times them, are held in 32-bit lanes; larger ones take the portable path).
 
 use super::{finish_grain, start_block, CrossForce, CrossIndex, Finish, ForceStats, Grain, History, Inputs, Velocities};
+use crate::contact::TangentialHistory;
 use crate::dim::{Dim, VectorOps};
 use crate::domain::nearest_image_axis;
 use crate::sim::lanes::{self, ContactIn, Dampers, Real, WindowLaw, WithDampers};
@@ -678,7 +679,7 @@ unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: 
                 let l = bits.trailing_zeros() as usize;
                 bits &= bits - 1;
                 let k = q[l] as usize;
-                *h.spring.get_unchecked_mut(k) = lane_of(&spring, l);
+                *h.spring.get_unchecked_mut(k) = TangentialHistory(lane_of(&spring, l));
                 *h.overlap.get_unchecked_mut(k) = overlap[l];
                 *h.sliding.get_unchecked_mut(k) = sliding >> l & 1 != 0;
             }
