@@ -75,7 +75,7 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
     let mut all: Vec<BenchResult> = Vec::new();
     let say = |r: &BenchResult| {
         if !quiet {
-            println!(
+            say!(
                 "{:<9} {:<8} shear {:<5} N {:>6} steps {:>5} workers {} | {:>8.3} s  {:>10.4e} particle-steps/s  contacts/grain {:.4}  rebuilds {:>4}  peak mem {:>6.1} MiB  KE {:.6e} {}",
                 r.code,
                 r.case,
@@ -107,7 +107,7 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
         }
     }
     if !quiet && args.repeat > 1 {
-        println!("medians over {} runs:", args.repeat);
+        say!("medians over {} runs:", args.repeat);
         for &case in &cases {
             let rate = |code: &str| {
                 let v: Vec<f64> = all.iter().filter(|r| r.code == code && r.case == case.name()).map(|r| r.particle_steps_per_second).collect();
@@ -116,9 +116,9 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
             let gw = rate("grainwave");
             if lammps.is_some() {
                 let lmp = rate("lammps");
-                println!("  {:<8} grainwave {gw:.4e}  lammps {lmp:.4e}  ratio {:.3}", case.name(), gw / lmp);
+                say!("  {:<8} grainwave {gw:.4e}  lammps {lmp:.4e}  ratio {:.3}", case.name(), gw / lmp);
             } else {
-                println!("  {:<8} grainwave {gw:.4e}", case.name());
+                say!("  {:<8} grainwave {gw:.4e}", case.name());
             }
         }
     }

@@ -5,6 +5,25 @@
 //! input (unknown flag, invalid config, invalid thread count); 130 interrupted by Ctrl-C or
 //! SIGTERM (the state is saved: `grainwave resume DIR` continues).
 
+/// `println!` that never panics. When stdout is a pipe whose reader has gone (`grainwave … | head`)
+/// the line is lost but the program carries on: a long run must not die, or exit 101, because
+/// whoever watched it stopped reading.
+macro_rules! say {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stdout().lock(), $($arg)*);
+    }};
+}
+
+/// `eprintln!` that never panics (see `say!`): progress and error lines on a closed stderr are
+/// dropped, the run and its exit code are unchanged.
+macro_rules! tell {
+    ($($arg:tt)*) => {{
+        use std::io::Write as _;
+        let _ = writeln!(std::io::stderr().lock(), $($arg)*);
+    }};
+}
+
 mod bench;
 mod inspect;
 mod progress;
@@ -142,17 +161,17 @@ fn report_error(err: &anyhow::Error) -> ExitCode {
         match e {
             ExperimentError::Config(c) => {
                 let report = miette::Report::new((**c).clone());
-                eprintln!("{report:?}");
+                tell!("{report:?}");
                 return ExitCode::from(2);
             }
             ExperimentError::Interrupted { .. } => {
-                eprintln!("{e}");
+                tell!("{e}");
                 return ExitCode::from(130);
             }
             _ => {}
         }
     }
-    eprintln!("{}", error_chain(err));
+    tell!("{}", error_chain(err));
     let input = err
         .chain()
         .any(|e| e.is::<BadInput>() || e.downcast_ref::<ExperimentError>().is_some_and(ExperimentError::is_input_error));
@@ -217,9 +236,9 @@ fn run(cli: &Cli) -> Result<()> {
             let src = ConfigSource::from_file(config).map_err(ExperimentError::from)?;
             let lines = registry::check(&src).map_err(ExperimentError::from)?;
             if !cli.quiet {
-                println!("{}: valid", config.display());
+                say!("{}: valid", config.display());
                 for l in lines {
-                    println!("  {l}");
+                    say!("  {l}");
                 }
             }
             Ok(())
@@ -229,24 +248,33 @@ fn run(cli: &Cli) -> Result<()> {
                 return Err(BadInput(format!("`{}` does not exist", path.display())).into());
             }
             for l in inspect::describe(path)? {
-                println!("{l}");
+                say!("{l}");
             }
             Ok(())
         }
         Command::Plot { dir } => {
             for f in registry::plot(dir)? {
                 if !cli.quiet {
-                    println!("{}", dir.join(f).display());
+                    say!("{}", dir.join(f).display());
                 }
             }
             Ok(())
         }
         Command::Reference => {
-            print!("{}", registry::reference_markdown());
+            {
+                use std::io::Write as _;
+                let _ = write!(std::io::stdout().lock(), "{}", registry::reference_markdown());
+            }
             Ok(())
         }
         Command::Completions { shell } => {
-            clap_complete::generate(*shell, &mut Cli::command(), "grainwave", &mut std::io::stdout());
+            // generated into memory first: writing it to a closed stdout must not panic
+            let mut script = Vec::new();
+            clap_complete::generate(*shell, &mut Cli::command(), "grainwave", &mut script);
+            {
+                use std::io::Write as _;
+                let _ = std::io::stdout().lock().write_all(&script);
+            }
             Ok(())
         }
         Command::Bench(args) => bench::run(args, cli.quiet),
@@ -268,10 +296,10 @@ fn execute(quiet: bool, out: &Path, mode: UsedDirectory, work: impl FnOnce(&mut 
         // (every file, checkpoints included, is written atomically, so nothing is half-written).
         let _ = ctrlc::set_handler(move || {
             if flag.swap(true, Ordering::SeqCst) {
-                eprintln!("\ninterrupted again: exiting now");
+                tell!("\ninterrupted again: exiting now");
                 std::process::exit(130);
             }
-            eprintln!("\ninterrupt: finishing the current step and saving a checkpoint (Ctrl-C again to quit at once)");
+            tell!("\ninterrupt: finishing the current step and saving a checkpoint (Ctrl-C again to quit at once)");
         });
     }
     let mut reporter = CliReporter::new(quiet);
@@ -293,9 +321,9 @@ fn execute(quiet: bool, out: &Path, mode: UsedDirectory, work: impl FnOnce(&mut 
     reporter.finish();
     let summary = result?;
     if !quiet {
-        println!("grainwave: done in {:.1} s", started.elapsed().as_secs_f64());
+        say!("grainwave: done in {:.1} s", started.elapsed().as_secs_f64());
         for l in &summary.lines {
-            println!("  {l}");
+            say!("  {l}");
         }
     }
     Ok(())

@@ -51,7 +51,7 @@ impl CliReporter {
             }
             Mode::Plain => {
                 if let Some(line) = self.pending.take() {
-                    eprintln!("{line}");
+                    tell!("{line}");
                 }
             }
             Mode::Quiet => {}
@@ -107,7 +107,7 @@ impl Reporter for CliReporter {
             Mode::Plain => {
                 let line = format!("[{:8.1} s] {} {}", self.started.elapsed().as_secs_f64(), self.stage, Self::describe(p));
                 if self.last_plain.is_none_or(|t| t.elapsed() >= PLAIN_INTERVAL) {
-                    eprintln!("{line}");
+                    tell!("{line}");
                     self.last_plain = Some(Instant::now());
                     self.pending = None;
                 } else {
@@ -129,7 +129,7 @@ impl Reporter for CliReporter {
                 bar.set_length(total as u64);
                 bar.set_position(done as u64);
             }
-            Mode::Plain => eprintln!("[{:8.1} s] samples {done}/{total}", self.started.elapsed().as_secs_f64()),
+            Mode::Plain => tell!("[{:8.1} s] samples {done}/{total}", self.started.elapsed().as_secs_f64()),
         }
     }
 
@@ -139,7 +139,7 @@ impl Reporter for CliReporter {
             Mode::Bars { multi, .. } => {
                 let _ = multi.println(text);
             }
-            Mode::Plain => eprintln!("[{:8.1} s] {text}", self.started.elapsed().as_secs_f64()),
+            Mode::Plain => tell!("[{:8.1} s] {text}", self.started.elapsed().as_secs_f64()),
         }
     }
 }

@@ -391,3 +391,41 @@ fn e2_failing_replays_exit_1_naming_each_and_are_not_resumed_without_retry() {
     assert!(err.contains("--retry"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+// ---- closed output streams ----
+
+/// Runs the program with stdout and stderr piped and both read ends closed before it writes
+/// anything, as `grainwave run … 2>&1 | head -1` does once `head` has its line; returns the exit
+/// code.
+fn with_closed_pipes(args: &[&str]) -> i32 {
+    use std::process::Stdio;
+    let mut child = Command::new(BIN)
+        .args(["--threads", "1"])
+        .args(args)
+        .stdin(Stdio::null())
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("the program starts");
+    drop(child.stdout.take());
+    drop(child.stderr.take());
+    child.wait().expect("the program ends").code().unwrap_or(-1)
+}
+
+#[test]
+fn closed_output_pipes_neither_panic_nor_stop_a_run() {
+    // before: the first progress line written to the closed pipe panicked ("failed printing to
+    // stderr"), exit 101, the run lost. Now the lines are dropped and the run finishes.
+    let dir = out("closed-pipes");
+    let code = with_closed_pipes(&["run", quick().to_str().unwrap(), "--out", dir.to_str().unwrap()]);
+    assert_eq!(code, 0);
+    assert!(dir.join("summary.json").exists(), "the run did not finish");
+    // an error still gets its exit code
+    let code = with_closed_pipes(&["check", fixture("sim-duplicate-wall.toml").to_str().unwrap()]);
+    assert_eq!(code, 2);
+    // the outputs of the other commands
+    assert_eq!(with_closed_pipes(&["reference"]), 0);
+    assert_eq!(with_closed_pipes(&["completions", "bash"]), 0);
+    assert_eq!(with_closed_pipes(&["inspect", dir.to_str().unwrap()]), 0);
+    let _ = std::fs::remove_dir_all(&dir);
+}
