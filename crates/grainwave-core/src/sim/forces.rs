@@ -39,7 +39,7 @@
 
 use super::lanes::{self, Window, WindowLaw, CAP};
 use super::{CrossForce, CrossIndex, Simulation, WallForce};
-use crate::contact::{evaluate_parts, pair_kinematics, wall_kinematics, ContactLaw, ContactState, LawParts, Rolling, Specialized, TangentialHistory, Twisting};
+use crate::contact::{contact_loads, evaluate_parts, pair_kinematics, wall_kinematics, ContactLaw, ContactState, LawParts, Rolling, Specialized, TangentialHistory, Twisting};
 use crate::dim::{Dim, VectorOps};
 use crate::domain::{Domain, PeriodicImage, WallMotion};
 use crate::error::{CoreError, Result};
@@ -205,13 +205,8 @@ fn eval_pair<D: Dim, P: LawParts>(law: &P, inp: &Inputs<D>, h: &mut History<D>, 
             if ratio > st.deepest.0 {
                 st.deepest = (ratio, 0, p);
             }
-            let n = kin.normal;
-            let t = D::cross(n, o.tangential_force);
-            Some(PairOut {
-                force: o.tangential_force - n * o.normal_force,
-                torque_i: t * kin.lever_i + o.rolling_torque,
-                torque_j: t * kin.lever_j - o.rolling_torque,
-            })
+            let (force, torque_i, torque_j) = contact_loads(&kin, &o);
+            Some(PairOut { force, torque_i, torque_j })
         }
     }
 }
@@ -975,9 +970,7 @@ impl<D: Dim> Simulation<D> {
                     }
                     Some(kin) => {
                         let o = wall.law.evaluate(&kin, &mut wp.state, dt_hist);
-                        let n = kin.normal;
-                        out.force = o.tangential_force - n * o.normal_force;
-                        out.torque = D::cross(n, o.tangential_force) * kin.lever_i + o.rolling_torque;
+                        (out.force, out.torque, _) = contact_loads(&kin, &o);
                         ForceStats {
                             changes: !was as u64,
                             contacts: 1,
