@@ -389,13 +389,15 @@ fn e3_some_runs_failing_exits_1_naming_them_and_keeps_the_others() {
 }
 
 #[test]
-fn e2_a_failing_replay_exits_1_naming_it_and_is_not_resumed_without_retry() {
+fn e2_failing_replays_exit_1_naming_each_and_are_not_resumed_without_retry() {
+    // the two replays read only the loading: both run, both fail, and each is listed by its id
     let (code, err, dir) = run_fixture("e2-replay-blow-up.toml");
     assert_eq!(code, 1, "{err}");
-    assert!(err.starts_with("error: replay `fast` failed, which stops the run (1 later one(s) not run): numerical blow-up"), "{err}");
-    // the stages before it are kept
+    assert!(err.starts_with("error: every one of the 2 replays failed"), "{err}");
+    assert!(err.contains("replay/fast: numerical blow-up") && err.contains("replay/faster: numerical blow-up"), "{err}");
+    // the loading before them is kept
     assert!(dir.join("loading.csv").exists() && dir.join("checkpoints/index.csv").exists());
-    marked_failed(&dir, "replay `fast` failed");
+    marked_failed(&dir, "every one of the 2 replays failed");
     let (code, err) = gw(&["resume", dir.to_str().unwrap()]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("--retry"), "{err}");

@@ -11,7 +11,7 @@
 //! The list is rebuilt when a grain has moved more than half the skin since the last build (or a
 //! wall has moved so that a new grain–wall contact could have formed).
 
-use crate::contact::ContactState;
+use crate::contact::{ContactState, TangentialHistory};
 use crate::dim::{Dim, VectorOps};
 use crate::domain::{Domain, PeriodicImage};
 use rayon::prelude::*;
@@ -50,7 +50,7 @@ pub struct PairList<D: Dim> {
     /// Partner grain (storage index, larger than the owner's) of each pair, sorted per owner.
     pub(crate) partner: Vec<u32>,
     /// Tangential history of each pair: the spring s (linear law) or the elastic force (Mindlin), on the owner.
-    pub(crate) spring: Vec<<D as Dim>::Vector>,
+    pub(crate) spring: Vec<TangentialHistory<<D as Dim>::Vector>>,
     /// Overlap at the last evaluation (0: not in contact).
     pub(crate) overlap: Vec<f64>,
     /// Sliding at the last evaluation.
@@ -738,7 +738,7 @@ fn build_list<D: Dim>(pos: &[D::Vector], radius: &[f64], domain: &Domain<D>, ski
         }
     });
     let m = list.len();
-    list.spring = vec![D::Vector::ZERO; m];
+    list.spring = vec![TangentialHistory::ZERO; m];
     list.overlap = vec![0.0; m];
     list.sliding = vec![false; m];
     list.rolling = vec![D::AngVector::ZERO; m];

@@ -4,7 +4,7 @@
 mod common;
 use common::*;
 use glam::{DVec2, DVec3};
-use grainwave_core::contact::{pair_kinematics, ContactState, Partner};
+use grainwave_core::contact::{pair_kinematics, ContactState, HistoryValue, Partner};
 use grainwave_core::prelude::*;
 
 /// Cundall–Strack: load tangentially at fixed overlap (constant F_n): slope k_t, cap at μF_n,
@@ -29,7 +29,9 @@ fn cundall_strack_loads_caps_slides_and_unloads() {
         let kin = pair_kinematics::<D2>(r_ij, r, r, 1.0, 1.0, DVec2::ZERO, DVec2::new(0.0, vt), 0.0, 0.0).unwrap();
         let out = law.evaluate(&kin, &mut state, dt);
         s += vt * dt;
-        history.push((s, out.tangential_force.y, out.sliding, state.spring.y));
+        // the linear law stores the spring elongation (a length)
+        let HistoryValue::Displacement(spring) = law.tangential.read(state.spring) else { panic!("the linear law stores a displacement") };
+        history.push((s, out.tangential_force.y, out.sliding, spring.y));
         assert!((out.normal_force - f_n).abs() < 1e-12 * f_n);
         assert!(out.tangential_force.x.abs() < 1e-15, "force stays tangential");
     }

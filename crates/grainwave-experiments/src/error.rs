@@ -50,18 +50,6 @@ pub enum ExperimentError {
         /// One line per failure: unit and reason.
         failures: Vec<String>,
     },
-    /// A unit of a sequential protocol (an `e2` replay) failed: the run stops there, since later
-    /// units may start from it. The units done are kept (`grainwave resume --retry` continues
-    /// from the failed one); the failure goes to `run.log`.
-    #[error("{unit} failed, which stops the run{}: {reason}", if *.not_run > 0 { format!(" ({} later one(s) not run)", .not_run) } else { String::new() })]
-    StoppedAt {
-        /// The unit ("replay `fast`").
-        unit: String,
-        /// Why (the error and its causes, on one line).
-        reason: String,
-        /// Units after it that were not run.
-        not_run: usize,
-    },
     /// Another process is running in the output directory (it holds the directory's lock).
     #[error("`{}` is in use by another grainwave process ({holder}); wait for it to end or give another output directory", .dir.display())]
     Busy {

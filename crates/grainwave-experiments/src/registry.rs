@@ -3,11 +3,10 @@
 //! and generate the config reference.
 
 use crate::config::{did_you_mean, reference, ConfigError, ConfigSource};
-use crate::e2::{self, E2Config, E2State, E2Summary};
 use crate::error::{ExperimentError, Result};
 use crate::protocol::{checkpoint_tag, load_state, RunContext};
 use crate::study::Protocol;
-use crate::{e1, e3, simulation};
+use crate::{e1, e2, e3, simulation};
 use std::path::Path;
 
 /// One protocol, as the registry dispatches it: the functions of its [`Protocol`]
@@ -99,47 +98,9 @@ pub const fn entry<P: Protocol>() -> Entry {
     }
 }
 
-/// `e2` (its driver is not yet ported onto the shape of the other studies: its spec is its raw
-/// config and its stages run in `E2State::run`).
-pub struct E2Protocol;
-
-impl Protocol for E2Protocol {
-    const NAME: &'static str = "e2";
-    const TAG: &'static str = e2::TAG;
-    const REFERENCE: &'static str = "Acoustics of a 2D packing under biaxial loading, with frictional sliding (SPEC §6; see docs/e2.md). Units:\n\
-         pressure p* (force/length), total grain mass M*, L* = √(M*/ρ*), t* = √(M*/p*), v_a = d̄√(K_n/m̄), t_a = L*/v_a;\n\
-         grain sizes in mean diameters d̄.";
-    type Config = E2Config;
-    type Spec = E2Config;
-    type State = E2State;
-    type Report = E2Summary;
-
-    fn validate(src: &ConfigSource) -> Result<E2Config, ConfigError> {
-        e2::prepare(src)
-    }
-    fn describe(spec: &E2Config) -> Vec<String> {
-        e2::describe(spec)
-    }
-    fn start(spec: E2Config) -> E2State {
-        E2State::new(spec)
-    }
-    fn config(state: &E2State) -> &E2Config {
-        &state.config
-    }
-    fn run(state: &mut E2State, ctx: &mut RunContext<'_>) -> Result<E2Summary> {
-        state.run(ctx)
-    }
-    fn summary_lines(report: &E2Summary, out: &Path) -> Vec<String> {
-        e2::summary_lines(report, out)
-    }
-    fn replot(dir: &Path, state: &E2State) -> Result<Vec<String>> {
-        e2::replot(dir, state)
-    }
-}
-
 /// Every protocol, in the order of the config reference.
 pub static PROTOCOLS: [Entry; 4] =
-    [entry::<simulation::SimulationProtocol>(), entry::<e1::E1Protocol>(), entry::<E2Protocol>(), entry::<e3::E3Protocol>()];
+    [entry::<simulation::SimulationProtocol>(), entry::<e1::E1Protocol>(), entry::<e2::E2Protocol>(), entry::<e3::E3Protocol>()];
 
 /// Names of the protocols a config can select with `experiment = "…"`.
 pub const EXPERIMENTS: &[&str] = &[PROTOCOLS[0].name, PROTOCOLS[1].name, PROTOCOLS[2].name, PROTOCOLS[3].name];

@@ -114,6 +114,8 @@ pub struct UnitEnv<'s, 'c, 'r> {
     flag: Arc<AtomicBool>,
     forward_progress: bool,
     report_every: u64,
+    /// The stage last shown by [`UnitEnv::progress`].
+    shown: Mutex<String>,
 }
 
 impl UnitEnv<'_, '_, '_> {
@@ -139,6 +141,33 @@ impl UnitEnv<'_, '_, '_> {
     /// True once an interrupt was requested.
     pub fn interrupted(&self) -> bool {
         self.flag.load(Ordering::Relaxed)
+    }
+
+    /// The context, under its lock, for a unit that needs the whole of it while it runs (the
+    /// `e2` loading, which is the only unit of its round: every replay reads it). Other units
+    /// wait for the lock to log while `f` runs.
+    pub fn with_context<T>(&self, f: impl FnOnce(&mut RunContext<'_>) -> T) -> T {
+        let mut c = self.ctx.lock().unwrap_or_else(|e| e.into_inner());
+        f(&mut c)
+    }
+
+    /// Steps between progress reports and interrupt checks ([`RunContext::report_every`]).
+    pub fn report_every(&self) -> u64 {
+        self.report_every
+    }
+
+    /// Reports the progress `p` of a unit that steps its engine itself, under the stage `stage`
+    /// (shown again when another unit reported last).
+    pub fn progress(&self, stage: &str, p: &Progress) {
+        if let Ok(mut c) = self.ctx.lock() {
+            if let Ok(mut shown) = self.shown.lock() {
+                if *shown != stage {
+                    c.reporter.stage(stage, None);
+                    *shown = stage.to_string();
+                }
+            }
+            c.reporter.progress(p);
+        }
     }
 
     /// Runs `sim` until `stop` with hooks that poll the interrupt flag (and forward progress to
@@ -235,7 +264,7 @@ impl<'w, W: Work> Scheduler<'w, W> {
                 c.reporter.samples(self.done.iter().filter(|&&d| d).count(), total);
                 c.log(&format!("{} {what} to run, {workers} at a time", ready.len()));
             }
-            let env = UnitEnv { ctx: &shared, flag: flag.clone(), forward_progress: ready.len() == 1, report_every };
+            let env = UnitEnv { ctx: &shared, flag: flag.clone(), forward_progress: ready.len() == 1, report_every, shown: Mutex::new(String::new()) };
             let next = AtomicUsize::new(0);
             let state = Mutex::new((std::mem::take(&mut self.done), Vec::<(usize, UnitStop)>::new()));
             let work = self.work;

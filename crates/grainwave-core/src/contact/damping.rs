@@ -1,6 +1,14 @@
 //! Normal damping part (SPEC §2.2) and the conversion from a restitution coefficient.
 
 use crate::real::Real;
+
+/// The normal force on every lane, F_n = max(0, F_el − γ_n v_n): the damping adds while the
+/// grains approach (v_n < 0) and the contact never pulls. The one statement of the clamp, run by
+/// the general kernel (`f64`) and the engine's vector paths.
+#[inline(always)]
+pub(crate) fn clamped_normal_force_lanes<R: Real>(f_el: R, gamma_n: R, v_n: R) -> R {
+    (f_el - gamma_n * v_n).max_zero()
+}
 use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 

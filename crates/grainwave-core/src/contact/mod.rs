@@ -36,11 +36,12 @@ pub use normal::{NormalElastic, NormalResponse};
 pub use params::{ContactParams, Partner, PRESETS};
 pub use parts::{HertzMindlin, HookeCundallStrack, LawParts, Specialized};
 pub use rolling::{Rolling, Twisting};
-pub use tangential::{Tangential, TangentialDamping};
+pub use tangential::{HistoryValue, Tangential, TangentialDamping, TangentialHistory};
+pub(crate) use damping::clamped_normal_force_lanes;
 pub(crate) use kinematics::{into_tangent_plane_lanes, pair_kinematics_lanes};
 pub(crate) use tangential::spring_step;
 
-use crate::real::{by_len, from_lanes, to_lanes, Real};
+use crate::real::{by_len, from_lanes, to_lanes, Real, Vec3};
 
 use crate::dim::{Dim, VectorOps};
 use crate::error::{require_non_negative, require_positive, CoreError, Result};
@@ -69,8 +70,9 @@ pub struct ContactLaw {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
 #[serde(bound = "")]
 pub struct ContactState<D: Dim> {
-    /// Tangential history: the spring s (linear law) or the elastic tangential force on i (Mindlin).
-    pub spring: D::Vector,
+    /// Tangential history on grain i: the spring s (linear law, a length) or the elastic
+    /// tangential force (Mindlin, a force), read through the law ([`Tangential::read`]).
+    pub spring: TangentialHistory<D::Vector>,
     /// Rolling spring θ_r.
     pub rolling: D::AngVector,
     /// Twisting spring φ (3D).
@@ -124,7 +126,7 @@ pub(crate) fn evaluate_parts<D: Dim, P: LawParts>(law: &P, kin: &Kinematics<D>, 
     let n = kin.normal;
     let NormalResponse { force: f_el, stiffness: k_n, secant } = law.normal().response_lanes(kin.overlap, kin.r_eff);
     let gamma_n = law.damping().coefficient_lanes(kin.m_eff, k_n, secant);
-    let f_n = (f_el - gamma_n * kin.v_n).max_zero();
+    let f_n = clamped_normal_force_lanes(f_el, gamma_n, kin.v_n);
 
     let tangential = law.tangential();
     let k_t = tangential.stiffness_lanes(kin.overlap, kin.r_eff);
@@ -133,7 +135,7 @@ pub(crate) fn evaluate_parts<D: Dim, P: LawParts>(law: &P, kin: &Kinematics<D>, 
         Tangential::None => D::Vector::ZERO,
         Tangential::Linear { .. } | Tangential::Mindlin { .. } => {
             let gamma_t = law.tangential_damping().coefficient_lanes(kin.m_eff, k_t, gamma_n);
-            let mut rotated = into_tangent_plane(state.spring, n);
+            let mut rotated = into_tangent_plane(state.spring.0, n);
             if let Tangential::Mindlin { rescale_on_unloading: true, .. } = tangential {
                 if state.overlap > 0.0 && kin.overlap < state.overlap {
                     // k_t ∝ √ξ
@@ -143,7 +145,7 @@ pub(crate) fn evaluate_parts<D: Dim, P: LawParts>(law: &P, kin: &Kinematics<D>, 
             let cap = law.friction() * f_n;
             let (f, history, slid) = by_len!(D::Vector, spring_step(&tangential, to_lanes(rotated), to_lanes(kin.v_t), k_t, gamma_t, dt, cap));
             sliding = slid;
-            state.spring = from_lanes(history);
+            state.spring = TangentialHistory(from_lanes(history));
             from_lanes(f)
         }
     };
@@ -177,6 +179,51 @@ pub(crate) fn evaluate_parts<D: Dim, P: LawParts>(law: &P, kin: &Kinematics<D>, 
     }
 }
 
+/// The loads of one contact on every lane, from its normal n̂, tangential force F_t and normal
+/// force F_n on grain i, the lever arms a_i, a_j and the rolling plus twisting torque M_r on i:
+///
+/// F_i = F_t − F_n n̂ (on j: −F_i), τ_i = a_i n̂ × F_t + M_r, τ_j = a_j n̂ × F_t − M_r,
+///
+/// with `DIM` force components and `ROT` torque components (n̂ × F_t is the z component in 2D,
+/// `ROT` = 1). The one statement of the assembly: the general kernel ([`contact_loads`], one
+/// lane) and the lane kernels (with M_r = 0, as their laws have no rolling resistance: adding
+/// the zero keeps the bits of the general kernel, −0 + 0 = +0 included).
+#[inline(always)]
+pub(crate) fn contact_loads_lanes<R: Real, const DIM: usize, const ROT: usize>(n: Vec3<R>, f_t: Vec3<R>, f_n: R, lever_i: R, lever_j: R, m_r: Vec3<R>) -> (Vec3<R>, Vec3<R>, Vec3<R>) {
+    let zero = R::splat(0.0);
+    // n̂ × F_t, as `Dim::cross`
+    let mut t = [zero; 3];
+    if DIM == 3 {
+        t[0] = n[1] * f_t[2] - f_t[1] * n[2];
+        t[1] = n[2] * f_t[0] - f_t[2] * n[0];
+        t[2] = n[0] * f_t[1] - f_t[0] * n[1];
+    } else {
+        t[0] = n[0] * f_t[1] - n[1] * f_t[0];
+    }
+    let (mut force, mut torque_i, mut torque_j) = ([zero; 3], [zero; 3], [zero; 3]);
+    for c in 0..DIM {
+        force[c] = f_t[c] - n[c] * f_n;
+    }
+    for c in 0..ROT {
+        torque_i[c] = t[c] * lever_i + m_r[c];
+        torque_j[c] = t[c] * lever_j - m_r[c];
+    }
+    (force, torque_i, torque_j)
+}
+
+/// [`contact_loads_lanes`] on one lane for a contact evaluated by [`ContactLaw::evaluate`]:
+/// the force on i and the torques on i and j (for a wall contact only the first two are used).
+#[inline(always)]
+pub(crate) fn contact_loads<D: Dim>(kin: &Kinematics<D>, o: &ContactOutput<D>) -> (D::Vector, D::AngVector, D::AngVector) {
+    let (n, f_t, m_r) = (to_lanes(kin.normal), to_lanes(o.tangential_force), to_lanes(o.rolling_torque));
+    let (f, ti, tj) = if D::D == 2 {
+        contact_loads_lanes::<f64, 2, 1>(n, f_t, o.normal_force, kin.lever_i, kin.lever_j, m_r)
+    } else {
+        contact_loads_lanes::<f64, 3, 3>(n, f_t, o.normal_force, kin.lever_i, kin.lever_j, m_r)
+    };
+    (from_lanes(f), from_lanes(ti), from_lanes(tj))
+}
+
 impl ContactLaw {
     /// Evaluates the law for a contact with kinematics `kin` over a step `dt`, updating `state`.
     /// Assumes `kin.overlap > 0`.
@@ -193,12 +240,12 @@ impl ContactLaw {
         }
         let mut e = self.normal.energy(overlap, r_eff);
         let k_t = self.tangential.stiffness(overlap, r_eff);
-        match self.tangential {
-            Tangential::None => {}
-            Tangential::Linear { .. } => e += 0.5 * k_t * state.spring.norm2(),
-            Tangential::Mindlin { .. } => {
+        match self.tangential.read(state.spring) {
+            HistoryValue::None => {}
+            HistoryValue::Displacement(s) => e += 0.5 * k_t * s.norm2(),
+            HistoryValue::Force(f) => {
                 if k_t > 0.0 {
-                    e += 0.5 * state.spring.norm2() / k_t
+                    e += 0.5 * f.norm2() / k_t
                 }
             }
         }

@@ -180,6 +180,7 @@ mod tests {
             let Some(kin) = pair_kinematics::<D>(r, ri, rj, 1.0 + rng.random::<f64>(), 0.5 + rng.random::<f64>(), D::Vector::ZERO, v, w, w * 0.3) else {
                 continue;
             };
+            let spring = crate::contact::TangentialHistory(spring);
             let state = ContactState::<D> { spring, overlap: if rng.random::<f64>() < 0.2 { 0.0 } else { kin.overlap * 1.01 }, ..Default::default() };
             let (mut a, mut b) = (state, state);
             let oa = evaluate_parts(special, &kin, &mut a, 1e-3);

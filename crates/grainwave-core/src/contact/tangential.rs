@@ -6,8 +6,104 @@
 //! −k_t s − γ_t v_t as in SPEC §2.3).
 
 use super::coulomb::coulomb_cap_lanes;
+use crate::dim::VectorOps;
+use crate::error::{CoreError, Result};
 use crate::real::{select3, Real, Vec3};
 use serde::{Deserialize, Serialize};
+
+/// The tangential history of one contact as it is stored (on grain i of the pair), whose unit
+/// depends on the law that wrote it: a length for [`Tangential::Linear`] (the spring
+/// elongation s), a force for [`Tangential::Mindlin`] (the elastic tangential force). It is
+/// read only through that law ([`Tangential::read`]), which says which of the two it is
+/// ([`HistoryValue`]), and made only from a value of the law's kind ([`Tangential::history`]),
+/// so a length is never taken for a force. (Inside the engine the force kernels copy its
+/// components in and out of their lanes without reading them; the law's parts interpret them.)
+///
+/// Stored as the bare vector (`#[serde(transparent)]`, `#[repr(transparent)]`): checkpoints
+/// encode it exactly as the untyped vector they held before, and the engine's vector paths
+/// gather and scatter its components in place.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(transparent)]
+#[repr(transparent)]
+pub struct TangentialHistory<V>(pub(crate) V);
+
+impl<V: VectorOps> TangentialHistory<V> {
+    /// No history (a fresh contact): zero for every law.
+    pub const ZERO: Self = TangentialHistory(V::ZERO);
+
+    /// True when nothing is stored (every component exactly zero); the same for every law.
+    #[inline]
+    pub fn is_zero(&self) -> bool {
+        self.0 == V::ZERO
+    }
+}
+
+/// The same history seen from the other grain of the pair (the pair's grains swapped).
+impl<V: VectorOps> std::ops::Neg for TangentialHistory<V> {
+    type Output = Self;
+    #[inline]
+    fn neg(self) -> Self {
+        TangentialHistory(-self.0)
+    }
+}
+
+/// A tangential history read through its law: the value with its unit.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum HistoryValue<V> {
+    /// The law has no tangential part ([`Tangential::None`]): nothing is stored.
+    None,
+    /// Spring elongation s of the linear (Cundall–Strack) law, a length, on grain i.
+    Displacement(V),
+    /// Elastic tangential force of the incremental Mindlin law, a force, on grain i.
+    Force(V),
+}
+
+impl Tangential {
+    /// The history `h` of a contact of this law, with its unit.
+    #[inline]
+    pub fn read<V: VectorOps>(&self, h: TangentialHistory<V>) -> HistoryValue<V> {
+        match self {
+            Tangential::None => HistoryValue::None,
+            Tangential::Linear { .. } => HistoryValue::Displacement(h.0),
+            Tangential::Mindlin { .. } => HistoryValue::Force(h.0),
+        }
+    }
+
+    /// The stored history that holds `value` for a contact of this law; an error when `value`
+    /// is of the other kind (a displacement given to the Mindlin law, a force to the linear
+    /// law, or anything but [`HistoryValue::None`] to a law without a tangential part).
+    pub fn history<V: VectorOps>(&self, value: HistoryValue<V>) -> Result<TangentialHistory<V>> {
+        match (self, value) {
+            (Tangential::None, HistoryValue::None) => Ok(TangentialHistory::ZERO),
+            (Tangential::Linear { .. }, HistoryValue::Displacement(s)) => Ok(TangentialHistory(s)),
+            (Tangential::Mindlin { .. }, HistoryValue::Force(f)) => Ok(TangentialHistory(f)),
+            (law, value) => {
+                let allowed = match law {
+                    Tangential::None => "none (the law has no tangential part)",
+                    Tangential::Linear { .. } => "a displacement (the linear law stores its spring elongation)",
+                    Tangential::Mindlin { .. } => "a force (the Mindlin law stores its elastic tangential force)",
+                };
+                Err(CoreError::InvalidParameter {
+                    field: format!("tangential history of the {law:?} law"),
+                    value: format!("{value:?}"),
+                    allowed: allowed.into(),
+                })
+            }
+        }
+    }
+
+    /// The elastic part of the tangential force on grain i held by the history `h` (before
+    /// the Coulomb cap, without damping): k_t s for the linear law, the stored force for
+    /// Mindlin, zero without a tangential part.
+    #[inline]
+    pub fn elastic_force<V: VectorOps>(&self, h: TangentialHistory<V>) -> V {
+        match *self {
+            Tangential::None => V::ZERO,
+            Tangential::Linear { stiffness } => h.0 * stiffness,
+            Tangential::Mindlin { .. } => h.0,
+        }
+    }
+}
 
 /// Tangential elastic law.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -177,4 +273,99 @@ pub(crate) fn spring_step<R: Real, const N: usize>(
     }
     let history = select3::<R>(sliding, law.history_for_force_lanes::<R, N>(f), kept);
     (f, history, sliding)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::contact::{pair_kinematics, ContactParams, ContactState, Partner};
+    use crate::dim::D3;
+    use glam::DVec3;
+
+    /// The law says what its history is: a displacement for the linear law, a force for
+    /// Mindlin; a value of the other kind is refused with the law and what it allows.
+    #[test]
+    fn the_history_is_read_and_made_through_its_law() {
+        let v = DVec3::new(1e-4, -2e-4, 0.5e-4);
+        let linear = Tangential::Linear { stiffness: 3e4 };
+        let mindlin = Tangential::Mindlin { effective_shear_modulus: 1e6, rescale_on_unloading: false };
+        let s = linear.history(HistoryValue::Displacement(v)).unwrap();
+        assert_eq!(linear.read(s), HistoryValue::Displacement(v));
+        assert_eq!(linear.elastic_force(s), v * 3e4);
+        let f = mindlin.history(HistoryValue::Force(v)).unwrap();
+        assert_eq!(mindlin.read(f), HistoryValue::Force(v));
+        assert_eq!(mindlin.elastic_force(f), v);
+        assert_eq!(Tangential::None.read(f), HistoryValue::None);
+        assert!(Tangential::None.history(HistoryValue::None::<DVec3>).unwrap().is_zero());
+        let e = mindlin.history(HistoryValue::Displacement(v)).unwrap_err().to_string();
+        assert!(e.contains("Mindlin") && e.contains("Displacement") && e.contains("a force"), "{e}");
+        let e = linear.history(HistoryValue::Force(v)).unwrap_err().to_string();
+        assert!(e.contains("Linear") && e.contains("Force") && e.contains("a displacement"), "{e}");
+        assert!(Tangential::None.history(HistoryValue::Force(v)).is_err());
+        // the other grain's view
+        assert_eq!(linear.read(-s), HistoryValue::Displacement(-v));
+    }
+
+    /// What each law stores after one step of pure tangential loading (below the Coulomb cap),
+    /// against the closed forms: s = v_t Δt (a length) for the linear law, F = k_t(ξ) v_t Δt
+    /// (a force) for Mindlin, and the elastic force k_t s or F of each.
+    #[test]
+    fn each_law_stores_its_own_kind_of_history() {
+        let (r, xi, v, dt) = (0.5, 1e-3, 1e-2, 1e-4);
+        for name in ["hooke_cundall_strack", "hertz_mindlin"] {
+            // each preset with only its own keys
+            let mut p = ContactParams::preset(name);
+            if name == "hooke_cundall_strack" {
+                p.normal_stiffness = Some(1e4);
+            } else {
+                p.young = Some(1e7);
+                p.poisson = Some(0.3);
+            }
+            p.friction = Some(0.5);
+            let law = p.build(Partner::Grain, "contact").unwrap();
+            let kin = pair_kinematics::<D3>(DVec3::new(2.0 * r - xi, 0.0, 0.0), r, r, 1.0, 1.0, DVec3::ZERO, DVec3::new(0.0, v, 0.0), DVec3::ZERO, DVec3::ZERO).unwrap();
+            let mut state = ContactState::<D3>::default();
+            let k_t = law.tangential.stiffness(kin.overlap, kin.r_eff);
+            let out = law.evaluate(&kin, &mut state, dt);
+            assert!(!out.sliding && k_t > 0.0);
+            // (one multiplication or two: a few ulps)
+            let close = |a: f64, b: f64| (a - b).abs() <= 1e-14 * b.abs();
+            let elastic = law.tangential.elastic_force(state.spring);
+            match law.tangential.read(state.spring) {
+                HistoryValue::Displacement(s) => {
+                    assert_eq!(name, "hooke_cundall_strack");
+                    assert!(close(s.y, v * dt) && s.x == 0.0 && s.z == 0.0, "s {s}");
+                    assert!(close(elastic.y, k_t * v * dt), "k_t s {elastic}");
+                }
+                HistoryValue::Force(f) => {
+                    assert_eq!(name, "hertz_mindlin");
+                    assert!(close(f.y, k_t * v * dt) && f.x == 0.0 && f.z == 0.0, "F {f}");
+                    assert_eq!(elastic, f);
+                }
+                HistoryValue::None => panic!("{name} has a tangential part"),
+            }
+        }
+    }
+
+    /// The stored history is encoded as the bare vector, so checkpoints written before it was
+    /// typed decode to the same bits (bincode, the checkpoint encoding, and JSON).
+    #[test]
+    fn the_typed_history_keeps_the_checkpoint_encoding() {
+        #[derive(Serialize)]
+        struct Untyped {
+            spring: DVec3,
+            rolling: DVec3,
+            twist: f64,
+            overlap: f64,
+            sliding: bool,
+        }
+        let v = DVec3::new(0.1, -0.2, 0.3e-9);
+        let old = Untyped { spring: v, rolling: -v, twist: 0.25, overlap: 1e-3, sliding: true };
+        let new = ContactState::<D3> { spring: TangentialHistory(v), rolling: -v, twist: 0.25, overlap: 1e-3, sliding: true };
+        let bytes = bincode::serialize(&old).unwrap();
+        assert_eq!(bincode::serialize(&new).unwrap(), bytes);
+        let back: ContactState<D3> = bincode::deserialize(&bytes).unwrap();
+        assert_eq!(back, new);
+        assert_eq!(serde_json::to_string(&new).unwrap(), serde_json::to_string(&old).unwrap());
+    }
 }

@@ -39,7 +39,7 @@
 
 use super::lanes::{self, Window, WindowLaw, CAP};
 use super::{CrossForce, CrossIndex, Simulation, WallForce};
-use crate::contact::{evaluate_parts, pair_kinematics, wall_kinematics, ContactLaw, ContactState, LawParts, Rolling, Specialized, Twisting};
+use crate::contact::{contact_loads, evaluate_parts, pair_kinematics, wall_kinematics, ContactLaw, ContactState, LawParts, Rolling, Specialized, TangentialHistory, Twisting};
 use crate::dim::{Dim, VectorOps};
 use crate::domain::{Domain, PeriodicImage, WallMotion};
 use crate::error::{CoreError, Result};
@@ -114,7 +114,7 @@ struct Inputs<'a, D: Dim> {
 /// The mutable history of a contiguous range of pairs starting at pair `base`.
 struct History<'a, D: Dim> {
     base: usize,
-    spring: &'a mut [D::Vector],
+    spring: &'a mut [TangentialHistory<D::Vector>],
     overlap: &'a mut [f64],
     sliding: &'a mut [bool],
     rolling: &'a mut [D::AngVector],
@@ -125,7 +125,7 @@ impl<D: Dim> History<'_, D> {
     /// The contact of pair `base + q` opened: forgets its history and counts the change.
     #[inline(always)]
     fn forget(&mut self, q: usize, st: &mut ForceStats) {
-        self.spring[q] = D::Vector::ZERO;
+        self.spring[q] = TangentialHistory::ZERO;
         self.overlap[q] = 0.0;
         self.sliding[q] = false;
         self.rolling[q] = D::AngVector::ZERO;
@@ -205,13 +205,8 @@ fn eval_pair<D: Dim, P: LawParts>(law: &P, inp: &Inputs<D>, h: &mut History<D>, 
             if ratio > st.deepest.0 {
                 st.deepest = (ratio, 0, p);
             }
-            let n = kin.normal;
-            let t = D::cross(n, o.tangential_force);
-            Some(PairOut {
-                force: o.tangential_force - n * o.normal_force,
-                torque_i: t * kin.lever_i + o.rolling_torque,
-                torque_j: t * kin.lever_j - o.rolling_torque,
-            })
+            let (force, torque_i, torque_j) = contact_loads(&kin, &o);
+            Some(PairOut { force, torque_i, torque_j })
         }
     }
 }
@@ -480,7 +475,7 @@ fn push_pair<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &mut History<D>, v: Vel
         w.rad_j[k] = rj;
         w.mass_i[k] = a.m;
         w.mass_j[k] = *inp.mass.get_unchecked(j);
-        lanes::put(&mut w.spring, k, *h.spring.get_unchecked(q));
+        lanes::put(&mut w.spring, k, h.spring.get_unchecked(q).0);
     }
     w.len += 1;
 }
@@ -503,7 +498,7 @@ fn eval_window<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D>, 
         debug_assert!(q < h.spring.len());
         // SAFETY: the window only holds pairs of this history range (`push_pair`, `push_pairs`).
         unsafe {
-            *h.spring.get_unchecked_mut(q) = lanes::get(&w.new_spring, k);
+            *h.spring.get_unchecked_mut(q) = TangentialHistory(lanes::get(&w.new_spring, k));
             *h.overlap.get_unchecked_mut(q) = w.overlap[k];
             *h.sliding.get_unchecked_mut(q) = w.sliding[k];
         }
@@ -975,9 +970,7 @@ impl<D: Dim> Simulation<D> {
                     }
                     Some(kin) => {
                         let o = wall.law.evaluate(&kin, &mut wp.state, dt_hist);
-                        let n = kin.normal;
-                        out.force = o.tangential_force - n * o.normal_force;
-                        out.torque = D::cross(n, o.tangential_force) * kin.lever_i + o.rolling_torque;
+                        (out.force, out.torque, _) = contact_loads(&kin, &o);
                         ForceStats {
                             changes: !was as u64,
                             contacts: 1,
@@ -1107,7 +1100,7 @@ impl<D: Dim> Simulation<D> {
 
 impl<'a, D: Dim> History<'a, D> {
     fn of_parts(
-        spring: &'a mut [D::Vector],
+        spring: &'a mut [TangentialHistory<D::Vector>],
         overlap: &'a mut [f64],
         sliding: &'a mut [bool],
         rolling: &'a mut [D::AngVector],

@@ -9,7 +9,7 @@
 //! fused multiply–add), so the result is bitwise that of the general kernel (tested on whole
 //! runs).
 
-use crate::contact::{into_tangent_plane_lanes, pair_kinematics_lanes, spring_step, HertzMindlin, HookeCundallStrack, LawParts, NormalDamping, NormalResponse, TangentialDamping};
+use crate::contact::{clamped_normal_force_lanes, contact_loads_lanes, into_tangent_plane_lanes, pair_kinematics_lanes, spring_step, HertzMindlin, HookeCundallStrack, LawParts, NormalDamping, NormalResponse, TangentialDamping};
 use crate::dim::{Dim, VectorOps};
 
 /// Contacts per window.
@@ -324,7 +324,7 @@ pub(super) fn contact<R: Real, const DIM: usize, const ROT: usize, L: WindowLaw,
     // normal force (clamped) and stiffnesses
     let NormalResponse { force: f_el, stiffness: k_n, secant } = law.normal().response_lanes(overlap, r_eff);
     let gamma_n = damp.normal(m_eff, k_n, secant);
-    let f_n = (f_el - gamma_n * k.v_n).max_zero();
+    let f_n = clamped_normal_force_lanes(f_el, gamma_n, k.v_n);
     let tangential = law.tangential();
     let k_t = tangential.stiffness_lanes(overlap, r_eff);
     let gamma_t = damp.tangential(m_eff, k_t, gamma_n);
@@ -333,26 +333,10 @@ pub(super) fn contact<R: Real, const DIM: usize, const ROT: usize, L: WindowLaw,
     let rotated = into_tangent_plane_lanes::<R, DIM>(x.spring, n);
     let cap = R::splat(law.friction()) * f_n;
     let (f, new_spring, sliding) = spring_step::<R, DIM>(&tangential, rotated, k.v_t, k_t, gamma_t, dt, cap);
-    let (lever_i, lever_j) = (k.lever_i, k.lever_j);
 
-    // forces and torques: F_i = F_t − F_n n̂, τ_i = a_i n̂ × F_t, τ_j = a_j n̂ × F_t
-    let mut t = [zero; 3];
-    if DIM == 3 {
-        t[0] = n[1] * f[2] - f[1] * n[2];
-        t[1] = n[2] * f[0] - f[2] * n[0];
-        t[2] = n[0] * f[1] - f[0] * n[1];
-    } else {
-        t[0] = n[0] * f[1] - n[1] * f[0];
-    }
-    let mut out = ContactOut { overlap, sliding, new_spring, force: [zero; 3], torque_i: [zero; 3], torque_j: [zero; 3] };
-    for c in 0..DIM {
-        out.force[c] = f[c] - n[c] * f_n;
-    }
-    for c in 0..ROT {
-        out.torque_i[c] = t[c] * lever_i + zero;
-        out.torque_j[c] = t[c] * lever_j - zero;
-    }
-    out
+    // forces and torques (no rolling resistance: M_r = 0)
+    let (force, torque_i, torque_j) = contact_loads_lanes::<R, DIM, ROT>(n, f, f_n, k.lever_i, k.lever_j, [zero; 3]);
+    ContactOut { overlap, sliding, new_spring, force, torque_i, torque_j }
 }
 
 /// Copies a vector into lane `k`.

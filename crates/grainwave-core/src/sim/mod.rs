@@ -336,7 +336,7 @@ impl<D: Dim> Simulation<D> {
             }
         }
         let mut hist = |s: &ContactState<D>| {
-            for c in s.spring.to_array3().into_iter().chain(s.rolling.to_array3()) {
+            for c in s.spring.0.to_array3().into_iter().chain(s.rolling.to_array3()) {
                 h.write_f64(c);
             }
             h.write_f64(s.twist);

@@ -17,7 +17,7 @@
 use super::config::{Direction, E2Config};
 use super::model::{self, Drive, PistonLoad, Units, RIGHT, TOP};
 use super::strain::{positions_by_id, StrainTracker};
-use crate::error::Result;
+use crate::error::{ExperimentError, Result};
 use crate::protocol::RunContext;
 use grainwave_core::prelude::*;
 use serde::{Deserialize, Serialize};
@@ -369,24 +369,25 @@ pub fn start_loading(sim: &mut Simulation<D2>, cfg: &E2Config) -> Result<Loading
 }
 
 fn write_index(dir: &Path, entries: &[CheckpointEntry]) -> Result<()> {
-    let mut s = String::from("index,step,time,strain_yy,strain_xx,stress_yy,stress_xx,sliding,file,kind\n");
-    for e in entries {
-        s.push_str(&format!(
-            "{},{},{:.17e},{:.17e},{:.17e},{:.17e},{:.17e},{},checkpoints/ck-{:06}.gwck,{}\n",
-            e.index,
-            e.step,
-            e.time,
-            e.strain_yy,
-            e.strain_xx,
-            e.stress_yy,
-            e.stress_xx,
-            e.sliding,
-            e.index,
-            if e.full { "full" } else { "reference" }
-        ));
-    }
-    grainwave_core::checkpoint::atomic_write(&dir.join("checkpoints").join("index.csv"), s.as_bytes())?;
-    Ok(())
+    super::outputs::write_csv(
+        &dir.join("checkpoints").join("index.csv"),
+        "index,step,time,strain_yy,strain_xx,stress_yy,stress_xx,sliding,file,kind",
+        entries.iter().map(|e| {
+            format!(
+                "{},{},{:.17e},{:.17e},{:.17e},{:.17e},{:.17e},{},checkpoints/ck-{:06}.gwck,{}",
+                e.index,
+                e.step,
+                e.time,
+                e.strain_yy,
+                e.strain_xx,
+                e.stress_yy,
+                e.stress_xx,
+                e.sliding,
+                e.index,
+                if e.full { "full" } else { "reference" }
+            )
+        }),
+    )
 }
 
 /// Runs the loading until `final_strain` (see the module docs). Returns false when interrupted.
@@ -484,5 +485,52 @@ pub fn load(
             }
         }
         loading.drive.step(sim)?;
+    }
+}
+
+/// Checkpoint indices present in `dir/checkpoints`.
+pub fn checkpoint_indices(dir: &Path) -> Vec<u64> {
+    let mut v: Vec<u64> = std::fs::read_dir(dir.join("checkpoints"))
+        .map(|rd| {
+            rd.filter_map(|e| e.ok())
+                .filter_map(|e| {
+                    let n = e.file_name().to_string_lossy().to_string();
+                    n.strip_prefix("ck-").and_then(|s| s.strip_suffix(".gwck")).and_then(|s| s.parse().ok())
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    v.sort();
+    v
+}
+
+/// Loads checkpoint `k` (−1: the last) of the run in `source`; a reference checkpoint is
+/// regenerated from its full checkpoint ([`regenerate`]).
+pub fn load_checkpoint(source: &Path, k: i64) -> Result<StrainCheckpoint> {
+    load_checkpoint_with(source, k, &mut |_| {}, &mut || false).map(|c| c.expect("not interrupted"))
+}
+
+/// [`load_checkpoint`], telling `log` when it regenerates a state and asking `interrupted`
+/// every 1000 steps of the regeneration (None: interrupted).
+pub fn load_checkpoint_with(source: &Path, k: i64, log: &mut dyn FnMut(&str), interrupted: &mut dyn FnMut() -> bool) -> Result<Option<StrainCheckpoint>> {
+    let have = checkpoint_indices(source);
+    let index = if k < 0 { have.last().copied() } else { have.iter().copied().find(|&i| i == k as u64) };
+    let Some(index) = index else {
+        return Err(ExperimentError::Resume {
+            path: source.to_path_buf(),
+            reason: format!("no checkpoint {k} in {}/checkpoints (present: {:?})", source.display(), have),
+        });
+    };
+    match read_checkpoint(&checkpoint_path(source, index))? {
+        StoredCheckpoint::Full(ck) => Ok(Some(*ck)),
+        StoredCheckpoint::Reference(r) => {
+            let base = read_full_checkpoint(&checkpoint_path(source, r.base))?;
+            log(&format!(
+                "checkpoint {index} is a reference: regenerating its state from full checkpoint {} ({} steps of the loading)",
+                r.base,
+                r.step.saturating_sub(base.sim.step)
+            ));
+            regenerate(base, &r, interrupted)
+        }
     }
 }

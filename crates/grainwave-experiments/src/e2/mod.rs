@@ -1,13 +1,18 @@
 //! The `e2` protocol (SPEC §6): acoustics of a 2D packing under biaxial loading, with frictional
 //! sliding. See docs/e2.md.
 //!
-//! Stages: preparation by two pistons ([`biaxial::prepare`]), biaxial test with checkpoints every
-//! Δε ([`biaxial::load`]), then the `[[replays]]` of checkpoints ([`replay`]): paired replays with
-//! a pressure pulse or a central radius change, whose difference gives the perturbed velocity
-//! field, the arrival times and the pulse speed ([`arrival`]); or single replays with the
-//! velocities scaled, the friction changed or the top wall stopped. The protocol state (stage,
-//! engine state, series, finished replays) is saved in `checkpoint.gwck`, so `grainwave resume`
-//! continues an interrupted run bit for bit.
+//! Config → [`E2Spec`] (the validated config and its plan) → [`E2State`] → run → [`E2Summary`].
+//! The plan ([`work::plan`]) has two kinds of units of work, run by the scheduler
+//! ([`crate::work::Scheduler`]): the `loading` — preparation by two pistons
+//! ([`biaxial::prepare`]) and biaxial test with checkpoints every Δε ([`biaxial::load`]) — and one
+//! unit per `[[replays]]` entry ([`work::run_replay`]), which reads the loading's checkpoints or
+//! the final state of the replay named in `from`: paired replays with a pressure pulse or a
+//! central radius change, whose difference gives the perturbed velocity field, the arrival times
+//! and the pulse speed ([`replay`], [`arrival`]); or single replays with the velocities scaled, the
+//! friction changed or the top wall stopped. The loading's progress is saved in `checkpoint.gwck`,
+//! each replay's report in `replays/<name>/report.gwck`, so `grainwave resume` continues an
+//! interrupted run bit for bit; the tables are aggregated from the reports in the order of the
+//! config ([`outputs`]).
 
 pub mod arrival;
 pub mod biaxial;
@@ -16,6 +21,7 @@ pub mod model;
 pub mod outputs;
 pub mod replay;
 pub mod strain;
+pub mod work;
 
 pub use config::E2Config;
 pub use outputs::E2Summary;
@@ -23,10 +29,13 @@ pub use outputs::E2Summary;
 use crate::config::{non_negative, positive, ConfigError, ConfigSource};
 use crate::error::{ExperimentError, Result};
 use crate::protocol::RunContext;
+use crate::study::Protocol;
+use crate::work::{Finished, Scheduler, Unit};
 use biaxial::{Loading, PreparationInfo};
 use grainwave_core::prelude::*;
 use model::Units;
 use serde::{Deserialize, Serialize};
+use std::path::Path;
 
 /// Content tag of this protocol's checkpoints.
 pub const TAG: &str = "experiment-e2";
@@ -60,10 +69,66 @@ pub struct E2State {
     pub units: Option<Units>,
     /// The loading.
     pub loading: Option<Loading>,
-    /// Reports of the finished replays.
+    /// Reports of the finished replays, in the order of the config (gathered from their unit
+    /// results, `replays/<name>/report.gwck`, when the run is interrupted and at its end).
     pub replays: Vec<outputs::ReplayReport>,
 }
 
+
+/// A validated `e2` config and its plan.
+#[derive(Clone, Debug)]
+pub struct E2Spec {
+    /// The config, every key checked ([`prepare`]).
+    pub config: E2Config,
+    /// The units of work ([`work::plan`]): the loading (unless `source.dir` is given) and one
+    /// unit per replay, each with the unit it starts from as its input.
+    pub units: Vec<Unit>,
+}
+
+impl E2Spec {
+    /// Validates a config file into a spec.
+    pub fn validate(src: &ConfigSource) -> Result<E2Spec, ConfigError> {
+        let config = prepare(src)?;
+        Ok(E2Spec { units: work::plan(&config), config })
+    }
+}
+
+/// The `e2` protocol.
+pub struct E2Protocol;
+
+impl Protocol for E2Protocol {
+    const NAME: &'static str = "e2";
+    const TAG: &'static str = TAG;
+    const REFERENCE: &'static str = "Acoustics of a 2D packing under biaxial loading, with frictional sliding (SPEC §6; see docs/e2.md). Units:\n\
+         pressure p* (force/length), total grain mass M*, L* = √(M*/ρ*), t* = √(M*/p*), v_a = d̄√(K_n/m̄), t_a = L*/v_a;\n\
+         grain sizes in mean diameters d̄.";
+    type Config = E2Config;
+    type Spec = E2Spec;
+    type State = E2State;
+    type Report = E2Summary;
+
+    fn validate(src: &ConfigSource) -> Result<E2Spec, ConfigError> {
+        E2Spec::validate(src)
+    }
+    fn describe(spec: &E2Spec) -> Vec<String> {
+        describe(&spec.config)
+    }
+    fn start(spec: E2Spec) -> E2State {
+        E2State::new(spec.config)
+    }
+    fn config(state: &E2State) -> &E2Config {
+        &state.config
+    }
+    fn run(state: &mut E2State, ctx: &mut RunContext<'_>) -> Result<E2Summary> {
+        state.run(ctx)
+    }
+    fn summary_lines(report: &E2Summary, out: &Path) -> Vec<String> {
+        summary_lines(report, out)
+    }
+    fn replot(dir: &Path, state: &E2State) -> Result<Vec<String>> {
+        replot(dir, state)
+    }
+}
 
 /// Parses and validates an `e2` config.
 pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
@@ -331,117 +396,31 @@ impl E2State {
         E2State { config, stage, sim: None, preparation: PreparationInfo::default(), units: None, loading: None, replays: Vec::new() }
     }
 
-    /// Runs (or continues) the protocol.
+    /// Runs (or continues) the protocol: the units of [`work::plan`] on the scheduler, then the
+    /// summary from the replays' reports, in the order of the config.
     pub fn run(&mut self, ctx: &mut RunContext<'_>) -> Result<E2Summary> {
         let cfg = self.config.clone();
         let started = std::time::Instant::now();
         if self.stage != Stage::Finished {
             crate::outputs::write_resolved_config(ctx.out_dir(), "e2", &cfg, "")?;
-        }
-        if self.stage == Stage::Preparing {
-            if self.sim.is_none() {
-                ctx.log(&format!("e2: preparing {} disks", cfg.packing.columns * cfg.packing.rows));
-                self.sim = Some(model::build_gas(&cfg.packing, &cfg.material, &cfg.preparation, cfg.seed)?);
+            let out = ctx.out_dir().to_path_buf();
+            work::adopt_reports(&out, &self.replays)?;
+            let (finished, loading_error) = {
+                let work = work::E2Work::new(&cfg, &out, self);
+                let mut scheduler = Scheduler::new(&work);
+                let finished = scheduler.run(ctx);
+                (finished, work.take_loading_error())
+            };
+            if let Some(e) = loading_error {
+                return Err(e);
             }
-            let mut sim = self.sim.take().expect("engine state");
-            let snapshot = |stage: Stage, sim: &Simulation<D2>, info: &PreparationInfo| E2State {
-                config: cfg.clone(),
-                stage,
-                sim: Some(sim.clone()),
-                preparation: info.clone(),
-                units: None,
-                loading: None,
-                replays: Vec::new(),
-            };
-            let mut save = |ctx: &mut RunContext<'_>, sim: &Simulation<D2>, info: &PreparationInfo| -> Result<()> {
-                ctx.save_checkpoint(TAG, &snapshot(Stage::Preparing, sim, info))?;
-                Ok(())
-            };
-            let done = biaxial::prepare(&mut sim, &mut self.preparation, &cfg, ctx, &mut save)?;
-            self.sim = Some(sim);
-            if !done {
+            self.replays = work::finished_reports(&out, &cfg)?;
+            if self.units.is_none() {
+                // a run on the checkpoints of another: the units of that run
+                self.units = self.replays.first().map(|r| r.units);
+            }
+            if finished? == Finished::Interrupted {
                 return Err(ctx.interrupted_error(TAG, self));
-            }
-            let sim = self.sim.as_mut().expect("engine state");
-            ctx.log(&format!(
-                "preparation converged: {} steps, {:.3} t*, Φ = {:.4}, max |F| = {:.2e} p* d̄, {} quenches",
-                self.preparation.steps, self.preparation.time, self.preparation.packing_fraction, self.preparation.max_force, self.preparation.quenches
-            ));
-            let units = Units::of(sim, 1.0, cfg.material.normal_stiffness);
-            self.units = Some(units);
-            self.loading = Some(biaxial::start_loading(sim, &cfg)?);
-            let per_sample = cfg.loading.strain_rate / units.time * sim.dt * cfg.loading.sample_every as f64;
-            if cfg.loading.checkpoint_strain > 0.0 && per_sample > 0.5 * cfg.loading.checkpoint_strain {
-                ctx.log(&format!(
-                    "warning: the strain grows by {per_sample:.2e} between samples (`loading.sample_every` = {}), more than half of `loading.checkpoint_strain` = {:.1e}: checkpoints fall up to one sample late, and some are skipped when a sample passes two multiples",
-                    cfg.loading.sample_every, cfg.loading.checkpoint_strain
-                ));
-            }
-            self.stage = Stage::Loading;
-            ctx.save_checkpoint(TAG, self)?;
-        }
-        if self.stage == Stage::Loading {
-            let units = self.units.expect("units after preparation");
-            let mut sim = self.sim.take().expect("engine state");
-            let mut loading = self.loading.take().expect("loading state");
-            let base = E2State { sim: None, loading: None, ..self.clone() };
-            let mut save = |ctx: &mut RunContext<'_>, sim: &Simulation<D2>, loading: &Loading| -> Result<()> {
-                let s = E2State { sim: Some(sim.clone()), loading: Some(loading.clone()), ..base.clone() };
-                ctx.save_checkpoint(TAG, &s)?;
-                Ok(())
-            };
-            let done = biaxial::load(&mut sim, &mut loading, &units, &cfg, ctx, &mut save)?;
-            self.sim = Some(sim);
-            self.loading = Some(loading);
-            if !done {
-                return Err(ctx.interrupted_error(TAG, self));
-            }
-            let l = self.loading.as_ref().expect("loading");
-            ctx.log(&format!(
-                "loading done: ε_yy = {:.4e} after {:.3} t*, {} checkpoints, {:.1} s",
-                l.series.last().map(|r| r[1]).unwrap_or(0.0),
-                l.series.last().map(|r| r[0]).unwrap_or(0.0),
-                l.checkpoints.len(),
-                l.seconds
-            ));
-            outputs::write_loading(ctx.out_dir(), &cfg, l)?;
-            self.sim = None; // the state lives on in the strain checkpoints
-            self.stage = Stage::Replays;
-            ctx.save_checkpoint(TAG, self)?;
-        }
-        if self.stage == Stage::Replays {
-            let source = match &cfg.source.dir {
-                Some(d) => std::path::PathBuf::from(d),
-                None => ctx.out_dir().to_path_buf(),
-            };
-            while self.replays.len() < cfg.replays.len() {
-                if ctx.interrupted() {
-                    return Err(ctx.interrupted_error(TAG, self));
-                }
-                let k = self.replays.len();
-                // a replay that fails ends the run (later replays may start from it): the failure
-                // names the replay, goes to run.log and marks the directory as failed; the replays
-                // done are kept, so `grainwave resume --retry` continues from this one
-                let report = match outputs::run_replay(ctx, &cfg, k, &source) {
-                    Ok(r) => r,
-                    Err(e @ ExperimentError::Interrupted { .. }) => return Err(e),
-                    Err(e) => {
-                        let name = cfg.replays[k].name.clone().unwrap_or(format!("r{k}"));
-                        return Err(ExperimentError::StoppedAt {
-                            unit: format!("replay `{name}`"),
-                            reason: crate::protocol::failure_line(&e),
-                            not_run: cfg.replays.len() - k - 1,
-                        });
-                    }
-                };
-                let Some(report) = report else {
-                    return Err(ctx.interrupted_error(TAG, self));
-                };
-                if self.units.is_none() {
-                    self.units = Some(report.units);
-                }
-                self.replays.push(report);
-                ctx.save_checkpoint(TAG, self)?;
             }
             self.stage = Stage::Finished;
         }

@@ -1,14 +1,15 @@
 //! Outputs of `e2`: the loading series and plots, the replays (fields, arrivals, strip fits,
 //! arrival-time maps, M_s(t)), and `summary.json`.
 
-use super::biaxial::{self, Loading, StrainCheckpoint};
-use super::config::E2Config;
-use super::model::{self, Units};
-use super::replay;
+use super::arrival::StripFit;
+use super::biaxial::{self, Loading};
+use super::config::{E2Config, ReplayConfig};
+use super::model::Units;
+use super::replay::{Arrivals, PairResult};
 use super::{E2State, Stage};
-use crate::error::{ExperimentError, Result};
-use crate::protocol::RunContext;
+use crate::error::Result;
 use grainwave_core::prelude::*;
+use grainwave_core::snapshot::Snapshot;
 use grainwave_io::plot::{LinePlot, PackingPicture};
 use grainwave_io::Series;
 use serde::{Deserialize, Serialize};
@@ -211,54 +212,9 @@ pub fn write_loading(dir: &Path, cfg: &E2Config, l: &Loading) -> Result<Vec<Stri
     Ok(files)
 }
 
-/// Checkpoint indices present in `dir/checkpoints`.
-pub fn checkpoint_indices(dir: &Path) -> Vec<u64> {
-    let mut v: Vec<u64> = std::fs::read_dir(dir.join("checkpoints"))
-        .map(|rd| {
-            rd.filter_map(|e| e.ok())
-                .filter_map(|e| {
-                    let n = e.file_name().to_string_lossy().to_string();
-                    n.strip_prefix("ck-").and_then(|s| s.strip_suffix(".gwck")).and_then(|s| s.parse().ok())
-                })
-                .collect()
-        })
-        .unwrap_or_default();
-    v.sort();
-    v
-}
-
-/// Loads checkpoint `k` (−1: the last) of the run in `source`; a reference checkpoint is
-/// regenerated from its full checkpoint ([`biaxial::regenerate`]).
-pub fn load_checkpoint(source: &Path, k: i64) -> Result<StrainCheckpoint> {
-    load_checkpoint_with(source, k, &mut |_| {}, &mut || false).map(|c| c.expect("not interrupted"))
-}
-
-/// [`load_checkpoint`], telling `log` when it regenerates a state and asking `interrupted`
-/// every 1000 steps of the regeneration (None: interrupted).
-pub fn load_checkpoint_with(source: &Path, k: i64, log: &mut dyn FnMut(&str), interrupted: &mut dyn FnMut() -> bool) -> Result<Option<StrainCheckpoint>> {
-    let have = checkpoint_indices(source);
-    let index = if k < 0 { have.last().copied() } else { have.iter().copied().find(|&i| i == k as u64) };
-    let Some(index) = index else {
-        return Err(ExperimentError::Resume {
-            path: source.to_path_buf(),
-            reason: format!("no checkpoint {k} in {}/checkpoints (present: {:?})", source.display(), have),
-        });
-    };
-    match biaxial::read_checkpoint(&biaxial::checkpoint_path(source, index))? {
-        biaxial::StoredCheckpoint::Full(ck) => Ok(Some(*ck)),
-        biaxial::StoredCheckpoint::Reference(r) => {
-            let base = biaxial::read_full_checkpoint(&biaxial::checkpoint_path(source, r.base))?;
-            log(&format!(
-                "checkpoint {index} is a reference: regenerating its state from full checkpoint {} ({} steps of the loading)",
-                r.base,
-                r.step.saturating_sub(base.sim.step)
-            ));
-            biaxial::regenerate(base, &r, interrupted)
-        }
-    }
-}
-
-fn write_csv(path: &Path, header: &str, rows: impl Iterator<Item = String>) -> Result<()> {
+/// Writes a CSV file atomically: the header line, then one line per row (every table of `e2`:
+/// the checkpoint index, arrivals, strips, sliding series, pulses, Δc/c₀, anisotropy).
+pub(super) fn write_csv(path: &Path, header: &str, rows: impl Iterator<Item = String>) -> Result<()> {
     let mut s = String::from(header);
     s.push('\n');
     for r in rows {
@@ -269,357 +225,168 @@ fn write_csv(path: &Path, header: &str, rows: impl Iterator<Item = String>) -> R
     Ok(())
 }
 
-/// Runs replay `k` of the config on the checkpoints of `source`, writing `replays/<name>/`.
-/// Content tag of the progress file of a single replay.
-pub const PARTIAL_TAG: &str = "e2-single-replay-progress";
-
-/// The progress of a single replay (`replays/<name>/partial.gwck`).
-#[derive(Clone, Debug, Serialize, Deserialize)]
-pub struct SinglePartial {
-    /// The engine state.
-    pub sim: Simulation<D2>,
-    /// The wall drive.
-    pub drive: model::Drive,
-    /// The series so far (time [t_a], σ_yy, σ_xx [p*], M_s, KE [p* L*²]).
-    pub rows: Vec<[f64; 5]>,
-    /// Steps done.
-    pub done: u64,
-    /// Simulated time at the start [engine time].
-    pub t0: f64,
-    /// Kinetic energy at the start [p* L*²].
-    pub ke0: f64,
-    /// M_s (cap flag) at the start.
-    pub m0: u64,
-    /// M_s (mobilised) at the start.
-    pub mob0: u64,
+/// Writes the files of amplitude `ai` (value `a`) of a paired replay into `dir` (=
+/// `replays/<name>/`, under the output directory `out`): the field, the sample times, the
+/// arrivals, the sliding series, the strip fit and the plots; returns its report and its curve
+/// of M_s(with) − M_s(without) against t/t_a.
+#[allow(clippy::too_many_arguments)]
+pub fn write_pair(
+    out: &Path,
+    dir: &Path,
+    cfg: &E2Config,
+    rc: &ReplayConfig,
+    u: &Units,
+    snapshot: &Snapshot<D2>,
+    ai: usize,
+    a: f64,
+    r: &PairResult,
+    arr: &Arrivals,
+) -> Result<(PairReport, (Vec<f64>, Vec<f64>))> {
+    let stem = format!("a{ai}");
+    let mut files = Vec::new();
+    let times_ta: Vec<f64> = r.times.iter().map(|t| t / u.acoustic_time).collect();
+    if cfg.output.fields {
+        let p = dir.join(format!("{stem}_field.npy"));
+        grainwave_io::npy::write_npy(&p, &[r.times.len(), r.grains, 2], &r.field)?;
+        files.push(rel(out, &p));
+    }
+    let p = dir.join(format!("{stem}_times.npy"));
+    grainwave_io::npy::write_npy(&p, &[times_ta.len()], &times_ta)?;
+    files.push(rel(out, &p));
+    let p = dir.join(format!("{stem}_arrivals.csv"));
+    write_csv(
+        &p,
+        "id,x,y,distance,arrival",
+        (0..r.grains).map(|i| {
+            format!(
+                "{i},{:.9e},{:.9e},{:.9e},{}",
+                r.positions[i].x / u.length,
+                r.positions[i].y / u.length,
+                arr.distance[i] / u.length,
+                arr.time[i].map(|t| format!("{:.9e}", t / u.acoustic_time)).unwrap_or_default()
+            )
+        }),
+    )?;
+    files.push(rel(out, &p));
+    let p = dir.join(format!("{stem}_sliding.csv"));
+    write_csv(&p, "time,sliding,sliding_reference", (0..r.times.len()).map(|s| format!("{:.9e},{},{}", times_ta[s], r.sliding[s], r.sliding_reference[s])))?;
+    files.push(rel(out, &p));
+    let diff: Vec<f64> = r.sliding.iter().zip(&r.sliding_reference).map(|(a, b)| *a as f64 - *b as f64).collect();
+    let in_v_a = |fit: &Option<StripFit>| fit.as_ref().map(|f| f.speed / u.acoustic_velocity);
+    let (speed, by_max, by_lobe) = (in_v_a(&arr.fit), in_v_a(&arr.fit_maximum), in_v_a(&arr.fit_first_lobe));
+    if let Some(f) = &arr.fit {
+        let p = dir.join(format!("{stem}_strips.csv"));
+        write_csv(&p, "distance,arrival", f.distance.iter().zip(&f.time).map(|(s, t)| format!("{:.9e},{:.9e}", s / u.length, t / u.acoustic_time)))?;
+        files.push(rel(out, &p));
+    }
+    if cfg.output.plots {
+        // arrival map, grains in storage order of the snapshot
+        let t_f = rc.duration * u.acoustic_time;
+        let times: Vec<f64> = snapshot.id.iter().map(|&id| arr.time[id as usize].unwrap_or(f64::NAN)).collect();
+        push_plot(
+            out,
+            &mut files,
+            PackingPicture::new(snapshot, &format!("Arrival times, {} a = {a:e} (J = {})", rc.modification.name(), rc.bands))
+                .x_label("x (d̄)")
+                .y_label("y (d̄)")
+                .arrival_times(&times, t_f, rc.bands)
+                .save(dir, &format!("{stem}_arrival_map")),
+        )?;
+        let (mut xs, mut ys) = (Vec::new(), Vec::new());
+        for (s, t) in arr.distance.iter().zip(&arr.time) {
+            if let Some(t) = t {
+                xs.push(t / u.acoustic_time);
+                ys.push(s / u.length);
+            }
+        }
+        if !xs.is_empty() {
+            let mut plot = LinePlot::new(&format!("Arrival vs distance, a = {a:e}"))
+                .x_label("arrival time / t_a")
+                .y_label("distance from source / L*")
+                .scatter("grains", &xs, &ys);
+            if let Some(f) = &arr.fit {
+                let ft: Vec<f64> = f.time.iter().map(|t| t / u.acoustic_time).collect();
+                let fs: Vec<f64> = f.distance.iter().map(|s| s / u.length).collect();
+                plot = plot.scatter("3rd earliest per strip", &ft, &fs);
+                let (t0, t1) = (ft.iter().cloned().fold(f64::INFINITY, f64::min), ft.iter().cloned().fold(0.0, f64::max));
+                let line = |t: f64| (f.speed * t * u.acoustic_time + f.intercept) / u.length;
+                plot = plot.series(&format!("fit: c = {:.4} v_a", f.speed / u.acoustic_velocity), &[t0, t1], &[line(t0), line(t1)]);
+            }
+            push_plot(out, &mut files, plot.save(dir, &format!("{stem}_arrival_fit")))?;
+        }
+    }
+    let max_sd = diff.iter().map(|d| d.abs()).fold(0.0, f64::max) as i64;
+    let report = PairReport {
+        amplitude: a,
+        speed,
+        speed_maximum: by_max,
+        speed_first_lobe: by_lobe,
+        incident_amplitude: arr.incident / u.acoustic_velocity,
+        resolution_floor: arr.floor / u.acoustic_velocity,
+        strips_used: arr.fit.as_ref().map(|f| f.strips_used).unwrap_or(0),
+        arrived: arr.time.iter().filter(|t| t.is_some()).count(),
+        max_difference: r.max_difference / u.acoustic_velocity,
+        max_sliding_difference: max_sd,
+        final_sliding_difference: diff.last().copied().unwrap_or(0.0) as i64,
+        mobilised: r.mobilised,
+        flagged: [r.sliding.first().copied().unwrap_or(0), r.sliding.last().copied().unwrap_or(0), r.sliding_reference.last().copied().unwrap_or(0)],
+        samples: r.times.len(),
+        files,
+    };
+    Ok((report, (times_ta, diff)))
 }
 
-/// Runs replay `k` of `cfg` (checkpoints from `source`); None when interrupted (a single replay
-/// then leaves its progress in `replays/<name>/partial.gwck` for the resume).
-pub fn run_replay(ctx: &mut RunContext<'_>, cfg: &E2Config, k: usize, source: &Path) -> Result<Option<ReplayReport>> {
-    let started = std::time::Instant::now();
-    let rc = &cfg.replays[k];
-    let name = rc.name.clone().unwrap_or(format!("r{k}"));
-    let out_root = ctx.out_dir().to_path_buf();
-    let dir = out_root.join("replays").join(&name);
-    std::fs::create_dir_all(&dir).map_err(|e| CoreError::Io { action: "cannot create".into(), path: dir.display().to_string(), error: e })?;
-    let ck = match &rc.from {
-        Some(from) => biaxial::read_full_checkpoint(&out_root.join("replays").join(from).join("final.gwck"))?,
-        None => {
-            let stop = ctx.interrupt_flag();
-            let mut log = |m: &str| ctx.log(&format!("replay {name}: {m}"));
-            match load_checkpoint_with(source, rc.checkpoint, &mut log, &mut || stop.load(std::sync::atomic::Ordering::Relaxed))? {
-                Some(ck) => ck,
-                None => return Ok(None),
-            }
-        }
-    };
-    let u = ck.units;
-    ctx.reporter.stage(&format!("replay {name}"), None);
-    ctx.log(&format!("replay {name}: checkpoint {} (ε_yy = {:.4e}), {}", ck.index, ck.strain.1, rc.modification.name()));
-    // velocity_scale by a target rate and for an extra strain (SPEC §6.6)
-    let mut rc_eff = rc.clone();
-    if rc.modification == super::config::Modification::VelocityScale && (rc.rate.is_some() || rc.extra_strain.is_some()) {
-        let (_, h) = model::box_size(&ck.sim);
-        let rate = ck.sim.domain.walls[model::TOP].speed.abs() / h * u.time;
-        if !(rate > 0.0) {
-            return Err(ExperimentError::Resume {
-                path: source.to_path_buf(),
-                reason: format!("replay `{name}`: `rate`/`extra_strain` need a moving top wall, but it is at rest in the start state"),
-            });
-        }
-        if let Some(target) = rc.rate {
-            rc_eff.factor = target / rate;
-        }
-        if let Some(de) = rc.extra_strain {
-            rc_eff.duration = de / (rate * rc_eff.factor) * u.time / u.acoustic_time;
-        }
-        ctx.log(&format!(
-            "replay {name}: strain rate {rate:.4e} /t* × γ = {:.4e} → {:.4e} /t*, for {:.2} t_a",
-            rc_eff.factor,
-            rate * rc_eff.factor,
-            rc_eff.duration
-        ));
+/// The plots of a whole paired replay `name` (every amplitude): M_s(with) − M_s(without) and the
+/// pulse speed against the amplitude; the files are added to the first amplitude's report.
+pub fn write_pair_plots(out: &Path, dir: &Path, cfg: &E2Config, name: &str, report: &mut ReplayReport, curves: &[(Vec<f64>, Vec<f64>)]) -> Result<()> {
+    if !cfg.output.plots {
+        return Ok(());
     }
-    let rc = &rc_eff;
-    let steps = (rc.duration * u.acoustic_time / ck.sim.dt).round().max(1.0) as u64;
-    let sample_every = (rc.sample_interval * u.acoustic_time / ck.sim.dt).round().max(1.0) as u64;
-    let mut report = ReplayReport {
-        name: name.clone(),
-        checkpoint: ck.index,
-        strain_yy: ck.strain.1,
-        modification: rc.modification.name().into(),
-        units: u,
-        pairs: Vec::new(),
-        single: None,
-        seconds: 0.0,
-    };
-    let mut ck = ck;
-    if rc.modification == super::config::Modification::WallPulse && rc.pulse_wall == super::config::PulseWall::Top {
-        if !ck.drive.pistons.iter().any(|(k, _)| *k == model::TOP) {
-            return Err(ExperimentError::Resume {
-                path: source.to_path_buf(),
-                reason: format!("replay `{name}`: the top wall of its start state is not a piston (start it `from` a `top_piston` replay)"),
-            });
-        }
-        ck.drive.pulse_wall = model::TOP;
+    let mut files = Vec::new();
+    let mut plot = LinePlot::new(&format!("Sliding contacts after the perturbation ({name})")).x_label("t / t_a").y_label("M_s(with) − M_s(without)");
+    for (p, (t, d)) in report.pairs.iter().zip(curves) {
+        plot = plot.series(&format!("a = {:e}", p.amplitude), t, d);
     }
-    if let Some(pert) = replay::perturbation_of(rc, &ck.sim, &u) {
-        let snapshot = ck.sim.snapshot();
-        let mut sliding_curves: Vec<(String, Vec<f64>, Vec<f64>)> = Vec::new();
-        let mut speeds: Vec<(f64, f64)> = Vec::new();
-        for (ai, &a) in rc.amplitudes.iter().enumerate() {
-            let stem = format!("a{ai}");
-            let r = replay::paired_replay(&ck.sim, &ck.drive, &pert, a, steps, sample_every)?;
-            let arr = replay::arrivals(&r, &ck.sim, &ck.drive, &pert, a, rc, &u);
-            let mut files = Vec::new();
-            let times_ta: Vec<f64> = r.times.iter().map(|t| t / u.acoustic_time).collect();
-            if cfg.output.fields {
-                let p = dir.join(format!("{stem}_field.npy"));
-                grainwave_io::npy::write_npy(&p, &[r.times.len(), r.grains, 2], &r.field)?;
-                files.push(rel(&out_root, &p));
-            }
-            let p = dir.join(format!("{stem}_times.npy"));
-            grainwave_io::npy::write_npy(&p, &[times_ta.len()], &times_ta)?;
-            files.push(rel(&out_root, &p));
-            let p = dir.join(format!("{stem}_arrivals.csv"));
-            write_csv(
-                &p,
-                "id,x,y,distance,arrival",
-                (0..r.grains).map(|i| {
-                    format!(
-                        "{i},{:.9e},{:.9e},{:.9e},{}",
-                        r.positions[i].x / u.length,
-                        r.positions[i].y / u.length,
-                        arr.distance[i] / u.length,
-                        arr.time[i].map(|t| format!("{:.9e}", t / u.acoustic_time)).unwrap_or_default()
-                    )
-                }),
-            )?;
-            files.push(rel(&out_root, &p));
-            let p = dir.join(format!("{stem}_sliding.csv"));
-            write_csv(
-                &p,
-                "time,sliding,sliding_reference",
-                (0..r.times.len()).map(|s| format!("{:.9e},{},{}", times_ta[s], r.sliding[s], r.sliding_reference[s])),
-            )?;
-            files.push(rel(&out_root, &p));
-            let diff: Vec<f64> = r.sliding.iter().zip(&r.sliding_reference).map(|(a, b)| *a as f64 - *b as f64).collect();
-            sliding_curves.push((format!("a = {a:e}"), times_ta.clone(), diff.clone()));
-            let in_v_a = |fit: &Option<super::arrival::StripFit>| fit.as_ref().map(|f| f.speed / u.acoustic_velocity);
-            let (speed, by_max, by_lobe) = (in_v_a(&arr.fit), in_v_a(&arr.fit_maximum), in_v_a(&arr.fit_first_lobe));
-            if let Some(f) = &arr.fit {
-                let p = dir.join(format!("{stem}_strips.csv"));
-                write_csv(&p, "distance,arrival", f.distance.iter().zip(&f.time).map(|(s, t)| format!("{:.9e},{:.9e}", s / u.length, t / u.acoustic_time)))?;
-                files.push(rel(&out_root, &p));
-                speeds.push((a, f.speed / u.acoustic_velocity));
-            }
-            if cfg.output.plots {
-                // arrival map, grains in storage order of the snapshot
-                let t_f = rc.duration * u.acoustic_time;
-                let times: Vec<f64> = snapshot.id.iter().map(|&id| arr.time[id as usize].unwrap_or(f64::NAN)).collect();
-                push_plot(
-                    &out_root,
-                    &mut files,
-                    PackingPicture::new(&snapshot, &format!("Arrival times, {} a = {a:e} (J = {})", rc.modification.name(), rc.bands))
-                        .x_label("x (d̄)")
-                        .y_label("y (d̄)")
-                        .arrival_times(&times, t_f, rc.bands)
-                        .save(&dir, &format!("{stem}_arrival_map")),
-                )?;
-                let (mut xs, mut ys) = (Vec::new(), Vec::new());
-                for (s, t) in arr.distance.iter().zip(&arr.time) {
-                    if let Some(t) = t {
-                        xs.push(t / u.acoustic_time);
-                        ys.push(s / u.length);
-                    }
-                }
-                if !xs.is_empty() {
-                    let mut plot = LinePlot::new(&format!("Arrival vs distance, a = {a:e}"))
-                        .x_label("arrival time / t_a")
-                        .y_label("distance from source / L*")
-                        .scatter("grains", &xs, &ys);
-                    if let Some(f) = &arr.fit {
-                        let ft: Vec<f64> = f.time.iter().map(|t| t / u.acoustic_time).collect();
-                        let fs: Vec<f64> = f.distance.iter().map(|s| s / u.length).collect();
-                        plot = plot.scatter("3rd earliest per strip", &ft, &fs);
-                        let (t0, t1) = (ft.iter().cloned().fold(f64::INFINITY, f64::min), ft.iter().cloned().fold(0.0, f64::max));
-                        let line = |t: f64| (f.speed * t * u.acoustic_time + f.intercept) / u.length;
-                        plot = plot.series(&format!("fit: c = {:.4} v_a", f.speed / u.acoustic_velocity), &[t0, t1], &[line(t0), line(t1)]);
-                    }
-                    push_plot(&out_root, &mut files, plot.save(&dir, &format!("{stem}_arrival_fit")))?;
-                }
-            }
-            let max_sd = diff.iter().map(|d| d.abs()).fold(0.0, f64::max) as i64;
-            report.pairs.push(PairReport {
-                amplitude: a,
-                speed,
-                speed_maximum: by_max,
-                speed_first_lobe: by_lobe,
-                incident_amplitude: arr.incident / u.acoustic_velocity,
-                resolution_floor: arr.floor / u.acoustic_velocity,
-                strips_used: arr.fit.as_ref().map(|f| f.strips_used).unwrap_or(0),
-                arrived: arr.time.iter().filter(|t| t.is_some()).count(),
-                max_difference: r.max_difference / u.acoustic_velocity,
-                max_sliding_difference: max_sd,
-                final_sliding_difference: diff.last().copied().unwrap_or(0.0) as i64,
-                mobilised: r.mobilised,
-                flagged: [
-                    r.sliding.first().copied().unwrap_or(0),
-                    r.sliding.last().copied().unwrap_or(0),
-                    r.sliding_reference.last().copied().unwrap_or(0),
-                ],
-                samples: r.times.len(),
-                files,
-            });
-            let show = |s: Option<f64>| s.map(|s| format!("{s:.4}")).unwrap_or("—".into());
-            ctx.log(&format!(
-                "replay {name} a = {a:e}: speed {} v_a (maximum {}, first lobe {}), max |δv| = {:.3e} v_a",
-                show(speed),
-                show(by_max),
-                show(by_lobe),
-                r.max_difference / u.acoustic_velocity
-            ));
-            if let (Some(m), Some(l)) = (by_max, by_lobe) {
-                if (m - l).abs() > 0.05 * l.abs() {
-                    ctx.log(&format!(
-                        "replay {name} a = {a:e}: the two arrival definitions differ by more than 5 % — the largest |δv_x| is not the pulse's peak \
-                         (the perturbation grows behind the front, as in a deforming packing); see docs/e2.md"
-                    ));
-                }
-            }
+    push_plot(out, &mut files, plot.save(dir, "sliding_difference"))?;
+    // the amplitudes with a strip fit (whose speed is the replay's arrival definition)
+    let speeds: Vec<(f64, f64)> = report.pairs.iter().filter_map(|p| p.speed.map(|c| (p.amplitude, c))).collect();
+    let pos: Vec<(f64, f64)> = speeds.iter().filter(|(a, _)| *a > 0.0).cloned().collect();
+    let neg: Vec<(f64, f64)> = speeds.iter().filter(|(a, _)| *a < 0.0).cloned().collect();
+    if pos.len() + neg.len() >= 2 {
+        let mut plot = LinePlot::new(&format!("Pulse speed vs amplitude ({name})")).x_label("|a|").y_label("c / v_a").log_x();
+        if !pos.is_empty() {
+            plot = plot.series("compression (a > 0)", &pos.iter().map(|p| p.0).collect::<Vec<_>>(), &pos.iter().map(|p| p.1).collect::<Vec<_>>());
         }
-        if cfg.output.plots {
-            let mut files = Vec::new();
-            let mut plot = LinePlot::new(&format!("Sliding contacts after the perturbation ({name})")).x_label("t / t_a").y_label("M_s(with) − M_s(without)");
-            for (label, t, d) in &sliding_curves {
-                plot = plot.series(label, t, d);
-            }
-            push_plot(&out_root, &mut files, plot.save(&dir, "sliding_difference"))?;
-            let pos: Vec<(f64, f64)> = speeds.iter().filter(|(a, _)| *a > 0.0).cloned().collect();
-            let neg: Vec<(f64, f64)> = speeds.iter().filter(|(a, _)| *a < 0.0).cloned().collect();
-            if pos.len() + neg.len() >= 2 {
-                let mut plot = LinePlot::new(&format!("Pulse speed vs amplitude ({name})")).x_label("|a|").y_label("c / v_a").log_x();
-                if !pos.is_empty() {
-                    plot = plot.series("compression (a > 0)", &pos.iter().map(|p| p.0).collect::<Vec<_>>(), &pos.iter().map(|p| p.1).collect::<Vec<_>>());
-                }
-                if !neg.is_empty() {
-                    plot = plot.series("rarefaction (a < 0)", &neg.iter().map(|p| -p.0).collect::<Vec<_>>(), &neg.iter().map(|p| p.1).collect::<Vec<_>>());
-                }
-                push_plot(&out_root, &mut files, plot.save(&dir, "speed_vs_amplitude"))?;
-            }
-            if let Some(p) = report.pairs.first_mut() {
-                p.files.extend(files);
-            }
+        if !neg.is_empty() {
+            plot = plot.series("rarefaction (a < 0)", &neg.iter().map(|p| -p.0).collect::<Vec<_>>(), &neg.iter().map(|p| p.1).collect::<Vec<_>>());
         }
-    } else {
-        let energy = u.pressure * u.length * u.length;
-        // a long single replay (the 100 t* of the slow-down at 128 × 128 take hours) saves its
-        // progress in `partial.gwck` every `output.save_every` seconds and when interrupted, and
-        // continues from it bit for bit on resume
-        let partial_path = dir.join("partial.gwck");
-        let mut p: SinglePartial = if partial_path.exists() {
-            let p: SinglePartial = grainwave_core::checkpoint::load(&partial_path, PARTIAL_TAG)?;
-            ctx.log(&format!("replay {name}: continuing from step {} of {steps} (partial.gwck)", p.done));
-            p
-        } else {
-            let mut sim = ck.sim.clone();
-            let mut drive = ck.drive.clone();
-            let ke0 = sim.kinetic_energy() / energy;
-            let m0 = sim.counters.sliding;
-            let mob0 = model::mobilised_contacts(&sim);
-            replay::apply_single(rc, &mut sim, &mut drive, &u, cfg)?;
-            let t0 = sim.time;
-            SinglePartial { sim, drive, rows: Vec::new(), done: 0, t0, ke0, m0, mob0 }
-        };
-        let t0 = p.t0;
-        let record = |sim: &Simulation<D2>, rows: &mut Vec<[f64; 5]>| {
-            let (sxx, syy) = model::wall_stresses(sim);
-            rows.push([(sim.time - t0) / u.acoustic_time, syy / u.pressure, sxx / u.pressure, sim.counters.sliding as f64, sim.kinetic_energy() / energy]);
-        };
-        if p.done == 0 && p.rows.is_empty() {
-            record(&p.sim, &mut p.rows);
-        }
-        let mut last_save = std::time::Instant::now();
-        // the series of a long single replay (the slow-down lasts 100 t* ≈ 4500 t_a) keeps at
-        // most ≈ 20 000 rows: sample_interval, or duration/20 000 if longer
-        let sample_every = sample_every.max(steps / 20_000);
-        // progress, interruption and periodic saves every `report_every` steps (1000 by default),
-        // after the step's sample: a saved state has taken its sample, and the resume starts
-        // with the next step
-        let every = ctx.report_every.max(1);
-        while p.done < steps {
-            p.drive.step(&mut p.sim)?;
-            p.done += 1;
-            if p.done % sample_every == 0 {
-                record(&p.sim, &mut p.rows);
-            }
-            if p.done % every == 0 && p.done < steps {
-                let mut progress = p.sim.progress(&StopCriteria::default());
-                progress.fraction_of_limit = p.done as f64 / steps as f64;
-                ctx.reporter.progress(&progress);
-                let interrupted = ctx.interrupted();
-                if interrupted || last_save.elapsed().as_secs_f64() >= cfg.output.save_every {
-                    grainwave_core::checkpoint::save(&partial_path, PARTIAL_TAG, &p)?;
-                    last_save = std::time::Instant::now();
-                }
-                if interrupted {
-                    return Ok(None);
-                }
-            }
-            if p.done % 100_000 == 0 {
-                ctx.log_quiet(&format!("replay {name}: step {} of {steps}, KE {:.3e} p* L*²", p.done, p.sim.kinetic_energy() / energy));
-            }
-        }
-        let SinglePartial { sim, drive, rows, ke0, m0, mob0, .. } = p;
-        let col = |k: usize| rows.iter().map(|r| r[k]).collect::<Vec<f64>>();
-        let series =
-            Series::from_columns(["time", "stress_yy", "stress_xx", "sliding", "kinetic_energy"].iter().enumerate().map(|(k, n)| (n.to_string(), col(k))))?;
-        series.write(&dir, "series")?;
-        if cfg.output.plots {
-            let (ke_t, ke): (Vec<f64>, Vec<f64>) = col(0).iter().zip(col(4)).filter(|(_, k)| *k > 0.0).map(|(t, k)| (*t, k)).unzip();
-            if ke.len() >= 2 {
-                LinePlot::new(&format!("Replay {name}: {}", rc.modification.name()))
-                    .x_label("t / t_a")
-                    .y_label("KE / (p* L*²)")
-                    .log_y()
-                    .series("KE", &ke_t, &ke)
-                    .save(&dir, "kinetic_energy")?;
-            }
-            LinePlot::new(&format!("Replay {name}: sliding contacts"))
+        push_plot(out, &mut files, plot.save(dir, "speed_vs_amplitude"))?;
+    }
+    if let Some(p) = report.pairs.first_mut() {
+        p.files.extend(files);
+    }
+    Ok(())
+}
+
+/// Writes the series of a single replay `name` (rows: time [t_a], σ_yy, σ_xx [p*], M_s, KE
+/// [p* L*²]) and its plots into `dir`.
+pub fn write_single(dir: &Path, cfg: &E2Config, rc: &ReplayConfig, name: &str, rows: &[[f64; 5]]) -> Result<()> {
+    let col = |k: usize| rows.iter().map(|r| r[k]).collect::<Vec<f64>>();
+    let series = Series::from_columns(["time", "stress_yy", "stress_xx", "sliding", "kinetic_energy"].iter().enumerate().map(|(k, n)| (n.to_string(), col(k))))?;
+    series.write(dir, "series")?;
+    if cfg.output.plots {
+        let (ke_t, ke): (Vec<f64>, Vec<f64>) = col(0).iter().zip(col(4)).filter(|(_, k)| *k > 0.0).map(|(t, k)| (*t, k)).unzip();
+        if ke.len() >= 2 {
+            LinePlot::new(&format!("Replay {name}: {}", rc.modification.name()))
                 .x_label("t / t_a")
-                .y_label("M_s")
-                .series("M_s", &col(0), &col(3))
-                .save(&dir, "sliding")?;
+                .y_label("KE / (p* L*²)")
+                .log_y()
+                .series("KE", &ke_t, &ke)
+                .save(dir, "kinetic_energy")?;
         }
-        let last = rows.last().expect("rows");
-        let mob1 = model::mobilised_contacts(&sim);
-        ctx.log(&format!(
-            "replay {name}: M_s (cap flag) {} → {}, M_s (mobilised, |F_t| ≥ (1 − 1e−6) μ F_n) {} → {}, KE {:.3e} → {:.3e} p* L*², over {:.1} t_a",
-            m0,
-            sim.counters.sliding,
-            mob0,
-            mob1,
-            ke0,
-            last[4],
-            last[0]
-        ));
-        let end = StrainCheckpoint { index: ck.index, sim: sim.clone(), drive, strain: ck.strain, units: u };
-        biaxial::save_checkpoint(&dir.join("final.gwck"), &end)?;
-        let _ = std::fs::remove_file(&partial_path);
-        report.single =
-            Some(SingleReport {
-            final_stress_yy: last[1],
-            final_stress_xx: last[2],
-            sliding: [m0, sim.counters.sliding],
-            mobilised: [mob0, mob1],
-            kinetic_energy: [ke0, last[4]],
-            factor: if rc.modification == super::config::Modification::VelocityScale { rc.factor } else { 1.0 },
-            duration: last[0],
-        });
+        LinePlot::new(&format!("Replay {name}: sliding contacts")).x_label("t / t_a").y_label("M_s").series("M_s", &col(0), &col(3)).save(dir, "sliding")?;
     }
-    report.seconds = started.elapsed().as_secs_f64();
-    Ok(Some(report))
+    Ok(())
 }
 
 /// One amplitude of the Δc/c₀ decomposition (speeds in v_a of each replay's own source run).

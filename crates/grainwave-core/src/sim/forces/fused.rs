@@ -25,6 +25,7 @@
 //! (indices, and three times them, are held in 32-bit lanes; larger ones take the portable path).
 
 use super::{finish_grain, start_block, CrossForce, CrossIndex, Finish, ForceStats, Grain, History, Inputs, Velocities};
+use crate::contact::TangentialHistory;
 use crate::dim::{Dim, VectorOps};
 use crate::domain::nearest_image_axis;
 use crate::sim::lanes::{self, ContactIn, Dampers, Real, WindowLaw, WithDampers};
@@ -678,7 +679,7 @@ unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: 
                 let l = bits.trailing_zeros() as usize;
                 bits &= bits - 1;
                 let k = q[l] as usize;
-                *h.spring.get_unchecked_mut(k) = lane_of(&spring, l);
+                *h.spring.get_unchecked_mut(k) = TangentialHistory(lane_of(&spring, l));
                 *h.overlap.get_unchecked_mut(k) = overlap[l];
                 *h.sliding.get_unchecked_mut(k) = sliding >> l & 1 != 0;
             }
@@ -742,6 +743,42 @@ unsafe fn block_wide<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &I
     }
 }
 
+/// The eight lanes `8 hf..8 hf + 8` of a group of `n` entries: their indices within the eight
+/// (0..8) and the mask of those that hold an entry (lane `8 hf + l < n`), for the masked loads
+/// of [`load_masked`] and [`load_live`].
+///
+/// # Safety
+/// AVX2 is available.
+#[inline(always)]
+unsafe fn live_half(n: usize, hf: usize) -> (__m256i, __m256i) {
+    // SAFETY: AVX2 is available (the caller's contract).
+    unsafe {
+        let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
+        (lane, _mm256_cmpgt_epi32(_mm256_set1_epi32(n as i32 - 8 * hf as i32), lane))
+    }
+}
+
+/// The eight entries `a[s..s + 8]` where `live` ([`live_half`]) is set, zero elsewhere; the
+/// entries outside `live` are not read (masked load), so `a` may end before `s + 8`.
+///
+/// # Safety
+/// AVX2 is available; every entry where `live` is set exists.
+#[inline(always)]
+unsafe fn load_masked(a: &[u32], s: usize, live: __m256i) -> __m256i {
+    // SAFETY: the caller's contract.
+    unsafe { _mm256_maskload_epi32(a.as_ptr().wrapping_add(s) as *const i32, live) }
+}
+
+/// [`load_masked`] with `fallback`'s lanes where `live` is not set.
+///
+/// # Safety
+/// As [`load_masked`].
+#[inline(always)]
+unsafe fn load_live(a: &[u32], s: usize, live: __m256i, fallback: __m256i) -> __m256i {
+    // SAFETY: the caller's contract.
+    unsafe { _mm256_blendv_epi8(fallback, load_masked(a, s, live), live) }
+}
+
 /// The body of [`block`] for lanes `V` (the list's pairs a group at a time).
 ///
 /// # Safety
@@ -766,11 +803,9 @@ unsafe fn block_plain<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp:
             let s = p + 8 * hf;
             // SAFETY: AVX2 is enabled here; the masked loads read the pairs p..p + n only.
             unsafe {
-                let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-                let live = _mm256_cmpgt_epi32(_mm256_set1_epi32(n as i32 - 8 * hf as i32), lane);
-                let i = _mm256_maskload_epi32(cross.owner.as_ptr().wrapping_add(s) as *const i32, live);
-                let i = _mm256_blendv_epi8(_mm256_set1_epi32(cross.owner[p] as i32), i, live);
-                let j = _mm256_maskload_epi32(inp.partner.as_ptr().wrapping_add(s) as *const i32, live);
+                let (lane, live) = live_half(n, hf);
+                let i = load_live(&cross.owner, s, live, _mm256_set1_epi32(cross.owner[p] as i32));
+                let j = load_masked(inp.partner, s, live);
                 // grain indices are below 2³¹ (i32 comparison)
                 let inside = _mm256_and_si256(live, _mm256_cmpgt_epi32(_mm256_set1_epi32(g1 as i32), j));
                 let j = _mm256_blendv_epi8(i, j, inside);
@@ -851,14 +886,10 @@ unsafe fn block_close_impl<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, 
             let s = k + 8 * hf;
             // SAFETY: AVX2 is enabled here; the masked loads read the entries k..k + n only.
             unsafe {
-                let lane = _mm256_setr_epi32(0, 1, 2, 3, 4, 5, 6, 7);
-                let live = _mm256_cmpgt_epi32(_mm256_set1_epi32(n as i32 - 8 * hf as i32), lane);
-                let pair = _mm256_maskload_epi32(cross.close_pair.as_ptr().wrapping_add(s) as *const i32, live);
-                let pair = _mm256_blendv_epi8(_mm256_set1_epi32(cross.close_pair[k] as i32), pair, live);
-                let i = _mm256_maskload_epi32(cross.close_owner.as_ptr().wrapping_add(s) as *const i32, live);
-                let i = _mm256_blendv_epi8(_mm256_set1_epi32(cross.close_owner[k] as i32), i, live);
-                let j = _mm256_maskload_epi32(cross.close_partner.as_ptr().wrapping_add(s) as *const i32, live);
-                let j = _mm256_blendv_epi8(i, j, live);
+                let (_, live) = live_half(n, hf);
+                let pair = load_live(&cross.close_pair, s, live, _mm256_set1_epi32(cross.close_pair[k] as i32));
+                let i = load_live(&cross.close_owner, s, live, _mm256_set1_epi32(cross.close_owner[k] as i32));
+                let j = load_live(&cross.close_partner, s, live, i);
                 gr.set_half(hf, pair, i, j, _mm256_movemask_ps(_mm256_castsi256_ps(live)) as u32);
             }
         }
