@@ -178,7 +178,8 @@ pub fn run_config(src: &ConfigSource, ctx: &mut RunContext<'_>) -> Result<E1Repo
 }
 
 /// Re-writes the outputs (tables, plots) of the run in `dir` from its saved samples; also works on
-/// an unfinished run (the tables then hold the samples done so far). Returns the files written.
+/// an unfinished run (the tables then hold the samples done so far). Returns the files written;
+/// an error when no sample has succeeded yet (none finished, or every finished one failed).
 pub fn replot(dir: &std::path::Path, state: &E1State) -> Result<Vec<String>> {
     let plan = state.plan()?;
     // without one successful sample there is nothing to tabulate or plot: say why, rather than
