@@ -35,10 +35,16 @@ pub use grainwave_core::sim::{Control, Progress, StopReason};
 pub use grainwave_core::VERSION;
 
 /// The engine types a front end needs to read a stored state (the command line's `inspect`):
-/// the checkpoint container, the dimensions and the simulation. Front ends depend on this crate
-/// only; it passes these through from `grainwave-core`.
+/// the checkpoint container, the dimensions and the simulation; and the engine and linear-analysis
+/// crates whole, for the Python module. Front ends depend on this crate only; it passes these
+/// through from `grainwave-core` and `grainwave-linear`.
 pub mod engine {
     pub use grainwave_core::checkpoint::{decode, read_bytes, verify, FORMAT_VERSION, MAGIC};
     pub use grainwave_core::dim::{Dim, D2, D3};
     pub use grainwave_core::sim::Simulation;
+    /// The engine crate, for a front end that steps and reads a simulation itself (the Python
+    /// module: grains as arrays, contact records, checkpoints).
+    pub use grainwave_core as core;
+    /// Linear analysis of snapshots (dynamical matrix, modes, moduli), for the same front ends.
+    pub use grainwave_linear as linear;
 }
