@@ -195,10 +195,37 @@ fn file_role(name: &str) -> &'static str {
     }
 }
 
+/// The largest `summary.json` that `inspect` reads [bytes]. A run's summary is a few kB to a few
+/// MB; anything larger is not one (a FIFO or a device would otherwise be read without end).
+const MAX_SUMMARY_BYTES: u64 = 64 << 20;
+
+/// The bytes of a run's `summary.json`: `None` when there is none; an error (as text) when it is
+/// not a regular file or is longer than [`MAX_SUMMARY_BYTES`].
+fn read_summary(path: &Path) -> std::result::Result<Option<Vec<u8>>, String> {
+    let Ok(meta) = std::fs::metadata(path) else { return Ok(None) };
+    if !meta.is_file() {
+        return Err("not a regular file".into());
+    }
+    let mut bytes = Vec::new();
+    let read = std::fs::File::open(path).and_then(|f| std::io::Read::read_to_end(&mut std::io::Read::take(f, MAX_SUMMARY_BYTES + 1), &mut bytes));
+    match read {
+        Err(e) => Err(e.to_string()),
+        Ok(_) if bytes.len() as u64 > MAX_SUMMARY_BYTES => Err(format!("longer than {} MiB (allowed: at most {MAX_SUMMARY_BYTES} bytes)", MAX_SUMMARY_BYTES >> 20)),
+        Ok(_) => Ok(Some(bytes)),
+    }
+}
+
 fn describe_dir(dir: &Path) -> Result<Vec<String>> {
     let mut v = vec![format!("{}: output directory", dir.display())];
     let summary = dir.join("summary.json");
-    if let Ok(bytes) = std::fs::read(&summary) {
+    let bytes = match read_summary(&summary) {
+        Ok(b) => b,
+        Err(why) => {
+            v.push(format!("  summary.json not read: {why}"));
+            None
+        }
+    };
+    if let Some(bytes) = bytes {
         if let Ok(s) = serde_json::from_slice::<serde_json::Value>(&bytes) {
             let get = |k: &str| s.get(k).map(|x| x.to_string()).unwrap_or_else(|| "?".into());
             if s.get("experiment").and_then(|e| e.as_str()) == Some("e3") {

@@ -32,7 +32,15 @@ pub const OUTPUT_MARKERS: &[&str] = &[CHECKPOINT_FILE, LOG_FILE, FAILED_FILE, cr
 
 /// The diagnosis recorded in `dir`'s failure marker, if the run there failed.
 pub fn failure_of(dir: &Path) -> Option<String> {
-    std::fs::read_to_string(dir.join(FAILED_FILE)).ok().map(|t| crate::config::clip(t.trim(), 2000))
+    // a regular file only, and only its first 64 KiB (the text is clipped to 2 000 characters):
+    // a FIFO or an endless file in the directory must not hang `inspect` or `resume`
+    let path = dir.join(FAILED_FILE);
+    if !std::fs::metadata(&path).ok()?.is_file() {
+        return Some(format!("{FAILED_FILE} is not a regular file (remove it to use the directory)"));
+    }
+    let mut bytes = Vec::new();
+    std::io::Read::read_to_end(&mut std::io::Read::take(std::fs::File::open(&path).ok()?, 64 << 10), &mut bytes).ok()?;
+    Some(crate::config::clip(String::from_utf8_lossy(&bytes).trim(), 2000))
 }
 
 /// What a new run does with a directory that holds the outputs of an earlier run.

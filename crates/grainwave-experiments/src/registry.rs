@@ -6,6 +6,7 @@ use crate::config::{did_you_mean, reference, ConfigError, ConfigSource};
 use crate::error::{ExperimentError, Result};
 use crate::protocol::{checkpoint_tag, load_state, RunContext};
 use crate::study::Protocol;
+use crate::work::Unit;
 use crate::{e1, e2, e3, simulation};
 use std::path::Path;
 
@@ -22,6 +23,8 @@ pub struct Entry {
     pub schema: fn() -> serde_json::Value,
     /// Shape check, validation and the description `grainwave check` prints.
     pub check: fn(&ConfigSource) -> Result<Vec<String>, ConfigError>,
+    /// Shape check, validation and the units of work of the run ([`Protocol::plan`]).
+    pub plan: fn(&ConfigSource) -> Result<Vec<Unit>, ConfigError>,
     /// Validates and runs a config into the context's directory.
     pub run: fn(&ConfigSource, &mut RunContext<'_>) -> Result<RunSummary>,
     /// Continues the run of directory `dir` from its checkpoint file.
@@ -53,6 +56,11 @@ fn cached_schema(name: &'static str, make: fn() -> serde_json::Value) -> &'stati
 fn check_with<P: Protocol>(src: &ConfigSource) -> Result<Vec<String>, ConfigError> {
     crate::config::check_shapes(src, cached_schema(P::NAME, schema::<P>))?;
     Ok(P::describe(&P::validate(src)?))
+}
+
+fn plan_with<P: Protocol>(src: &ConfigSource) -> Result<Vec<Unit>, ConfigError> {
+    crate::config::check_shapes(src, cached_schema(P::NAME, schema::<P>))?;
+    Ok(P::plan(&P::validate(src)?))
 }
 
 fn finish<P: Protocol>(state: &mut P::State, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
@@ -91,6 +99,7 @@ pub const fn entry<P: Protocol>() -> Entry {
         reference: P::REFERENCE,
         schema: schema::<P>,
         check: check_with::<P>,
+        plan: plan_with::<P>,
         run: run_with::<P>,
         resume: resume_with::<P>,
         plot: plot_with::<P>,
@@ -147,6 +156,12 @@ pub fn check_shapes(src: &ConfigSource, name: &str) -> Result<(), ConfigError> {
 /// What `grainwave check` prints about a valid config.
 pub fn check(src: &ConfigSource) -> Result<Vec<String>, ConfigError> {
     (experiment(src)?.check)(src)
+}
+
+/// The units of work of a run of a config ([`Protocol::plan`]): what a driver of the scheduler
+/// lists and places.
+pub fn plan(src: &ConfigSource) -> Result<Vec<Unit>, ConfigError> {
+    (experiment(src)?.plan)(src)
 }
 
 /// The outcome of a run, for the command line.

@@ -27,6 +27,7 @@
 use crate::config::{ConfigError, ConfigSource};
 use crate::error::Result;
 use crate::protocol::RunContext;
+use crate::work::Unit;
 use serde::{de::DeserializeOwned, Serialize};
 use std::path::Path;
 
@@ -51,6 +52,10 @@ pub trait Protocol: 'static {
     fn validate(src: &ConfigSource) -> Result<Self::Spec, ConfigError>;
     /// What `grainwave check` prints about a valid spec.
     fn describe(spec: &Self::Spec) -> Vec<String>;
+    /// The units of work of a run of `spec` ([`crate::work::Unit`]: stable ids, declared inputs),
+    /// in the order of aggregation; the same list the run gives its scheduler, so that a generic
+    /// driver (another process, MPI ranks, Python) can list and place them.
+    fn plan(spec: &Self::Spec) -> Vec<Unit>;
     /// A fresh state for a run of `spec`.
     fn start(spec: Self::Spec) -> Self::State;
     /// The resolved config a state carries.

@@ -1,6 +1,7 @@
 //! Units of work and the one scheduler that runs them (for every protocol whose run splits into
-//! independent pieces: the samples of `e1`, the reference states, response runs and bisections
-//! of `e3`).
+//! pieces: the samples of `e1`, the loading and the replays of `e2`, the reference states,
+//! response runs and bisections of `e3`; `simulation` is one unit). Every protocol lists its
+//! units through [`crate::study::Protocol::plan`].
 //!
 //! A protocol describes its plan as a [`Work`]: a list of [`Unit`]s, each with a stable id (the
 //! same for the same config, so that a resumed run finds its finished units) and the units whose
@@ -8,8 +9,8 @@
 //! [`Scheduler`] runs the units whose inputs are done, several at once on the rayon pool; each
 //! result is persisted atomically as soon as its unit completes ([`store`]: a temporary file
 //! renamed into place), so an interrupted or failed run keeps what finished and `grainwave
-//! resume` skips it. Progress is reported the same way for every protocol: a stage per round of
-//! ready units, `done of total` units through [`crate::protocol::Reporter::samples`] and one log
+//! resume` skips it. Progress is reported the same way for every protocol: a stage naming the
+//! kinds of units to run, `done of total` units through [`crate::protocol::Reporter::samples`] and one log
 //! line per unit.
 //!
 //! Determinism: a unit is a pure function of the config and its inputs' persisted results, and
@@ -28,7 +29,7 @@ use grainwave_core::prelude::*;
 use serde::Serialize;
 use std::path::Path;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::{Arc, Mutex};
+use std::sync::{Arc, Condvar, Mutex};
 
 /// One unit of work of a plan.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -112,7 +113,9 @@ pub fn store<T: Serialize>(path: &Path, tag: &str, value: &T, partial: Option<&P
 pub struct UnitEnv<'s, 'c, 'r> {
     ctx: &'s Mutex<&'c mut RunContext<'r>>,
     flag: Arc<AtomicBool>,
-    forward_progress: bool,
+    /// Units running now: a unit's engine progress is forwarded to the reporter while it runs
+    /// alone.
+    running: AtomicUsize,
     report_every: u64,
     /// The stage last shown by [`UnitEnv::progress`].
     shown: Mutex<String>,
@@ -144,7 +147,7 @@ impl UnitEnv<'_, '_, '_> {
     }
 
     /// The context, under its lock, for a unit that needs the whole of it while it runs (the
-    /// `e2` loading, which is the only unit of its round: every replay reads it). Other units
+    /// `e2` loading, which runs alone: every replay reads it). Other units
     /// wait for the lock to log while `f` runs.
     pub fn with_context<T>(&self, f: impl FnOnce(&mut RunContext<'_>) -> T) -> T {
         let mut c = self.ctx.lock().unwrap_or_else(|e| e.into_inner());
@@ -171,12 +174,12 @@ impl UnitEnv<'_, '_, '_> {
     }
 
     /// Runs `sim` until `stop` with hooks that poll the interrupt flag (and forward progress to
-    /// the reporter when this is the only unit running).
+    /// the reporter while this is the only unit running).
     pub fn run<D: Dim>(&self, sim: &mut Simulation<D>, stop: &StopCriteria) -> grainwave_core::Result<RunOutcome> {
         let ctx = self.ctx;
-        let forward = self.forward_progress;
+        let running = &self.running;
         let mut observer = |p: &Progress| {
-            if forward {
+            if running.load(Ordering::Relaxed) == 1 {
                 if let Ok(mut c) = ctx.lock() {
                     c.reporter.progress(p);
                 }
@@ -236,12 +239,16 @@ impl<'w, W: Work> Scheduler<'w, W> {
         Ok(())
     }
 
-    /// Runs every unit that is not done: round after round, the ready units in parallel (at
-    /// most [`Scheduler::max_parallel`] at once, started in the plan's order), each recorded as
-    /// soon as it completes. Failures take precedence over an interruption: when units failed,
-    /// every failure is listed with its unit ([`crate::protocol::failed_units`]; the completed
-    /// units are kept, `resume --retry` redoes only the failed ones); after an interruption the
-    /// finished units are kept and [`Finished::Interrupted`] is returned.
+    /// Runs every unit that is not done: each worker (at most [`Scheduler::max_parallel`], by
+    /// default the rayon pool's thread count) takes the first unit in the plan's order whose
+    /// inputs are done, as soon as it is free, so a unit starts when its inputs are recorded,
+    /// not when every unit started before it has finished. Each result is recorded as soon as
+    /// its unit completes. When a unit fails, the units that do not read it (directly or through
+    /// others) still run; then every failure is listed with its unit
+    /// ([`crate::protocol::failed_units`]; the completed units are kept, `resume --retry` redoes
+    /// only the others). After an interruption no unit is started, the running ones save their
+    /// partial state, the finished ones are kept and [`Finished::Interrupted`] is returned.
+    /// Failures take precedence over an interruption.
     pub fn run(&mut self, ctx: &mut RunContext<'_>) -> Result<Finished> {
         let units = self.work.units();
         let total = units.len();
@@ -249,88 +256,118 @@ impl<'w, W: Work> Scheduler<'w, W> {
         if already > 0 && already < total {
             ctx.log(&format!("{already} of {total} {} already done (their results are reused)", kinds(units, 0..total)));
         }
+        let to_run: Vec<usize> = (0..total).filter(|&k| !self.done[k]).collect();
+        if to_run.is_empty() {
+            return Ok(Finished::Complete);
+        }
         let flag = ctx.interrupt_flag();
         let report_every = ctx.report_every;
+        let workers = self.max_parallel.unwrap_or_else(rayon::current_num_threads).max(1).min(to_run.len());
+        let what = kinds(units, to_run.iter().copied());
+        ctx.reporter.stage(&format!("{what} ({} to run)", to_run.len()), None);
+        ctx.reporter.samples(already, total);
+        ctx.log(&format!("{} {what} to run, {workers} at a time", to_run.len()));
         let shared = Mutex::new(ctx);
-        loop {
-            let ready = self.ready();
-            if ready.is_empty() {
-                break;
-            }
-            let workers = self.max_parallel.unwrap_or_else(rayon::current_num_threads).max(1).min(ready.len());
-            if let Ok(mut c) = shared.lock() {
-                let what = kinds(units, ready.iter().copied());
-                c.reporter.stage(&format!("{what} ({} to run)", ready.len()), None);
-                c.reporter.samples(self.done.iter().filter(|&&d| d).count(), total);
-                c.log(&format!("{} {what} to run, {workers} at a time", ready.len()));
-            }
-            let env = UnitEnv { ctx: &shared, flag: flag.clone(), forward_progress: ready.len() == 1, report_every, shown: Mutex::new(String::new()) };
-            let next = AtomicUsize::new(0);
-            let state = Mutex::new((std::mem::take(&mut self.done), Vec::<(usize, UnitStop)>::new()));
-            let work = self.work;
-            rayon::scope(|s| {
-                for _ in 0..workers {
-                    s.spawn(|_| loop {
-                        if env.interrupted() {
-                            return;
-                        }
-                        let i = next.fetch_add(1, Ordering::SeqCst);
-                        let Some(&k) = ready.get(i) else { return };
-                        let outcome = work.run(k, &env).and_then(|out| {
-                            work.record(k, &out)?;
-                            let done = {
-                                let mut st = state.lock().map_err(|_| poisoned())?;
-                                st.0[k] = true;
-                                st.0.clone()
-                            };
-                            let mut c = shared.lock().map_err(|_| poisoned())?;
-                            let count = done.iter().filter(|&&d| d).count();
-                            c.reporter.samples(count, total);
-                            work.recorded(k, &out, &mut **c, &done)?;
-                            Ok(())
-                        });
-                        if let Err(stop) = outcome {
-                            if let Ok(mut st) = state.lock() {
-                                st.1.push((k, stop));
+        let env = UnitEnv { ctx: &shared, flag: flag.clone(), running: AtomicUsize::new(0), report_every, shown: Mutex::new(String::new()) };
+        let done = std::mem::take(&mut self.done);
+        let queue = Mutex::new(Queue { started: done.clone(), done, stops: Vec::new() });
+        let wake = Condvar::new();
+        let work = self.work;
+        rayon::scope(|s| {
+            for _ in 0..workers {
+                s.spawn(|_| loop {
+                    // the first unit in the plan's order whose inputs are done; none: wait while
+                    // units run (their results may make one ready), else this worker is done
+                    let k = {
+                        let Ok(mut q) = queue.lock() else { return };
+                        loop {
+                            if env.interrupted() {
+                                return;
+                            }
+                            if let Some(k) = (0..total).find(|&k| !q.started[k] && units[k].inputs.iter().all(|&i| q.done[i])) {
+                                q.started[k] = true;
+                                // counted under the lock, so that a worker deciding to stop sees it
+                                env.running.fetch_add(1, Ordering::SeqCst);
+                                break k;
+                            }
+                            if env.running.load(Ordering::SeqCst) == 0 {
+                                return;
+                            }
+                            match wake.wait(q) {
+                                Ok(g) => q = g,
+                                Err(_) => return,
                             }
                         }
+                    };
+                    let outcome = work.run(k, &env).and_then(|out| {
+                        work.record(k, &out)?;
+                        queue.lock().map_err(|_| poisoned())?.done[k] = true;
+                        wake.notify_all();
+                        let mut c = shared.lock().map_err(|_| poisoned())?;
+                        // the done flags read under the context's lock: the states `recorded`
+                        // saves, in the order it saves them, never lose a unit (a snapshot taken
+                        // before the lock could be saved after a later, larger one)
+                        let done = queue.lock().map_err(|_| poisoned())?.done.clone();
+                        let count = done.iter().filter(|&&d| d).count();
+                        c.reporter.samples(count, total);
+                        work.recorded(k, &out, &mut **c, &done)?;
+                        Ok(())
                     });
-                }
-            });
-            let (done, mut stops) = state.into_inner().map_err(|_| ExperimentError::Core(CoreError::Inconsistent("a worker thread panicked".into())))?;
-            self.done = done;
-            stops.sort_by_key(|(k, _)| *k);
-            let mut failures = Vec::new();
-            let mut failed = Vec::new();
-            let mut interrupted = flag.load(Ordering::Relaxed);
-            for (k, stop) in stops {
-                match stop {
-                    UnitStop::Interrupted => interrupted = true,
-                    UnitStop::Failed(e) => {
-                        failures.push(format!("{}: {}", units[k].id, crate::protocol::failure_line(&e)));
-                        failed.push(k);
+                    if let Err(stop) = outcome {
+                        if let Ok(mut q) = queue.lock() {
+                            q.stops.push((k, stop));
+                        }
                     }
+                    // decremented under the lock, so that a worker deciding to wait sees it
+                    if let Ok(_q) = queue.lock() {
+                        env.running.fetch_sub(1, Ordering::SeqCst);
+                    }
+                    wake.notify_all();
+                });
+            }
+        });
+        let Queue { done, started, mut stops } = queue.into_inner().map_err(|_| ExperimentError::Core(CoreError::Inconsistent("a worker thread panicked".into())))?;
+        self.done = done;
+        stops.sort_by_key(|(k, _)| *k);
+        let mut failures = Vec::new();
+        let mut failed = Vec::new();
+        let mut interrupted = flag.load(Ordering::Relaxed);
+        for (k, stop) in stops {
+            match stop {
+                UnitStop::Interrupted => interrupted = true,
+                UnitStop::Failed(e) => {
+                    failures.push(format!("{}: {}", units[k].id, crate::protocol::failure_line(&e)));
+                    failed.push(k);
                 }
             }
-            if !failures.is_empty() {
-                // failures of one kind are counted among the units of that kind in the round
-                let kind = units[failed[0]].kind;
-                let e = if failed.iter().all(|&k| units[k].kind == kind) {
-                    crate::protocol::failed_units(kind, ready.iter().filter(|&&k| units[k].kind == kind).count(), failures)
-                } else {
-                    crate::protocol::failed_units("units", ready.len(), failures)
-                };
-                if let Ok(mut c) = shared.lock() {
-                    c.log(&e.to_string());
-                }
-                return Err(e);
+        }
+        if !failures.is_empty() {
+            // failures of one kind are counted among the units of that kind that were started
+            let ran: Vec<usize> = to_run.iter().copied().filter(|&k| started[k]).collect();
+            let kind = units[failed[0]].kind;
+            let e = if failed.iter().all(|&k| units[k].kind == kind) {
+                crate::protocol::failed_units(kind, ran.iter().filter(|&&k| units[k].kind == kind).count(), failures)
+            } else {
+                crate::protocol::failed_units("units", ran.len(), failures)
+            };
+            if let Ok(mut c) = shared.lock() {
+                c.log(&e.to_string());
             }
-            if interrupted {
-                return Ok(Finished::Interrupted);
-            }
+            return Err(e);
+        }
+        if interrupted {
+            return Ok(Finished::Interrupted);
         }
         Ok(Finished::Complete)
     }
+}
+
+/// The scheduler's shared record of a run: which units are done and started, and how the units
+/// that did not complete stopped.
+struct Queue {
+    done: Vec<bool>,
+    started: Vec<bool>,
+    stops: Vec<(usize, UnitStop)>,
 }
 
 /// The kinds of `units[ks]`, in the plan's order, joined ("reference states, response runs").
@@ -444,8 +481,9 @@ mod tests {
         w.fail = Some(2);
         let e = run(&w, 2, None).unwrap_err();
         let text = e.to_string();
-        // units 0..4 form the first round (no inputs); unit 2 failed, the others completed, and
-        // the units after them (each reads the two before) were not started
+        // units 0..4 have no inputs; unit 2 failed, the others completed, and the units after
+        // them (each reads the two before, so every one reads unit 2 directly or through
+        // others) were not started
         assert!(text.contains("u02: ") && text.contains("unit 2 cannot") && text.starts_with("1 of the 4 units failed"), "{text}");
         let done: Vec<bool> = (0..8).map(|k| w.file(k).exists()).collect();
         assert_eq!(done, [true, true, false, true, false, false, false, false]);
@@ -470,6 +508,70 @@ mod tests {
         assert_eq!(run(&w, 2, None).unwrap(), Finished::Complete);
         assert_eq!(w.runs.load(Ordering::SeqCst), 4);
         assert_eq!((0..8).map(|k| w.value(k)).collect::<Vec<_>>(), expected(8));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    /// Unit 0 (no inputs) waits until unit 2 has started; unit 2 reads unit 1 (no inputs, quick).
+    struct Overtake {
+        units: Vec<Unit>,
+        dir: std::path::PathBuf,
+        started2: AtomicBool,
+    }
+
+    impl Work for Overtake {
+        type Output = bool;
+        fn units(&self) -> &[Unit] {
+            &self.units
+        }
+        fn is_done(&self, _: usize) -> bool {
+            false
+        }
+        fn run(&self, k: usize, _: &UnitEnv<'_, '_, '_>) -> UnitResult<bool> {
+            match k {
+                0 => {
+                    let t = std::time::Instant::now();
+                    while !self.started2.load(Ordering::SeqCst) {
+                        if t.elapsed().as_secs() > 20 {
+                            return Ok(false);
+                        }
+                        std::thread::sleep(std::time::Duration::from_millis(1));
+                    }
+                    Ok(true)
+                }
+                2 => {
+                    self.started2.store(true, Ordering::SeqCst);
+                    Ok(true)
+                }
+                _ => Ok(true),
+            }
+        }
+        fn record(&self, k: usize, v: &bool) -> Result<()> {
+            store(&self.dir.join(format!("u{k}.gwck")), "test-unit", v, None)
+        }
+    }
+
+    #[test]
+    fn a_unit_starts_as_soon_as_its_inputs_are_done_and_a_worker_is_free() {
+        // with two workers, unit 2 (input: unit 1) must start while unit 0 still runs: a
+        // scheduler that ran in rounds would wait for unit 0, which waits for unit 2 (it gives
+        // up after 20 s and records false)
+        let dir = temp("overtake");
+        let w = Overtake {
+            units: vec![
+                Unit { id: "slow".into(), kind: "units", inputs: vec![] },
+                Unit { id: "quick".into(), kind: "units", inputs: vec![] },
+                Unit { id: "after-quick".into(), kind: "units", inputs: vec![1] },
+            ],
+            dir: dir.clone(),
+            started2: AtomicBool::new(false),
+        };
+        let mut rep = SilentReporter;
+        let mut ctx = RunContext::new(&dir, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+        let mut s = Scheduler::new(&w);
+        assert_eq!(pool.install(|| s.run(&mut ctx)).unwrap(), Finished::Complete);
+        let v: bool = grainwave_core::checkpoint::load(&dir.join("u0.gwck"), "test-unit").unwrap();
+        assert!(v, "unit 2 did not start before unit 0 ended");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -65,3 +65,49 @@ fn every_example_passes_validation_including_the_skipped_ones() {
     }
     assert!(checked >= 10, "only {checked} examples found");
 }
+
+#[test]
+fn every_example_plans_units_with_unique_ids_and_inputs_before_them() {
+    // the plan a generic driver lists (registry::plan): ids unique, every declared input an
+    // earlier unit, so the plan order is a valid order to run it in; an e2 replay reads the
+    // replay named in its `from`, else the loading (none when the checkpoints are another run's)
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples");
+    let mut e2_checked = 0;
+    for e in std::fs::read_dir(&dir).unwrap() {
+        let path = e.unwrap().path();
+        if !path.extension().is_some_and(|e| e == "toml") {
+            continue;
+        }
+        let src = ConfigSource::from_file(&path).unwrap();
+        let units = registry::plan(&src).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+        let table: toml::Table = toml::from_str(&std::fs::read_to_string(&path).unwrap()).unwrap();
+        // only e3's closed-form mode (the lattice's elastic constants) has no unit of work
+        let closed_form = table.get("mode").and_then(|m| m.as_str()) == Some("lattice_elasticity");
+        assert_eq!(units.is_empty(), closed_form, "{}: {} units", path.display(), units.len());
+        let mut ids = std::collections::BTreeSet::new();
+        for (k, u) in units.iter().enumerate() {
+            assert!(ids.insert(u.id.clone()), "{}: id {} twice", path.display(), u.id);
+            assert!(u.inputs.iter().all(|&i| i < k), "{}: {} reads a later unit", path.display(), u.id);
+        }
+        if table["experiment"].as_str() != Some("e2") {
+            continue;
+        }
+        let own_loading = table.get("source").is_none();
+        assert_eq!(units[0].id == "loading", own_loading, "{}", path.display());
+        let replays = table.get("replays").and_then(|r| r.as_array()).cloned().unwrap_or_default();
+        assert_eq!(units.len(), replays.len() + own_loading as usize, "{}", path.display());
+        for (k, r) in replays.iter().enumerate() {
+            let name = r.get("name").and_then(|n| n.as_str()).map(str::to_string).unwrap_or(format!("r{k}"));
+            let u = units.iter().find(|u| u.id == format!("replay/{name}")).unwrap_or_else(|| panic!("{}: no unit for {name}", path.display()));
+            let expected: Vec<String> = match r.get("from").and_then(|f| f.as_str()) {
+                Some(from) => vec![format!("replay/{from}")],
+                None if own_loading => vec!["loading".to_string()],
+                None => vec![],
+            };
+            let got: Vec<String> = u.inputs.iter().map(|&i| units[i].id.clone()).collect();
+            assert_eq!(got, expected, "{}: inputs of {}", path.display(), u.id);
+        }
+        e2_checked += 1;
+    }
+    assert!(e2_checked >= 3, "only {e2_checked} e2 examples");
+}

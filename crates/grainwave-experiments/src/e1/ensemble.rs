@@ -45,6 +45,11 @@ pub fn load_packing(out: &Path, plan: &Plan, task: &Task) -> Option<PackingFile>
     (f.fingerprint == plan.packing_fingerprint(task) && f.info.converged).then_some(f)
 }
 
+/// The units of `plan`: one sample per task (id: its directory), without inputs.
+pub fn units(plan: &Plan) -> Vec<Unit> {
+    plan.tasks.iter().map(|t| Unit { id: sample_dir(plan, t).display().to_string(), kind: "samples", inputs: vec![] }).collect()
+}
+
 /// The samples of a plan as units of work: one per task, without inputs.
 pub struct Samples<'p> {
     plan: &'p Plan,
@@ -55,8 +60,7 @@ pub struct Samples<'p> {
 impl<'p> Samples<'p> {
     /// The units of `plan`, whose results go under `out`.
     pub fn new(plan: &'p Plan, out: &Path) -> Self {
-        let units = plan.tasks.iter().map(|t| Unit { id: sample_dir(plan, t).display().to_string(), kind: "samples", inputs: vec![] }).collect();
-        Samples { plan, out: out.to_path_buf(), units }
+        Samples { plan, out: out.to_path_buf(), units: units(plan) }
     }
 }
 

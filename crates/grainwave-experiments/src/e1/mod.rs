@@ -154,6 +154,9 @@ impl crate::study::Protocol for E1Protocol {
     fn describe(spec: &Plan) -> Vec<String> {
         describe(spec)
     }
+    fn plan(spec: &Plan) -> Vec<crate::work::Unit> {
+        ensemble::units(spec)
+    }
     fn start(spec: Plan) -> E1State {
         E1State::new(&spec)
     }

@@ -113,6 +113,9 @@ impl Protocol for E2Protocol {
     fn describe(spec: &E2Spec) -> Vec<String> {
         describe(&spec.config)
     }
+    fn plan(spec: &E2Spec) -> Vec<Unit> {
+        spec.units.clone()
+    }
     fn start(spec: E2Spec) -> E2State {
         E2State::new(spec.config)
     }

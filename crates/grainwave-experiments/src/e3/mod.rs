@@ -77,6 +77,9 @@ impl crate::study::Protocol for E3Protocol {
     fn describe(spec: &E3Spec) -> Vec<String> {
         describe_plan(&spec.config, &spec.plan)
     }
+    fn plan(spec: &E3Spec) -> Vec<crate::work::Unit> {
+        work::plan_units(&spec.config, &spec.plan)
+    }
     fn start(spec: E3Spec) -> E3State {
         E3State::new(spec.config)
     }

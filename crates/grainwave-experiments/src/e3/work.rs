@@ -375,6 +375,34 @@ pub(crate) struct E3Work<'a> {
     save_state: &'a (dyn Fn(&mut RunContext<'_>, &[bool], &[bool]) -> Result<()> + Sync),
 }
 
+/// The units of `plan`: references (cases in order), then response runs (input: their
+/// reference), then bisections (one per case, when the config asks for them; input: the
+/// reference), with what each one is.
+fn units(cfg: &E3Config, plan: &Plan) -> (Vec<Unit>, Vec<Kind>) {
+    let mut units = Vec::new();
+    let mut kinds = Vec::new();
+    for c in &plan.cases {
+        units.push(Unit { id: format!("reference {}", c.label), kind: "reference states", inputs: vec![] });
+        kinds.push(Kind::Reference(c.index));
+    }
+    for r in &plan.runs {
+        units.push(Unit { id: format!("run {}/{}", plan.cases[r.case].label, r.label), kind: "response runs", inputs: vec![r.case] });
+        kinds.push(Kind::Run(r.index));
+    }
+    if cfg.first_opening.bisection {
+        for c in &plan.cases {
+            units.push(Unit { id: format!("bisection {}", c.label), kind: "first-opening bisections", inputs: vec![c.index] });
+            kinds.push(Kind::Bisection(c.index));
+        }
+    }
+    (units, kinds)
+}
+
+/// The units of work of an `e3` run of `plan` (see [`E3Work`]).
+pub fn plan_units(cfg: &E3Config, plan: &Plan) -> Vec<Unit> {
+    units(cfg, plan).0
+}
+
 impl<'a> E3Work<'a> {
     /// The units of `plan`: references (cases in order), then response runs, then bisections (one
     /// per case, when the config asks for them). `references_done`/`runs_done` come from the
@@ -388,22 +416,7 @@ impl<'a> E3Work<'a> {
         write_run: &'a WriteRun<'a>,
         save_state: &'a (dyn Fn(&mut RunContext<'_>, &[bool], &[bool]) -> Result<()> + Sync),
     ) -> Self {
-        let mut units = Vec::new();
-        let mut kinds = Vec::new();
-        for c in &plan.cases {
-            units.push(Unit { id: format!("reference {}", c.label), kind: "reference states", inputs: vec![] });
-            kinds.push(Kind::Reference(c.index));
-        }
-        for r in &plan.runs {
-            units.push(Unit { id: format!("run {}/{}", plan.cases[r.case].label, r.label), kind: "response runs", inputs: vec![r.case] });
-            kinds.push(Kind::Run(r.index));
-        }
-        if cfg.first_opening.bisection {
-            for c in &plan.cases {
-                units.push(Unit { id: format!("bisection {}", c.label), kind: "first-opening bisections", inputs: vec![c.index] });
-                kinds.push(Kind::Bisection(c.index));
-            }
-        }
+        let (units, kinds) = units(cfg, plan);
         E3Work {
             cfg,
             plan,

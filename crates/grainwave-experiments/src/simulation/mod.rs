@@ -234,6 +234,10 @@ impl crate::study::Protocol for SimulationProtocol {
     fn describe(spec: &Prepared) -> Vec<String> {
         describe(spec)
     }
+    fn plan(_: &Prepared) -> Vec<crate::work::Unit> {
+        // one unit, checkpointed as a whole at fixed step numbers
+        vec![crate::work::Unit { id: "simulation".into(), kind: "simulations", inputs: Vec::new() }]
+    }
     fn start(spec: Prepared) -> SimulationState {
         SimulationState::new(spec)
     }
