@@ -1,7 +1,8 @@
 //! # grainwave-py
 //!
 //! The native part of the Python package `grainwave` (built by maturin, see `docs/python.md`):
-//! the studies of the registry (`check`, `run`, `resume`) and the engine's `Simulation`, over
+//! the studies of the registry (`check`, `run`, `resume`), the engine's `Simulation` and the
+//! linear analysis of its state (`grainwave.linear`), over
 //! `grainwave-experiments` only. The Python package in `python/grainwave` turns configs given as
 //! paths, TOML strings or dicts into what these functions take, reads the outputs of a run into
 //! NumPy arrays and draws progress bars.
@@ -11,6 +12,7 @@
 #![warn(missing_docs)]
 
 mod errors;
+mod linear;
 mod sim;
 mod study;
 
@@ -28,5 +30,10 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(study::run, m)?)?;
     m.add_function(wrap_pyfunction!(study::resume, m)?)?;
     m.add_class::<sim::Simulation>()?;
+    m.add_function(wrap_pyfunction!(linear::dynamical_matrix, m)?)?;
+    m.add_function(wrap_pyfunction!(linear::modes, m)?)?;
+    m.add_function(wrap_pyfunction!(linear::moduli, m)?)?;
+    m.add_function(wrap_pyfunction!(linear::modal_pulse, m)?)?;
+    m.add_function(wrap_pyfunction!(linear::direct_pulse, m)?)?;
     Ok(())
 }

@@ -111,6 +111,11 @@ impl Simulation {
     fn from_any(sim: AnySim, stop: Option<StopCriteria>) -> Self {
         Simulation { sim, stop }
     }
+
+    /// The engine simulation.
+    pub(crate) fn engine(&self) -> &AnySim {
+        &self.sim
+    }
 }
 
 /// A per-grain field of `s` in id order, flat, and its number of components.

@@ -22,7 +22,7 @@ import os
 from pathlib import Path
 from typing import Any, List, Optional, Union
 
-from . import _config, _progress
+from . import _config, _progress, linear
 from ._native import VERSION, ConfigError, Interrupted, RunError, Simulation as _NativeSimulation
 from ._result import Result, read_table
 
@@ -38,6 +38,7 @@ __all__ = [
     "Interrupted",
     "RunError",
     "read_table",
+    "linear",
     "__version__",
 ]
 

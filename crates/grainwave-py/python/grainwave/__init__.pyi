@@ -6,6 +6,8 @@ from typing import Any, Callable, Dict, List, Mapping, Optional, Union
 import numpy as np
 import numpy.typing as npt
 
+from . import linear as linear  # typed in linear.py
+
 __version__: str
 VERSION: str
 
@@ -127,3 +129,4 @@ class Simulation:
     def set_angular_velocities(self, angular_velocities: npt.ArrayLike) -> None: ...
     def set_external_forces(self, forces: npt.ArrayLike, torques: Optional[npt.ArrayLike] = None) -> None: ...
     def contacts(self) -> Dict[str, np.ndarray]: ...
+
