@@ -47,15 +47,14 @@ class _Tqdm:
                 self._steps.close()
             self._steps = self._tqdm(total=ev["total_steps"], desc=ev["name"], unit="step", leave=False, dynamic_ncols=True)
         elif kind == "progress" and self._steps is not None:
-            self._steps.n = ev["step"]
+            # update() redraws at most every `mininterval` (0.1 s): step reports can come every step
             self._steps.set_postfix(KE=f"{ev['kinetic_energy_per_grain']:.2e}", contacts=ev["contacts"], refresh=False)
-            self._steps.refresh()
+            self._steps.update(ev["step"] - self._steps.n)
         elif kind == "units":
             if self._units is None:
                 self._units = self._tqdm(total=ev["total"], desc="units", unit="unit", dynamic_ncols=True)
             self._units.total = ev["total"]
-            self._units.n = ev["done"]
-            self._units.refresh()
+            self._units.update(ev["done"] - self._units.n)
         elif kind == "message":
             self._tqdm.write(f"grainwave: {ev['text']}")
 
