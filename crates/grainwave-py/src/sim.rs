@@ -510,6 +510,17 @@ impl Simulation {
         on!(&self.sim, s => contacts(py, s))
     }
 
+    /// Writes VTK snapshots of the current state under `dir` — `snapshots/grains_<step>.vtp`
+    /// (grains) and `snapshots/contacts_<step>.vtp` (contact network), the files and bytes a
+    /// `simulation` run writes for the same state (ParaView reads them) — and returns their
+    /// paths.
+    fn write_snapshot(&self, py: Python<'_>, dir: PathBuf) -> PyResult<(PathBuf, PathBuf)> {
+        let [g, c] = py
+            .detach(|| on!(&self.sim, s => simulation::write_snapshot_in(&dir, s)))
+            .map_err(|e| crate::errors::experiment_error(py, &e))?;
+        Ok((g, c))
+    }
+
     fn __repr__(&self) -> String {
         on!(&self.sim, s => format!("<grainwave.Simulation {}D, {} {} grains, step {}, t = {:e}>", dim_of(s), s.len(), s.grains.kind.name(), s.step, s.time))
     }

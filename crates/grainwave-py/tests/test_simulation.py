@@ -3,6 +3,7 @@ same bits as the command line."""
 
 import math
 import subprocess
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -98,6 +99,14 @@ def test_the_state_is_the_command_line_state_bit_for_bit(tmp_path, settle, cli):
     assert theirs.state_hash == ours.state_hash
     for name in ("positions", "velocities", "angular_velocities", "forces", "torques"):
         np.testing.assert_array_equal(getattr(theirs, name), getattr(ours, name), err_msg=name)
+    # the VTK snapshots of that state: the run's final snapshot, byte for byte
+    grains, contacts = ours.write_snapshot(tmp_path / "py")
+    for path in (grains, contacts):
+        rel = Path(path).relative_to(tmp_path / "py")
+        assert str(rel).startswith("snapshots/") and str(rel).endswith("_0000003000.vtp"), rel
+        assert Path(path).read_bytes() == (tmp_path / "cli" / rel).read_bytes(), rel
+    assert b'NumberOfPoints="40"' in Path(grains).read_bytes()
+    assert len(ours.contacts()["i"]) > 0 and b"<PolyData>" in Path(contacts).read_bytes()
 
 
 def test_save_and_load_continue_bit_for_bit(tmp_path, settle):

@@ -15,7 +15,7 @@ mod outputs;
 
 pub use build::AnySim;
 pub use config::SimulationConfig;
-pub use outputs::{make_plots, SimulationReport, WallReport};
+pub use outputs::{make_plots, snapshot_files, write_snapshot_in, SimulationReport, WallReport};
 
 use crate::config::{ConfigError, ConfigSource};
 use crate::error::Result;

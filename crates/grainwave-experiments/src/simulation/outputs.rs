@@ -7,7 +7,7 @@ use grainwave_core::prelude::*;
 use grainwave_io::vtk::{write_contacts_vtp, write_grains_vtp, PvdCollection};
 use grainwave_io::plot::{LinePlot, Network, PackingPicture};
 use grainwave_io::{write_grains_csv, Series};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use serde::{Deserialize, Serialize};
 
 /// Normal load and position of one wall at the end of the run.
@@ -96,11 +96,19 @@ pub fn snapshot_files(step: u64) -> [String; 2] {
 
 /// Writes VTK snapshots of the grains and of the contact network at the current step.
 pub fn write_snapshot<D: Dim>(ctx: &RunContext<'_>, sim: &Simulation<D>) -> Result<()> {
+    write_snapshot_in(ctx.out_dir(), sim).map(|_| ())
+}
+
+/// Writes the VTK snapshots of the current step under `dir`, as a run does into its output
+/// directory ([`snapshot_files`]: `snapshots/grains_<step>.vtp` and `snapshots/contacts_<step>.vtp`,
+/// each written atomically); returns their paths. The same bytes as the run's snapshot of the
+/// same state: front ends (the Python module) call this.
+pub fn write_snapshot_in<D: Dim>(dir: &Path, sim: &Simulation<D>) -> Result<[PathBuf; 2]> {
     let snap = sim.snapshot();
-    let [g, c] = snapshot_files(sim.step);
-    write_grains_vtp(&ctx.path(&g), &snap)?;
-    write_contacts_vtp(&ctx.path(&c), &snap)?;
-    Ok(())
+    let [g, c] = snapshot_files(sim.step).map(|f| dir.join(f));
+    write_grains_vtp(&g, &snap)?;
+    write_contacts_vtp(&c, &snap)?;
+    Ok([g, c])
 }
 
 /// Writes the final outputs and returns the report.

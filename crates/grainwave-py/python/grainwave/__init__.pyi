@@ -1,7 +1,7 @@
 # Type stubs of the grainwave Python module (docs/python.md).
 import os
 from pathlib import Path
-from typing import Any, Callable, Dict, List, Mapping, Optional, Union
+from typing import Any, Callable, Dict, List, Mapping, Optional, Tuple, Union
 
 import numpy as np
 import numpy.typing as npt
@@ -129,4 +129,5 @@ class Simulation:
     def set_angular_velocities(self, angular_velocities: npt.ArrayLike) -> None: ...
     def set_external_forces(self, forces: npt.ArrayLike, torques: Optional[npt.ArrayLike] = None) -> None: ...
     def contacts(self) -> Dict[str, np.ndarray]: ...
+    def write_snapshot(self, dir: PathLike) -> Tuple[str, str]: ...
 
