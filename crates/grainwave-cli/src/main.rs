@@ -26,6 +26,8 @@ macro_rules! tell {
 
 mod bench;
 mod inspect;
+#[cfg(feature = "mpi")]
+mod mpi;
 mod progress;
 
 use anyhow::{Context, Result};
@@ -40,9 +42,86 @@ use std::process::ExitCode;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
+/// The version line (`grainwave --version`): says whether the program can run under MPI.
+const VERSION: &str = if cfg!(feature = "mpi") {
+    concat!(env!("CARGO_PKG_VERSION"), " (with MPI: `mpirun -np N grainwave run …` spreads a study's units over N ranks)")
+} else {
+    concat!(env!("CARGO_PKG_VERSION"), " (without MPI; build with `--features mpi` to run under mpirun)")
+};
+
+/// Where the units of a run go (docs/cluster.md).
+enum Ranks {
+    /// This process runs them all (no MPI launcher, or a single rank).
+    Alone,
+    /// Rank 0 of an MPI run: units also go to the other ranks.
+    #[cfg_attr(not(feature = "mpi"), allow(dead_code))]
+    Coordinator(Arc<dyn grainwave_experiments::work::Link>),
+    /// Another rank of an MPI run: runs the units rank 0 sends.
+    #[cfg(feature = "mpi")]
+    Worker(Arc<mpi::Comm>),
+}
+
+/// Tells the other ranks to quit when rank 0's command ends, however it ends.
+struct QuitOnDrop(Option<Arc<dyn grainwave_experiments::work::Link>>);
+
+impl Drop for QuitOnDrop {
+    fn drop(&mut self) {
+        if let Some(link) = &self.0 {
+            grainwave_experiments::work::quit_all(&**link);
+        }
+    }
+}
+
+/// The MPI environment and this process's part, for `run` and `resume` under an MPI launcher.
+#[cfg(feature = "mpi")]
+fn ranks() -> Result<(Option<mpi::Mpi>, Ranks)> {
+    Ok(match mpi::start()? {
+        None => (None, Ranks::Alone),
+        Some((env, mpi::Role::Alone)) => (Some(env), Ranks::Alone),
+        Some((env, mpi::Role::Coordinator(c))) => (Some(env), Ranks::Coordinator(c)),
+        Some((env, mpi::Role::Worker(c))) => (Some(env), Ranks::Worker(c)),
+    })
+}
+
+/// Without MPI: a run started by `mpirun -np N` (N > 1) would start N copies of the same run;
+/// refused, naming the build that can.
+#[cfg(not(feature = "mpi"))]
+fn ranks() -> Result<(Option<()>, Ranks)> {
+    for var in ["OMPI_COMM_WORLD_SIZE", "PMI_SIZE", "MPI_LOCALNRANKS"] {
+        if let Some(n) = std::env::var(var).ok().and_then(|v| v.parse::<usize>().ok()) {
+            if n > 1 {
+                return Err(BadInput(format!(
+                    "started by an MPI launcher with {n} ranks ({var} = {n}), but this grainwave was built without MPI: \
+                     build it with `cargo build --release --features mpi` (docs/cluster.md), or run one process"
+                ))
+                .into());
+            }
+        }
+    }
+    Ok((None, Ranks::Alone))
+}
+
+/// A worker rank's whole command: runs the units rank 0 sends until it says to quit.
+#[cfg(feature = "mpi")]
+fn serve_as_worker(comm: &mpi::Comm) -> Result<()> {
+    let interrupt = Arc::new(AtomicBool::new(false));
+    {
+        let flag = interrupt.clone();
+        // the running unit saves its partial state and answers "interrupted"; a second signal
+        // exits at once (every file is written atomically)
+        let _ = ctrlc::set_handler(move || {
+            if flag.swap(true, Ordering::SeqCst) {
+                std::process::exit(130);
+            }
+        });
+    }
+    rayon::scope(|_| registry::serve(comm, interrupt))?;
+    Ok(())
+}
+
 /// Discrete-element simulations of granular materials: stress transmission and acoustics.
 #[derive(Debug, Parser)]
-#[command(name = "grainwave", version, propagate_version = true)]
+#[command(name = "grainwave", version = VERSION, propagate_version = true)]
 struct Cli {
     /// Number of worker threads (default: one per core). Results are bitwise identical for any
     /// number of threads.
@@ -219,6 +298,15 @@ fn run(cli: &Cli) -> Result<()> {
             .build_global()
             .with_context(|| format!("cannot start a pool of {n} worker threads"))?;
     }
+    // under an MPI launcher, `run` and `resume` spread their units over the ranks
+    let (_mpi, ranks) = if matches!(cli.command, Command::Run(_) | Command::Resume { .. }) { ranks()? } else { (None, Ranks::Alone) };
+    let remote = match ranks {
+        Ranks::Alone => None,
+        Ranks::Coordinator(link) => Some(link),
+        #[cfg(feature = "mpi")]
+        Ranks::Worker(comm) => return serve_as_worker(&comm),
+    };
+    let _quit = QuitOnDrop(remote.clone());
     match &cli.command {
         Command::Run(args) => {
             let src = ConfigSource::from_file(&args.config).map_err(ExperimentError::from)?;
@@ -226,9 +314,9 @@ fn run(cli: &Cli) -> Result<()> {
             // validate before touching the output directory: a refused config changes nothing there
             registry::check(&src).map_err(ExperimentError::from)?;
             let mode = if args.overwrite { UsedDirectory::Overwrite } else { UsedDirectory::Refuse };
-            execute(cli.quiet, &out, mode, |ctx| registry::run(&src, ctx))
+            execute(cli.quiet, &out, mode, remote, |ctx| registry::run(&src, ctx))
         }
-        Command::Demo(args) => execute(cli.quiet, &args.out, UsedDirectory::Keep, |ctx| grainwave_experiments::demo::run_demo(ctx)),
+        Command::Demo(args) => execute(cli.quiet, &args.out, UsedDirectory::Keep, None, |ctx| grainwave_experiments::demo::run_demo(ctx)),
         Command::Resume { dir, retry } => {
             if !dir.is_dir() {
                 return Err(BadInput(format!("`{}` is not a directory (give the output directory of the run)", dir.display())).into());
@@ -243,7 +331,7 @@ fn run(cli: &Cli) -> Result<()> {
                     .into());
                 }
             }
-            execute(cli.quiet, dir, UsedDirectory::Keep, |ctx| {
+            execute(cli.quiet, dir, UsedDirectory::Keep, remote, |ctx| {
                 ctx.clear_failed();
                 registry::resume(dir, ctx)
             })
@@ -304,7 +392,12 @@ fn default_out(config: &Path) -> PathBuf {
 }
 
 /// Runs a protocol with progress display and Ctrl-C handling, then prints its summary.
-fn execute(quiet: bool, out: &Path, mode: UsedDirectory, work: impl FnOnce(&mut RunContext<'_>) -> grainwave_experiments::Result<RunSummary> + Send) -> Result<()> {
+fn execute(
+    quiet: bool,
+    out: &Path,
+    mode: UsedDirectory,
+    remote: Option<Arc<dyn grainwave_experiments::work::Link>>,
+    work: impl FnOnce(&mut RunContext<'_>) -> grainwave_experiments::Result<RunSummary> + Send) -> Result<()> {
     let interrupt = Arc::new(AtomicBool::new(false));
     {
         let flag = interrupt.clone();
@@ -327,6 +420,9 @@ fn execute(quiet: bool, out: &Path, mode: UsedDirectory, work: impl FnOnce(&mut 
             // an output directory that cannot be created or written is the user's to fix: exit 2
             Err(e) => return Err(BadInput(format!("cannot use `{}`: {}", out.display(), error_chain(&anyhow::Error::new(e)).trim_start_matches("error: "))).into()),
         };
+        if let Some(link) = remote {
+            ctx.set_remote(link);
+        }
         // Enter the thread pool once for the whole run (parallel loops then start in place).
         let result = rayon::scope(|_| work(&mut ctx));
         if let Err(e) = &result {

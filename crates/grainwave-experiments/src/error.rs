@@ -74,6 +74,15 @@ pub enum ExperimentError {
         /// Why.
         reason: String,
     },
+    /// A unit of work run by another process (an MPI rank) failed there, or that process could
+    /// not be reached.
+    #[error("{message} (on rank {rank})")]
+    Rank {
+        /// The rank (≥ 1) of the process.
+        rank: usize,
+        /// What happened there.
+        message: String,
+    },
     /// A directory or checkpoint cannot be resumed.
     #[error("cannot resume `{}`: {reason}", .path.display())]
     Resume {

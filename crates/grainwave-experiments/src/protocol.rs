@@ -146,8 +146,15 @@ pub struct RunContext<'a> {
     pub report_every: u64,
     log: Option<std::fs::File>,
     started: std::time::Instant,
-    /// The directory's lock, held while the context lives.
-    _lock: std::fs::File,
+    /// The directory's lock, held while the context lives (none for a worker process's
+    /// context: the coordinator holds it).
+    _lock: Option<std::fs::File>,
+    /// Other processes that run units of the plan (MPI ranks), if any
+    /// ([`crate::work::Link`]).
+    remote: Option<Arc<dyn crate::work::Link>>,
+    /// A worker process's context: its log lines, kept for the coordinator (which writes
+    /// `run.log`).
+    captured: Option<Vec<String>>,
 }
 
 impl<'a> RunContext<'a> {
@@ -172,7 +179,51 @@ impl<'a> RunContext<'a> {
         prepare_directory(out, mode)?;
         let log_path = out.join(LOG_FILE);
         let log = std::fs::OpenOptions::new().create(true).append(true).open(&log_path).ok();
-        Ok(RunContext { out: out.to_path_buf(), reporter, interrupt, report_every: 1000, log, started: std::time::Instant::now(), _lock: lock })
+        Ok(RunContext {
+            out: out.to_path_buf(),
+            reporter,
+            interrupt,
+            report_every: 1000,
+            log,
+            started: std::time::Instant::now(),
+            _lock: Some(lock),
+            remote: None,
+            captured: None,
+        })
+    }
+
+    /// The context of a worker process (an MPI rank ≠ 0) running units of the run in `out` for
+    /// a coordinator: it neither creates nor locks the directory (the coordinator holds it),
+    /// writes no `run.log` (its lines are kept for the coordinator: [`RunContext::take_log`])
+    /// and refuses to write the run's checkpoint (the coordinator's).
+    pub fn detached(out: &Path, reporter: &'a mut dyn Reporter, interrupt: Arc<AtomicBool>) -> Self {
+        RunContext {
+            out: out.to_path_buf(),
+            reporter,
+            interrupt,
+            report_every: 1000,
+            log: None,
+            started: std::time::Instant::now(),
+            _lock: None,
+            remote: None,
+            captured: Some(Vec::new()),
+        }
+    }
+
+    /// The log lines a worker process's context kept since the last call.
+    pub fn take_log(&mut self) -> Vec<String> {
+        self.captured.as_mut().map(std::mem::take).unwrap_or_default()
+    }
+
+    /// Lets the scheduler hand units to other processes through `link` (the coordinator of an
+    /// MPI run).
+    pub fn set_remote(&mut self, link: Arc<dyn crate::work::Link>) {
+        self.remote = Some(link);
+    }
+
+    /// The link to other processes that run units, if any.
+    pub fn remote(&self) -> Option<Arc<dyn crate::work::Link>> {
+        self.remote.clone()
     }
 
     /// The output directory.
@@ -193,6 +244,9 @@ impl<'a> RunContext<'a> {
     /// Appends a line to `run.log` (wall-clock seconds since the start of this process) and
     /// shows it through the reporter.
     pub fn log(&mut self, text: &str) {
+        if let Some(c) = self.captured.as_mut() {
+            c.push(text.to_string());
+        }
         if let Some(f) = self.log.as_mut() {
             let _ = writeln!(f, "[{:9.2} s] {text}", self.started.elapsed().as_secs_f64());
         }
@@ -203,7 +257,7 @@ impl<'a> RunContext<'a> {
     /// failure marker [`FAILED_FILE`] (written atomically). Interruptions and bad input are not
     /// failures of the run and leave no marker.
     pub fn mark_failed(&mut self, error: &ExperimentError) {
-        if matches!(error, ExperimentError::Interrupted { .. }) || error.is_input_error() {
+        if matches!(error, ExperimentError::Interrupted { .. }) || error.is_input_error() || self.captured.is_some() {
             return;
         }
         let mut text = error.to_string();
@@ -228,6 +282,9 @@ impl<'a> RunContext<'a> {
 
     /// Appends a line to `run.log` only.
     pub fn log_quiet(&mut self, text: &str) {
+        if let Some(c) = self.captured.as_mut() {
+            c.push(text.to_string());
+        }
         if let Some(f) = self.log.as_mut() {
             let _ = writeln!(f, "[{:9.2} s] {text}", self.started.elapsed().as_secs_f64());
         }
@@ -261,6 +318,12 @@ impl<'a> RunContext<'a> {
     /// (atomically).
     pub fn save_checkpoint<T: Serialize>(&mut self, tag: &str, state: &T) -> Result<PathBuf> {
         let path = self.path(CHECKPOINT_FILE);
+        if self.captured.is_some() {
+            return Err(ExperimentError::Core(grainwave_core::CoreError::Inconsistent(format!(
+                "a worker process cannot write the run's checkpoint {} (the coordinator, rank 0, does)",
+                path.display()
+            ))));
+        }
         grainwave_core::checkpoint::save(&path, tag, state)?;
         Ok(path)
     }

@@ -6,7 +6,9 @@ use crate::config::{did_you_mean, reference, ConfigError, ConfigSource};
 use crate::error::{ExperimentError, Result};
 use crate::protocol::{checkpoint_tag, load_state, RunContext};
 use crate::study::Protocol;
-use crate::work::Unit;
+use crate::work::{Message, Unit, WorkerLink};
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 use crate::{e1, e2, e3, simulation};
 use std::path::Path;
 
@@ -33,6 +35,9 @@ pub struct Entry {
     pub plot: fn(&Path, &Path) -> Result<Vec<String>>,
     /// Decodes checkpoint bytes as this protocol's state: the error message, if refused.
     pub decode: fn(&[u8]) -> Option<String>,
+    /// Runs, in a worker process, the units of the run whose state (checkpoint bytes) the
+    /// coordinator sent, in the given output directory ([`Protocol::serve`]).
+    pub serve: fn(&[u8], &Path, &dyn WorkerLink, Arc<AtomicBool>) -> Result<()>,
 }
 
 fn schema<P: Protocol>() -> serde_json::Value {
@@ -65,6 +70,14 @@ fn plan_with<P: Protocol>(src: &ConfigSource) -> Result<Vec<Unit>, ConfigError> 
 
 fn finish<P: Protocol>(state: &mut P::State, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
     let out = ctx.out_dir().to_path_buf();
+    if let Some(link) = ctx.remote() {
+        // the workers build the same plan from the same state
+        let dir = std::fs::canonicalize(&out).unwrap_or_else(|_| out.clone());
+        let begin = Message::Begin { tag: P::TAG.to_string(), state: grainwave_core::checkpoint::encode(P::TAG, &*state)?, out: dir }.encode()?;
+        for r in 1..=link.workers() {
+            link.send(r, &begin).map_err(|e| ExperimentError::Rank { rank: r, message: format!("cannot start: {e}") })?;
+        }
+    }
     let report = P::run(state, ctx)?;
     Ok(RunSummary { lines: P::summary_lines(&report, &out), report: serde_json::to_value(&report).unwrap_or_default() })
 }
@@ -87,6 +100,11 @@ fn plot_with<P: Protocol>(dir: &Path, file: &Path) -> Result<Vec<String>> {
     P::replot(dir, &state)
 }
 
+fn serve_with<P: Protocol>(bytes: &[u8], out: &Path, link: &dyn WorkerLink, interrupt: Arc<AtomicBool>) -> Result<()> {
+    let mut state: P::State = grainwave_core::checkpoint::decode(bytes, P::TAG, "the state sent by rank 0")?;
+    P::serve(&mut state, out, link, interrupt)
+}
+
 fn decode_with<P: Protocol>(bytes: &[u8]) -> Option<String> {
     grainwave_core::checkpoint::decode::<P::State>(bytes, P::TAG, "fuzz").err().map(|e| e.to_string())
 }
@@ -104,6 +122,7 @@ pub const fn entry<P: Protocol>() -> Entry {
         resume: resume_with::<P>,
         plot: plot_with::<P>,
         decode: decode_with::<P>,
+        serve: serve_with::<P>,
     }
 }
 
@@ -193,6 +212,26 @@ pub fn resume(dir: &Path, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
         ctx.log(&format!("removed the temporary file {} left by an interrupted write", stale.display()));
     }
     (by_tag(dir, &tag, "is not a protocol state")?.resume)(dir, &file, ctx)
+}
+
+/// A worker process's whole part in a distributed run (an MPI rank ≠ 0): waits for the
+/// coordinator's [`Message::Begin`] (the protocol state and the output directory), then runs the
+/// units it is sent until [`Message::Quit`] ([`crate::work::serve`]). A `Quit` first (the
+/// coordinator stopped before its run began: bad config, busy directory…) ends it at once.
+pub fn serve(link: &dyn WorkerLink, interrupt: Arc<AtomicBool>) -> Result<()> {
+    let rank = link.rank();
+    let bytes = link.receive().map_err(|e| ExperimentError::Rank { rank, message: format!("lost the coordinator (rank 0): {e}") })?;
+    match Message::decode(&bytes)? {
+        Message::Begin { tag, state, out } => {
+            let entry = PROTOCOLS
+                .iter()
+                .find(|p| p.tag == tag)
+                .ok_or_else(|| ExperimentError::Rank { rank, message: format!("rank 0 sent the state of an unknown protocol `{}`", crate::config::clip(&tag, 60)) })?;
+            (entry.serve)(&state, &out, link, interrupt)
+        }
+        Message::Quit => Ok(()),
+        _ => Err(ExperimentError::Rank { rank, message: "rank 0 sent a unit before the run began".into() }),
+    }
 }
 
 /// Checks that a checkpoint belongs to output directory `dir`: the config it carries (every

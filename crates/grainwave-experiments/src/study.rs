@@ -27,7 +27,9 @@
 use crate::config::{ConfigError, ConfigSource};
 use crate::error::Result;
 use crate::protocol::RunContext;
-use crate::work::Unit;
+use crate::work::{Unit, WorkerLink};
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
 use serde::{de::DeserializeOwned, Serialize};
 use std::path::Path;
 
@@ -63,6 +65,9 @@ pub trait Protocol: 'static {
     /// Runs (or continues) the state until the run is done, writing every output into the
     /// context's directory.
     fn run(state: &mut Self::State, ctx: &mut RunContext<'_>) -> Result<Self::Report>;
+    /// Runs, in a worker process (an MPI rank ≠ 0), the units of `state`'s run in `out` that the
+    /// coordinator sends, until it says to quit ([`crate::work::serve`]).
+    fn serve(state: &mut Self::State, out: &Path, link: &dyn WorkerLink, interrupt: Arc<AtomicBool>) -> Result<()>;
     /// The lines `grainwave run` prints at the end.
     fn summary_lines(report: &Self::Report, out: &Path) -> Vec<String>;
     /// Re-makes the plots (and tables) of the run in `dir` from its saved data; returns the files

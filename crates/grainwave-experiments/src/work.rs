@@ -20,14 +20,32 @@
 //!
 //! The narrow interface — [`Scheduler::ready`] (the units that can run now), [`Scheduler::run_one`]
 //! (run one, anywhere), [`Scheduler::record`] (persist a result and mark its unit done) — is what
-//! [`Scheduler::run`] is built from; a distributor that puts units on other processes (MPI ranks)
-//! or a Python driver can use the same three calls.
+//! [`Scheduler::run`] is built from; a Python driver can use the same three calls.
+//!
+//! ## Other processes (MPI ranks)
+//!
+//! When the run's context has a [`Link`] to worker processes ([`RunContext::set_remote`]; the
+//! command line sets one under `mpirun`, docs/cluster.md), the scheduler of the coordinating
+//! process (rank 0) keeps one *slot* per worker beside its own threads: a slot takes the first
+//! ready unit that may run elsewhere ([`Work::anywhere`]), sends its index and id to its worker
+//! ([`Message::Run`]), waits for the answer — the unit's output, encoded
+//! ([`Message::Done`]), its failure or its interruption, with the unit's log lines — and then
+//! records the output exactly as a local unit's: [`Work::record`] persists it, [`Work::recorded`]
+//! logs it and saves the protocol state, all in the coordinator. The scheduling is dynamic (a
+//! worker gets a new unit as soon as it answers), so units of different costs balance.
+//!
+//! A worker runs [`serve`]: it builds the same [`Work`] from the protocol state the coordinator
+//! sent at the start ([`Message::Begin`], see [`crate::registry::serve`]) and runs the units it is
+//! sent. Units read their inputs and write their partial states in the output directory, so
+//! every process must see that directory (a shared file system: the directory of a cluster
+//! job, or one machine). A unit's output is a pure function of the config and its inputs, so a
+//! run gives the same bits for any number of processes and threads.
 
 use crate::error::{ExperimentError, Result};
 use crate::protocol::RunContext;
 use grainwave_core::prelude::*;
-use serde::Serialize;
-use std::path::Path;
+use serde::{de::DeserializeOwned, Deserialize, Serialize};
+use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
 
@@ -76,8 +94,9 @@ pub type UnitResult<T> = std::result::Result<T, UnitStop>;
 
 /// A plan of units, as a protocol describes it to the scheduler.
 pub trait Work: Sync {
-    /// What a unit produces (kept in memory only until [`Work::record`] has persisted it).
-    type Output: Send;
+    /// What a unit produces (kept in memory only until [`Work::record`] has persisted it;
+    /// serializable, to come back from another process).
+    type Output: Send + Serialize + DeserializeOwned;
     /// The units, in the plan's order (the order of aggregation).
     fn units(&self) -> &[Unit];
     /// Whether unit `k` is done: its result is persisted (read at the start of a run, so a
@@ -88,6 +107,12 @@ pub trait Work: Sync {
     fn run(&self, k: usize, env: &UnitEnv<'_, '_, '_>) -> UnitResult<Self::Output>;
     /// Persists the result of unit `k` atomically (with [`store`]).
     fn record(&self, k: usize, output: &Self::Output) -> Result<()>;
+    /// Whether unit `k` can run in another process ([`Link`]): true unless it needs the run's
+    /// context while it runs (`e2`'s loading writes the protocol checkpoint), which only the
+    /// coordinating process has.
+    fn anywhere(&self, _k: usize) -> bool {
+        true
+    }
     /// Called after unit `k` is recorded, with the context (under its lock) and which units are
     /// done: a log line, the protocol state's checkpoint.
     fn recorded(&self, _k: usize, _output: &Self::Output, _ctx: &mut RunContext<'_>, _done: &[bool]) -> Result<()> {
@@ -263,68 +288,98 @@ impl<'w, W: Work> Scheduler<'w, W> {
         let flag = ctx.interrupt_flag();
         let report_every = ctx.report_every;
         let workers = self.max_parallel.unwrap_or_else(rayon::current_num_threads).max(1).min(to_run.len());
+        let link = ctx.remote();
+        let ranks = link.as_ref().map_or(0, |l| l.workers());
         let what = kinds(units, to_run.iter().copied());
         ctx.reporter.stage(&format!("{what} ({} to run)", to_run.len()), None);
         ctx.reporter.samples(already, total);
-        ctx.log(&format!("{} {what} to run, {workers} at a time", to_run.len()));
+        if ranks > 0 {
+            ctx.log(&format!("{} {what} to run, {workers} at a time here and one at a time on each of {ranks} other rank(s)", to_run.len()));
+        } else {
+            ctx.log(&format!("{} {what} to run, {workers} at a time", to_run.len()));
+        }
         let shared = Mutex::new(ctx);
         let env = UnitEnv { ctx: &shared, flag: flag.clone(), running: AtomicUsize::new(0), report_every, shown: Mutex::new(String::new()) };
         let done = std::mem::take(&mut self.done);
         let queue = Mutex::new(Queue { started: done.clone(), done, stops: Vec::new() });
         let wake = Condvar::new();
         let work = self.work;
-        rayon::scope(|s| {
-            for _ in 0..workers {
-                s.spawn(|_| loop {
-                    // the first unit in the plan's order whose inputs are done; none: wait while
-                    // units run (their results may make one ready), else this worker is done
-                    let k = {
-                        let Ok(mut q) = queue.lock() else { return };
-                        loop {
-                            if env.interrupted() {
-                                return;
-                            }
-                            if let Some(k) = (0..total).find(|&k| !q.started[k] && units[k].inputs.iter().all(|&i| q.done[i])) {
-                                q.started[k] = true;
-                                // counted under the lock, so that a worker deciding to stop sees it
-                                env.running.fetch_add(1, Ordering::SeqCst);
-                                break k;
-                            }
-                            if env.running.load(Ordering::SeqCst) == 0 {
-                                return;
-                            }
-                            match wake.wait(q) {
-                                Ok(g) => q = g,
-                                Err(_) => return,
-                            }
-                        }
-                    };
-                    let outcome = work.run(k, &env).and_then(|out| {
-                        work.record(k, &out)?;
-                        queue.lock().map_err(|_| poisoned())?.done[k] = true;
-                        wake.notify_all();
-                        let mut c = shared.lock().map_err(|_| poisoned())?;
-                        // the done flags read under the context's lock: the states `recorded`
-                        // saves, in the order it saves them, never lose a unit (a snapshot taken
-                        // before the lock could be saved after a later, larger one)
-                        let done = queue.lock().map_err(|_| poisoned())?.done.clone();
-                        let count = done.iter().filter(|&&d| d).count();
-                        c.reporter.samples(count, total);
-                        work.recorded(k, &out, &mut **c, &done)?;
-                        Ok(())
-                    });
-                    if let Err(stop) = outcome {
-                        if let Ok(mut q) = queue.lock() {
-                            q.stops.push((k, stop));
-                        }
+        // One slot: a local worker (`rank` None) or the slot of another process (`rank` r ≥ 1).
+        let slot = |rank: Option<usize>| loop {
+            // the first unit in the plan's order whose inputs are done (and that may run on the
+            // slot's process); none: wait while units run or another slot can take a ready unit
+            // (their results may make one ready), else this slot is done
+            let k = {
+                let Ok(mut q) = queue.lock() else { return };
+                loop {
+                    if env.interrupted() {
+                        return;
                     }
-                    // decremented under the lock, so that a worker deciding to wait sees it
-                    if let Ok(_q) = queue.lock() {
-                        env.running.fetch_sub(1, Ordering::SeqCst);
+                    let ready = |k: usize, q: &Queue| !q.started[k] && units[k].inputs.iter().all(|&i| q.done[i]);
+                    if let Some(k) = (0..total).find(|&k| ready(k, &q) && (rank.is_none() || work.anywhere(k))) {
+                        q.started[k] = true;
+                        // counted under the lock, so that a slot deciding to stop sees it
+                        env.running.fetch_add(1, Ordering::SeqCst);
+                        break k;
                     }
-                    wake.notify_all();
-                });
+                    if env.running.load(Ordering::SeqCst) == 0 && !(0..total).any(|k| ready(k, &q)) {
+                        return;
+                    }
+                    match wake.wait(q) {
+                        Ok(g) => q = g,
+                        Err(_) => return,
+                    }
+                }
+            };
+            let mut broken = false;
+            let result = match (rank, link.as_deref()) {
+                (Some(r), Some(l)) => {
+                    let (result, ok) = run_remote(work, l, r, k, &env);
+                    broken = !ok;
+                    result
+                }
+                _ => work.run(k, &env),
+            };
+            let outcome = result.and_then(|out| {
+                work.record(k, &out)?;
+                queue.lock().map_err(|_| poisoned())?.done[k] = true;
+                wake.notify_all();
+                let mut c = shared.lock().map_err(|_| poisoned())?;
+                // the done flags read under the context's lock: the states `recorded` saves, in
+                // the order it saves them, never lose a unit (a snapshot taken before the lock
+                // could be saved after a later, larger one)
+                let done = queue.lock().map_err(|_| poisoned())?.done.clone();
+                let count = done.iter().filter(|&&d| d).count();
+                c.reporter.samples(count, total);
+                work.recorded(k, &out, &mut **c, &done)?;
+                Ok(())
+            });
+            if let Err(stop) = outcome {
+                if let Ok(mut q) = queue.lock() {
+                    q.stops.push((k, stop));
+                }
             }
+            // decremented under the lock, so that a slot deciding to wait sees it
+            if let Ok(_q) = queue.lock() {
+                env.running.fetch_sub(1, Ordering::SeqCst);
+            }
+            wake.notify_all();
+            if broken {
+                // the process cannot be reached: its slot takes no more units
+                return;
+            }
+        };
+        std::thread::scope(|threads| {
+            // a slot of another process waits on messages most of the time: a thread of its own
+            for r in 1..=ranks {
+                let slot = &slot;
+                threads.spawn(move || slot(Some(r)));
+            }
+            rayon::scope(|s| {
+                for _ in 0..workers {
+                    s.spawn(|_| slot(None));
+                }
+            });
         });
         let Queue { done, started, mut stops } = queue.into_inner().map_err(|_| ExperimentError::Core(CoreError::Inconsistent("a worker thread panicked".into())))?;
         self.done = done;
@@ -359,6 +414,234 @@ impl<'w, W: Work> Scheduler<'w, W> {
             return Ok(Finished::Interrupted);
         }
         Ok(Finished::Complete)
+    }
+}
+
+/// Runs unit `k` on worker `rank` of `link` and waits for its answer; the flag is false when the
+/// worker cannot be reached (its slot then stops). An interrupted unit there interrupts the whole
+/// run (the other ranks got the same signal, or the worker is shutting down).
+fn run_remote<W: Work>(work: &W, link: &dyn Link, rank: usize, k: usize, env: &UnitEnv<'_, '_, '_>) -> (UnitResult<W::Output>, bool) {
+    let lost = |what: String| (Err(UnitStop::Failed(ExperimentError::Rank { rank, message: what })), false);
+    let request = match (Message::Run { unit: k, id: work.units()[k].id.clone() }).encode() {
+        Ok(b) => b,
+        Err(e) => return (Err(e.into()), true),
+    };
+    if let Err(e) = link.send(rank, &request) {
+        return lost(format!("cannot send unit `{}`: {e}", work.units()[k].id));
+    }
+    // units take milliseconds to hours: poll at most every 20 ms
+    let mut pause = std::time::Duration::from_micros(200);
+    let bytes = loop {
+        match link.try_receive(rank) {
+            Ok(Some(b)) => break b,
+            Ok(None) => {
+                std::thread::sleep(pause);
+                pause = (pause * 2).min(std::time::Duration::from_millis(20));
+            }
+            Err(e) => return lost(format!("no answer for unit `{}`: {e}", work.units()[k].id)),
+        }
+    };
+    let message = match Message::decode(&bytes) {
+        Ok(m) => m,
+        Err(e) => return lost(format!("unreadable answer for unit `{}`: {}", work.units()[k].id, crate::protocol::failure_line(&e))),
+    };
+    let log = |lines: &[String]| {
+        for l in lines {
+            env.log(l);
+        }
+    };
+    match message {
+        Message::Done { unit, output, log: lines } if unit == k => {
+            log(&lines);
+            match grainwave_core::checkpoint::decode::<W::Output>(&output, OUTPUT_TAG, "a unit's output") {
+                Ok(out) => (Ok(out), true),
+                Err(e) => lost(format!("unreadable output of unit `{}`: {e}", work.units()[k].id)),
+            }
+        }
+        Message::Failed { unit, error, log: lines } if unit == k => {
+            log(&lines);
+            (Err(UnitStop::Failed(ExperimentError::Rank { rank, message: error })), true)
+        }
+        Message::Interrupted { unit, log: lines } if unit == k => {
+            log(&lines);
+            env.flag.store(true, Ordering::SeqCst);
+            (Err(UnitStop::Interrupted), true)
+        }
+        other => lost(format!("answered {} to unit {k} (`{}`)", other.name(), work.units()[k].id)),
+    }
+}
+
+/// Content tag of the messages between processes.
+const MESSAGE_TAG: &str = "grainwave-message";
+/// Content tag of a unit's output inside [`Message::Done`].
+const OUTPUT_TAG: &str = "grainwave-unit-output";
+
+/// A message between the coordinator of a run (rank 0) and a worker process.
+#[derive(Debug, Serialize, Deserialize)]
+pub enum Message {
+    /// Coordinator → worker, once, before any unit: the protocol state of the run (checkpoint
+    /// bytes under the protocol's content tag `tag`) and the output directory.
+    Begin {
+        /// Content tag of the state (which protocol).
+        tag: String,
+        /// The state, as [`grainwave_core::checkpoint::encode`] writes it.
+        state: Vec<u8>,
+        /// The output directory (absolute).
+        out: PathBuf,
+    },
+    /// Coordinator → worker: run unit `unit` of the plan (its id, checked by the worker).
+    Run {
+        /// Index of the unit in the plan.
+        unit: usize,
+        /// Its id.
+        id: String,
+    },
+    /// Worker → coordinator: the unit completed.
+    Done {
+        /// Index of the unit.
+        unit: usize,
+        /// Its output, encoded.
+        output: Vec<u8>,
+        /// The lines it logged.
+        log: Vec<String>,
+    },
+    /// Worker → coordinator: the unit failed.
+    Failed {
+        /// Index of the unit.
+        unit: usize,
+        /// The error and its causes, on one line.
+        error: String,
+        /// The lines it logged.
+        log: Vec<String>,
+    },
+    /// Worker → coordinator: the unit was interrupted (it saved its partial state).
+    Interrupted {
+        /// Index of the unit.
+        unit: usize,
+        /// The lines it logged.
+        log: Vec<String>,
+    },
+    /// Coordinator → worker: the run is over; exit.
+    Quit,
+}
+
+impl Message {
+    /// The message as bytes (with a checksum).
+    pub fn encode(&self) -> Result<Vec<u8>> {
+        Ok(grainwave_core::checkpoint::encode(MESSAGE_TAG, self)?)
+    }
+
+    /// Reads a message.
+    pub fn decode(bytes: &[u8]) -> Result<Message> {
+        Ok(grainwave_core::checkpoint::decode(bytes, MESSAGE_TAG, "a message from another process")?)
+    }
+
+    fn name(&self) -> &'static str {
+        match self {
+            Message::Begin { .. } => "begin",
+            Message::Run { .. } => "run",
+            Message::Done { .. } => "done",
+            Message::Failed { .. } => "failed",
+            Message::Interrupted { .. } => "interrupted",
+            Message::Quit => "quit",
+        }
+    }
+}
+
+/// The coordinator's side of the connection to worker processes that run units for it (MPI ranks
+/// 1 … n under `mpirun`; threads in the tests). Messages from one worker arrive in the order it
+/// sent them. Errors are texts (the transport's own).
+pub trait Link: Send + Sync {
+    /// The number of workers: ranks 1 to `workers()`.
+    fn workers(&self) -> usize;
+    /// Sends `bytes` to worker `rank`.
+    fn send(&self, rank: usize, bytes: &[u8]) -> std::result::Result<(), String>;
+    /// The next message from worker `rank`, if one has arrived (returns at once).
+    fn try_receive(&self, rank: usize) -> std::result::Result<Option<Vec<u8>>, String>;
+}
+
+/// A worker's side of a [`Link`].
+pub trait WorkerLink {
+    /// This worker's rank (≥ 1).
+    fn rank(&self) -> usize;
+    /// Waits for the next message from the coordinator.
+    fn receive(&self) -> std::result::Result<Vec<u8>, String>;
+    /// Sends `bytes` to the coordinator.
+    fn send(&self, bytes: &[u8]) -> std::result::Result<(), String>;
+}
+
+/// Sends [`Message::Quit`] to every worker of `link` (the coordinator, once, at the end of its
+/// command, whatever the outcome); a worker that cannot be reached is skipped.
+pub fn quit_all(link: &dyn Link) {
+    if let Ok(bytes) = Message::Quit.encode() {
+        for r in 1..=link.workers() {
+            let _ = link.send(r, &bytes);
+        }
+    }
+}
+
+/// A worker's loop: runs the units of `work` that the coordinator sends, in the output directory
+/// `out`, and answers each with its output (encoded), failure or interruption and the lines it
+/// logged, until [`Message::Quit`]. `interrupt` is the worker's interrupt flag (its own Ctrl-C
+/// or SIGTERM: the running unit saves its partial state and answers "interrupted").
+pub fn serve<W: Work>(work: &W, link: &dyn WorkerLink, out: &Path, interrupt: Arc<AtomicBool>) -> Result<()> {
+    let mut reporter = crate::protocol::SilentReporter;
+    let mut ctx = RunContext::detached(out, &mut reporter, interrupt.clone());
+    let report_every = ctx.report_every;
+    let shared = Mutex::new(&mut ctx);
+    let env = UnitEnv { ctx: &shared, flag: interrupt, running: AtomicUsize::new(0), report_every, shown: Mutex::new(String::new()) };
+    let rank = link.rank();
+    let transport = |e: String| ExperimentError::Rank { rank, message: format!("lost the coordinator (rank 0): {e}") };
+    loop {
+        let message = Message::decode(&link.receive().map_err(transport)?)?;
+        let answer = match message {
+            Message::Run { unit, id } => {
+                let log = || shared.lock().map(|mut c| c.take_log()).unwrap_or_default();
+                match work.units().get(unit) {
+                    Some(u) if u.id == id => {
+                        env.running.store(1, Ordering::SeqCst);
+                        let result = work.run(unit, &env);
+                        env.running.store(0, Ordering::SeqCst);
+                        match result {
+                            Ok(output) => Message::Done { unit, output: grainwave_core::checkpoint::encode(OUTPUT_TAG, &output)?, log: log() },
+                            Err(UnitStop::Interrupted) => Message::Interrupted { unit, log: log() },
+                            Err(UnitStop::Failed(e)) => Message::Failed { unit, error: crate::protocol::failure_line(&e), log: log() },
+                        }
+                    }
+                    other => Message::Failed {
+                        unit,
+                        error: format!(
+                            "the plans differ: unit {unit} is `{id}` on rank 0 but {} here (are all ranks running the same grainwave?)",
+                            other.map_or("absent".to_string(), |u| format!("`{}`", u.id))
+                        ),
+                        log: Vec::new(),
+                    },
+                }
+            }
+            Message::Quit => return Ok(()),
+            other => return Err(ExperimentError::Rank { rank, message: format!("unexpected `{}` message from rank 0", other.name()) }),
+        };
+        link.send(&answer.encode()?).map_err(transport)?;
+    }
+}
+
+/// A plan without units (a protocol whose run is one simulation, on one process's threads): a
+/// worker serving it only waits for [`Message::Quit`].
+pub struct NoUnits;
+
+impl Work for NoUnits {
+    type Output = ();
+    fn units(&self) -> &[Unit] {
+        &[]
+    }
+    fn is_done(&self, _: usize) -> bool {
+        true
+    }
+    fn run(&self, k: usize, _: &UnitEnv<'_, '_, '_>) -> UnitResult<()> {
+        Err(UnitStop::Failed(ExperimentError::Core(CoreError::Inconsistent(format!("unit {k} of a plan without units")))))
+    }
+    fn record(&self, _: usize, _: &()) -> Result<()> {
+        Ok(())
     }
 }
 
@@ -397,13 +680,17 @@ mod tests {
         fail: Option<usize>,
         interrupt_at: Option<usize>,
         runs: AtomicUsize,
+        /// A unit that may only run in the coordinating process.
+        local_only: Option<usize>,
+        /// The units this instance ran.
+        ran: Mutex<Vec<usize>>,
     }
 
     impl Squares {
         fn new(dir: &Path, n: usize) -> Self {
             // units 0..n/2 have no inputs; each later unit reads the two before it
             let units = (0..n).map(|k| Unit { id: format!("u{k:02}"), kind: "units", inputs: if k < n / 2 { vec![] } else { vec![k - 2, k - 1] } }).collect();
-            Squares { dir: dir.to_path_buf(), units, fail: None, interrupt_at: None, runs: AtomicUsize::new(0) }
+            Squares { dir: dir.to_path_buf(), units, fail: None, interrupt_at: None, runs: AtomicUsize::new(0), local_only: None, ran: Mutex::new(Vec::new()) }
         }
         fn file(&self, k: usize) -> std::path::PathBuf {
             self.dir.join("units").join(format!("{}.gwck", self.units[k].id))
@@ -423,6 +710,8 @@ mod tests {
         }
         fn run(&self, k: usize, env: &UnitEnv<'_, '_, '_>) -> UnitResult<u64> {
             self.runs.fetch_add(1, Ordering::SeqCst);
+            self.ran.lock().unwrap().push(k);
+            env.log(&format!("unit {k} ran"));
             if self.interrupt_at == Some(k) {
                 env.interrupt_flag().store(true, Ordering::SeqCst);
                 return Err(UnitStop::Interrupted);
@@ -434,6 +723,9 @@ mod tests {
         }
         fn record(&self, k: usize, v: &u64) -> Result<()> {
             store(&self.file(k), "test-unit", v, None)
+        }
+        fn anywhere(&self, k: usize) -> bool {
+            self.local_only != Some(k)
         }
     }
 
@@ -574,4 +866,158 @@ mod tests {
         assert!(v, "unit 2 did not start before unit 0 ended");
         let _ = std::fs::remove_dir_all(&dir);
     }
+
+    /// Worker "processes" as threads, linked by channels: the coordinator's side.
+    struct Channels {
+        to: Vec<Mutex<std::sync::mpsc::Sender<Vec<u8>>>>,
+        from: Vec<Mutex<std::sync::mpsc::Receiver<Vec<u8>>>>,
+    }
+
+    impl Link for Channels {
+        fn workers(&self) -> usize {
+            self.to.len()
+        }
+        fn send(&self, rank: usize, bytes: &[u8]) -> std::result::Result<(), String> {
+            self.to[rank - 1].lock().unwrap().send(bytes.to_vec()).map_err(|e| e.to_string())
+        }
+        fn try_receive(&self, rank: usize) -> std::result::Result<Option<Vec<u8>>, String> {
+            match self.from[rank - 1].lock().unwrap().try_recv() {
+                Ok(b) => Ok(Some(b)),
+                Err(std::sync::mpsc::TryRecvError::Empty) => Ok(None),
+                Err(e) => Err(e.to_string()),
+            }
+        }
+    }
+
+    /// A worker thread's side.
+    struct WorkerEnd {
+        rank: usize,
+        from: std::sync::mpsc::Receiver<Vec<u8>>,
+        to: std::sync::mpsc::Sender<Vec<u8>>,
+    }
+
+    impl WorkerLink for WorkerEnd {
+        fn rank(&self) -> usize {
+            self.rank
+        }
+        fn receive(&self) -> std::result::Result<Vec<u8>, String> {
+            self.from.recv().map_err(|e| e.to_string())
+        }
+        fn send(&self, bytes: &[u8]) -> std::result::Result<(), String> {
+            self.to.send(bytes.to_vec()).map_err(|e| e.to_string())
+        }
+    }
+
+    /// Runs `coordinator` with `ranks` worker threads, each serving its own `Squares` built by
+    /// `make` (as a worker process builds its own plan); returns the outcome, the log and the
+    /// units each worker ran.
+    fn distributed(coordinator: &Squares, ranks: usize, make: impl Fn() -> Squares + Sync) -> (Result<Finished>, String, Vec<Vec<usize>>) {
+        let (mut to, mut from, mut ends) = (Vec::new(), Vec::new(), Vec::new());
+        for rank in 1..=ranks {
+            let (tx, rx) = std::sync::mpsc::channel();
+            let (tx2, rx2) = std::sync::mpsc::channel();
+            to.push(Mutex::new(tx));
+            from.push(Mutex::new(rx2));
+            ends.push(WorkerEnd { rank, from: rx, to: tx2 });
+        }
+        let link: Arc<dyn Link> = Arc::new(Channels { to, from });
+        std::thread::scope(|s| {
+            let workers: Vec<_> = ends
+                .into_iter()
+                .map(|end| {
+                    let make = &make;
+                    s.spawn(move || {
+                        let w = make();
+                        serve(&w, &end, &w.dir, Arc::new(AtomicBool::new(false))).unwrap();
+                        let ran = w.ran.lock().unwrap().clone();
+                        ran
+                    })
+                })
+                .collect();
+            let outcome = {
+                let mut rep = SilentReporter;
+                let mut ctx = RunContext::new(&coordinator.dir, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
+                ctx.set_remote(link.clone());
+                let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().unwrap();
+                let mut s = Scheduler::new(coordinator);
+                let outcome = pool.install(|| s.run(&mut ctx));
+                quit_all(&*link);
+                outcome
+            };
+            let ran = workers.into_iter().map(|h| h.join().unwrap()).collect();
+            let log = std::fs::read_to_string(coordinator.dir.join(crate::protocol::LOG_FILE)).unwrap_or_default();
+            (outcome, log, ran)
+        })
+    }
+
+    #[test]
+    fn units_run_in_other_processes_give_the_same_results_and_are_recorded_here() {
+        let n = 12;
+        let dir = temp("ranks");
+        let mut coordinator = Squares::new(&dir, n);
+        coordinator.local_only = Some(1);
+        let (outcome, log, ran) = distributed(&coordinator, 2, || Squares::new(&dir, n));
+        assert_eq!(outcome.unwrap(), Finished::Complete);
+        assert_eq!((0..n).map(|k| coordinator.value(k)).collect::<Vec<_>>(), expected(n));
+        // every unit ran exactly once, somewhere; the workers ran some of them (each takes a unit
+        // as soon as it is free, and the coordinator runs one at a time), never the local-only one
+        let here = coordinator.ran.lock().unwrap().clone();
+        let mut all: Vec<usize> = here.iter().chain(ran.iter().flatten()).copied().collect();
+        all.sort();
+        assert_eq!(all, (0..n).collect::<Vec<_>>(), "here {here:?}, workers {ran:?}");
+        assert!(ran.iter().all(|r| !r.is_empty()) && ran.iter().flatten().all(|&k| k != 1), "here {here:?}, workers {ran:?}");
+        assert!(here.contains(&1));
+        // the workers' log lines reach the coordinator's run.log
+        for k in 0..n {
+            assert!(log.contains(&format!("unit {k} ran")), "{log}");
+        }
+        assert!(log.contains("one at a time on each of 2 other rank(s)"), "{log}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_unit_failing_in_another_process_is_listed_with_its_rank_and_resumes_anywhere() {
+        let n = 8;
+        let dir = temp("rank-failure");
+        let mut coordinator = Squares::new(&dir, n);
+        // unit 3 fails wherever it runs: here (only if the coordinator takes it) or on rank 1
+        coordinator.fail = Some(3);
+        let make = || {
+            let mut w = Squares::new(&dir, n);
+            w.fail = Some(3);
+            w
+        };
+        let (outcome, _, ran) = distributed(&coordinator, 1, make);
+        let text = outcome.unwrap_err().to_string();
+        assert!(text.contains("u03: ") && text.contains("unit 3 cannot"), "{text}");
+        if ran[0].contains(&3) {
+            assert!(text.contains("(on rank 1)"), "{text}");
+        }
+        // resumed without workers: only the units not done run, to the same results
+        coordinator.fail = None;
+        coordinator.runs.store(0, Ordering::SeqCst);
+        assert_eq!(run(&coordinator, 2, None).unwrap(), Finished::Complete);
+        assert_eq!((0..n).map(|k| coordinator.value(k)).collect::<Vec<_>>(), expected(n));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[test]
+    fn a_worker_with_another_plan_refuses_its_units() {
+        let dir = temp("rank-plan");
+        let coordinator = Squares::new(&dir, 6);
+        // the worker's plan has other ids: every unit it is sent comes back failed, naming both
+        let make = || {
+            let mut w = Squares::new(&dir, 6);
+            for u in &mut w.units {
+                u.id = format!("other-{}", u.id);
+            }
+            w
+        };
+        let (outcome, _, ran) = distributed(&coordinator, 1, make);
+        assert!(ran[0].is_empty());
+        let text = outcome.unwrap_err().to_string();
+        assert!(text.contains("the plans differ") && text.contains("`other-u0"), "{text}");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 }
+

@@ -107,6 +107,12 @@ pub fn run_ensemble(plan: &Plan, ctx: &mut RunContext<'_>) -> Result<Finished> {
     scheduler.run(ctx)
 }
 
+/// Runs, in a worker process, the samples of `plan` that the coordinator sends
+/// ([`crate::work::serve`]).
+pub fn serve(plan: &Plan, out: &Path, link: &dyn crate::work::WorkerLink, interrupt: std::sync::Arc<std::sync::atomic::AtomicBool>) -> Result<()> {
+    crate::work::serve(&Samples::new(plan, out), link, out, interrupt)
+}
+
 fn save_file(path: &Path, tag: &str, file: &PackingFile) -> Result<()> {
     if let Some(dir) = path.parent() {
         std::fs::create_dir_all(dir).map_err(|e| CoreError::Io { action: "cannot create".into(), path: dir.display().to_string(), error: e })?;

@@ -166,6 +166,9 @@ impl crate::study::Protocol for E1Protocol {
     fn run(state: &mut E1State, ctx: &mut RunContext<'_>) -> Result<E1Report> {
         state.run(ctx)
     }
+    fn serve(state: &mut E1State, out: &std::path::Path, link: &dyn crate::work::WorkerLink, interrupt: std::sync::Arc<std::sync::atomic::AtomicBool>) -> Result<()> {
+        ensemble::serve(&state.plan()?, out, link, interrupt)
+    }
     fn summary_lines(report: &E1Report, out: &std::path::Path) -> Vec<String> {
         summary_lines(report, out)
     }

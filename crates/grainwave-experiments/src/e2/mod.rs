@@ -125,6 +125,12 @@ impl Protocol for E2Protocol {
     fn run(state: &mut E2State, ctx: &mut RunContext<'_>) -> Result<E2Summary> {
         state.run(ctx)
     }
+    fn serve(state: &mut E2State, out: &Path, link: &dyn crate::work::WorkerLink, interrupt: std::sync::Arc<std::sync::atomic::AtomicBool>) -> Result<()> {
+        // the replays (the loading runs on rank 0: it writes the protocol checkpoint)
+        let cfg = state.config.clone();
+        let work = work::E2Work::new(&cfg, out, state);
+        crate::work::serve(&work, link, out, interrupt)
+    }
     fn summary_lines(report: &E2Summary, out: &Path) -> Vec<String> {
         summary_lines(report, out)
     }

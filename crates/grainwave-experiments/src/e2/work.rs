@@ -93,6 +93,7 @@ pub fn adopt_reports(out: &Path, reports: &[ReplayReport]) -> Result<()> {
 }
 
 /// What a unit produces.
+#[derive(Serialize, Deserialize)]
 pub enum Output {
     /// The loading is done (its result is the protocol state).
     Loading,
@@ -171,6 +172,10 @@ impl Work for E2Work<'_> {
             }
             Output::Replay(r) => store(&report_file(&self.out, &replay_name(self.cfg, self.replay_index(k))), REPORT_TAG, &**r, None),
         }
+    }
+
+    fn anywhere(&self, k: usize) -> bool {
+        self.units[k].id != LOADING
     }
 }
 

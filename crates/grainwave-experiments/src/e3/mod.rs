@@ -89,6 +89,9 @@ impl crate::study::Protocol for E3Protocol {
     fn run(state: &mut E3State, ctx: &mut RunContext<'_>) -> Result<E3Summary> {
         state.run(ctx)
     }
+    fn serve(state: &mut E3State, out: &std::path::Path, link: &dyn crate::work::WorkerLink, interrupt: std::sync::Arc<std::sync::atomic::AtomicBool>) -> Result<()> {
+        state.serve(out, link, interrupt)
+    }
     fn summary_lines(report: &E3Summary, out: &std::path::Path) -> Vec<String> {
         summary_lines(report, out)
     }
@@ -334,6 +337,17 @@ impl E3State {
         E3State { references_done: vec![false; plan.cases.len()], runs_done: vec![false; plan.runs.len()], finished: false, config }
     }
 
+    /// Runs, in a worker process, the units of this state's run in `out` that the coordinator
+    /// sends ([`crate::work::serve`]): the same units as [`E3State::run`]'s (the coordinator
+    /// records them and saves the state).
+    pub fn serve(&self, out: &std::path::Path, link: &dyn crate::work::WorkerLink, interrupt: std::sync::Arc<std::sync::atomic::AtomicBool>) -> Result<()> {
+        let plan = Plan::new(&self.config);
+        let write_run = run_writer(&self.config, &plan);
+        let save = |_: &mut RunContext<'_>, _: &[bool], _: &[bool]| -> Result<()> { Ok(()) };
+        let work = work::E3Work::new(&self.config, &plan, out, &self.references_done, &self.runs_done, &write_run, &save);
+        crate::work::serve(&work, link, out, interrupt)
+    }
+
     /// Runs (or continues) the protocol, writing every output into the context's directory.
     pub fn run(&mut self, ctx: &mut RunContext<'_>) -> Result<E3Summary> {
         let cfg = self.config.clone();
@@ -346,14 +360,7 @@ impl E3State {
                 ctx.save_checkpoint(TAG, &state)?;
                 Ok(())
             };
-            let write_run = |out: &std::path::Path,
-                             run: &plan::RunSpec,
-                             result: &measure::RunResult,
-                             reference: &grainwave_core::snapshot::Snapshot<grainwave_core::dim::D2>,
-                             after: &grainwave_core::snapshot::Snapshot<grainwave_core::dim::D2>,
-                             changes: &grainwave_analysis::network::NetworkChanges<grainwave_core::dim::D2>,
-                             reference_field: Option<&measure::FieldData>|
-             -> Result<()> { outputs::write_run_files(out, &cfg, &plan, run, result, reference, after, changes, reference_field) };
+            let write_run = run_writer(&cfg, &plan);
             let out = ctx.out_dir().to_path_buf();
             let work = work::E3Work::new(&cfg, &plan, &out, &self.references_done, &self.runs_done, &write_run, &save);
             let mut scheduler = crate::work::Scheduler::new(&work);
@@ -370,6 +377,21 @@ impl E3State {
     }
 }
 
+
+/// Writes the files of a finished response run (a unit's own outputs, written where it runs).
+fn run_writer<'a>(cfg: &'a E3Config, plan: &'a Plan) -> impl Fn(
+    &std::path::Path,
+    &plan::RunSpec,
+    &measure::RunResult,
+    &grainwave_core::snapshot::Snapshot<grainwave_core::dim::D2>,
+    &grainwave_core::snapshot::Snapshot<grainwave_core::dim::D2>,
+    &grainwave_analysis::network::NetworkChanges<grainwave_core::dim::D2>,
+    Option<&measure::FieldData>,
+) -> Result<()>
+       + Sync
+       + 'a {
+    move |out, run, result, reference, after, changes, reference_field| outputs::write_run_files(out, cfg, plan, run, result, reference, after, changes, reference_field)
+}
 
 /// Re-makes the aggregate outputs (tables, plots, summary) of the finished run in `dir` from its
 /// saved units (`grainwave plot DIR`); returns the files written. Per-run pictures are made when a

@@ -349,6 +349,7 @@ enum Kind {
 }
 
 /// What a unit produces.
+#[derive(serde::Serialize, serde::Deserialize)]
 pub(crate) enum Output {
     /// A relaxed reference state.
     Reference(Box<ReferenceResult>),

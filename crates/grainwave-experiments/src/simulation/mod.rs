@@ -247,6 +247,10 @@ impl crate::study::Protocol for SimulationProtocol {
     fn run(state: &mut SimulationState, ctx: &mut RunContext<'_>) -> Result<SimulationReport> {
         state.run(ctx)
     }
+    fn serve(_: &mut SimulationState, out: &std::path::Path, link: &dyn crate::work::WorkerLink, interrupt: std::sync::Arc<std::sync::atomic::AtomicBool>) -> Result<()> {
+        // one simulation runs in one process (on its threads): nothing to hand out
+        crate::work::serve(&crate::work::NoUnits, link, out, interrupt)
+    }
     fn summary_lines(report: &SimulationReport, out: &std::path::Path) -> Vec<String> {
         summary_lines(report, out)
     }
