@@ -304,6 +304,9 @@ impl<'w, W: Work> Scheduler<'w, W> {
         let queue = Mutex::new(Queue { started: done.clone(), done, stops: Vec::new() });
         let wake = Condvar::new();
         let work = self.work;
+        // per process (0: this one, r: rank r): units run and seconds spent running them
+        let busy: Vec<Mutex<(usize, f64)>> = (0..=ranks).map(|_| Mutex::new((0, 0.0))).collect();
+        let started_at = std::time::Instant::now();
         // One slot: a local worker (`rank` None) or the slot of another process (`rank` r ≥ 1).
         let slot = |rank: Option<usize>| loop {
             // the first unit in the plan's order whose inputs are done (and that may run on the
@@ -332,6 +335,7 @@ impl<'w, W: Work> Scheduler<'w, W> {
                 }
             };
             let mut broken = false;
+            let unit_started = std::time::Instant::now();
             let result = match (rank, link.as_deref()) {
                 (Some(r), Some(l)) => {
                     let (result, ok) = run_remote(work, l, r, k, &env);
@@ -340,6 +344,10 @@ impl<'w, W: Work> Scheduler<'w, W> {
                 }
                 _ => work.run(k, &env),
             };
+            if let Ok(mut b) = busy[rank.unwrap_or(0)].lock() {
+                b.0 += 1;
+                b.1 += unit_started.elapsed().as_secs_f64();
+            }
             let outcome = result.and_then(|out| {
                 work.record(k, &out)?;
                 queue.lock().map_err(|_| poisoned())?.done[k] = true;
@@ -381,6 +389,21 @@ impl<'w, W: Work> Scheduler<'w, W> {
                 }
             });
         });
+        if ranks > 0 {
+            // how well the units were spread: a rank is idle while it waits for a ready unit
+            // (or for the last units of others to end)
+            let wall = started_at.elapsed().as_secs_f64();
+            if let Ok(mut c) = shared.lock() {
+                for (r, b) in busy.iter().enumerate() {
+                    let (n, seconds) = b.lock().map(|b| *b).unwrap_or((0, 0.0));
+                    let slots = if r == 0 { workers } else { 1 };
+                    let idle = 100.0 * (1.0 - seconds / (slots as f64 * wall).max(1e-12)).max(0.0);
+                    let on = if r == 0 { format!(" on {workers} thread(s)") } else { String::new() };
+                    let of = if slots > 1 { format!("{slots} × {wall:.1}") } else { format!("{wall:.1}") };
+                    c.log(&format!("rank {r}: {n} unit(s){on}, busy {seconds:.1} s of {of} s, idle {idle:.0} %"));
+                }
+            }
+        }
         let Queue { done, started, mut stops } = queue.into_inner().map_err(|_| ExperimentError::Core(CoreError::Inconsistent("a worker thread panicked".into())))?;
         self.done = done;
         stops.sort_by_key(|(k, _)| *k);
