@@ -276,16 +276,7 @@ fn report_error(err: &anyhow::Error) -> ExitCode {
 /// "error: outer\n  caused by: inner…", skipping causes whose text the previous message
 /// already ends with.
 fn error_chain(err: &anyhow::Error) -> String {
-    let mut out = format!("error: {err}");
-    let mut previous = err.to_string();
-    for cause in err.chain().skip(1) {
-        let text = cause.to_string();
-        if previous.ends_with(&text) {
-            continue;
-        }
-        out.push_str(&format!("\n  caused by: {text}"));
-        previous = text;
-    }
+    let out = format!("error: {}", grainwave_experiments::error_chain(err.as_ref(), "\n  caused by: "));
     // extreme values (1e308 is 309 digits in `{}`) in exponent form
     grainwave_experiments::config::compact_numbers(&out)
 }

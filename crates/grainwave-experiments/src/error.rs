@@ -93,6 +93,24 @@ pub enum ExperimentError {
     },
 }
 
+/// The message of `e` followed by those of its causes, joined by `separator` (`": "` on one line,
+/// `"\n  caused by: "` on several); a cause whose text the message so far already ends with is
+/// left out (an error that shows its source in its own message). The one formatting of an error
+/// chain: failure lines, the failure marker, the command line's and the Python module's errors.
+pub fn error_chain(e: &dyn std::error::Error, separator: &str) -> String {
+    let mut text = e.to_string();
+    let mut cause = e.source();
+    while let Some(c) = cause {
+        let t = c.to_string();
+        if !text.ends_with(&t) {
+            text.push_str(separator);
+            text.push_str(&t);
+        }
+        cause = c.source();
+    }
+    text
+}
+
 impl From<ConfigError> for ExperimentError {
     fn from(e: ConfigError) -> Self {
         ExperimentError::Config(Box::new(e))

@@ -28,7 +28,7 @@ pub mod simulation;
 pub mod study;
 pub mod work;
 
-pub use error::{ExperimentError, Result};
+pub use error::{error_chain, ExperimentError, Result};
 /// The engine types a caller of the protocols needs.
 pub use grainwave_core::sim::{Control, Progress, StopReason};
 /// Version of the engine (recorded in every report).

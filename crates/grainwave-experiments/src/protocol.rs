@@ -260,15 +260,7 @@ impl<'a> RunContext<'a> {
         if matches!(error, ExperimentError::Interrupted { .. }) || error.is_input_error() || self.captured.is_some() {
             return;
         }
-        let mut text = error.to_string();
-        let mut source = std::error::Error::source(error);
-        while let Some(s) = source {
-            let t = s.to_string();
-            if !text.ends_with(&t) {
-                text.push_str(&format!("\n  caused by: {t}"));
-            }
-            source = s.source();
-        }
+        let text = crate::error::error_chain(error, "\n  caused by: ");
         self.log_quiet(&format!("failed: {text}"));
         let _ = grainwave_core::checkpoint::atomic_write(&self.path(FAILED_FILE), format!("{text}\n").as_bytes());
     }
@@ -373,16 +365,7 @@ pub fn failed_units(what: &str, total: usize, failures: Vec<String>) -> Experime
 /// One line describing a unit's failure: the error and its causes ("a: b"), clipped to
 /// 3 × [`crate::config::MAX_ECHO_CHARS`] characters.
 pub fn failure_line(e: &ExperimentError) -> String {
-    let mut text = e.to_string();
-    let mut cause = std::error::Error::source(e);
-    while let Some(c) = cause {
-        let t = c.to_string();
-        if !text.ends_with(&t) {
-            text.push_str(": ");
-            text.push_str(&t);
-        }
-        cause = c.source();
-    }
+    let text = crate::error::error_chain(e, ": ");
     crate::config::clip(&crate::config::compact_numbers(&text.replace('\n', " ")), 3 * crate::config::MAX_ECHO_CHARS)
 }
 

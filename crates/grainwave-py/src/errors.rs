@@ -29,17 +29,7 @@ pyo3::create_exception!(grainwave, RunError, PyRuntimeError, "A run that failed 
 /// The message of an error followed by its causes ("a: b"), skipping causes the text already
 /// ends with.
 pub fn chain(e: &dyn std::error::Error) -> String {
-    let mut text = e.to_string();
-    let mut source = e.source();
-    while let Some(s) = source {
-        let t = s.to_string();
-        if !text.ends_with(&t) {
-            text.push_str(": ");
-            text.push_str(&t);
-        }
-        source = s.source();
-    }
-    grainwave_experiments::config::compact_numbers(&text)
+    grainwave_experiments::config::compact_numbers(&grainwave_experiments::error_chain(e, ": "))
 }
 
 /// `grainwave.ConfigError` with its fields set.
