@@ -77,9 +77,7 @@ impl Drop for QuitOnDrop {
 fn ranks() -> Result<(Option<mpi::Mpi>, Ranks)> {
     Ok(match mpi::start()? {
         None => (None, Ranks::Alone),
-        Some((env, mpi::Role::Alone)) => (Some(env), Ranks::Alone),
-        Some((env, mpi::Role::Coordinator(c))) => (Some(env), Ranks::Coordinator(c)),
-        Some((env, mpi::Role::Worker(c))) => (Some(env), Ranks::Worker(c)),
+        Some((env, ranks)) => (Some(env), ranks),
     })
 }
 

@@ -5,23 +5,13 @@
 //! ([`grainwave_experiments::registry::serve`]). Messages are byte strings sent with the
 //! standard MPI point-to-point calls on the world communicator.
 
+use crate::Ranks;
 use grainwave_experiments::work::{Link, WorkerLink};
 use mpi::datatype::Equivalence;
 use mpi::environment::Universe;
 use mpi::topology::SimpleCommunicator;
 use mpi::traits::*;
 use std::sync::{Arc, Mutex};
-use std::time::Duration;
-
-/// This process's part in an MPI run.
-pub enum Role {
-    /// Not under an MPI launcher, or the only rank: a run as without MPI.
-    Alone,
-    /// Rank 0 of several.
-    Coordinator(Arc<Comm>),
-    /// Rank ≥ 1.
-    Worker(Arc<Comm>),
-}
 
 /// The MPI environment: finalized when dropped (after every use of its [`Comm`]).
 pub struct Mpi {
@@ -35,7 +25,7 @@ pub fn launched() -> bool {
 }
 
 /// Initializes MPI when launched by an MPI launcher; `None` otherwise (then nothing changes).
-pub fn start() -> anyhow::Result<Option<(Mpi, Role)>> {
+pub fn start() -> anyhow::Result<Option<(Mpi, Ranks)>> {
     if !launched() {
         return Ok(None);
     }
@@ -50,11 +40,11 @@ pub fn start() -> anyhow::Result<Option<(Mpi, Role)>> {
     let (rank, size) = (world.rank() as usize, world.size() as usize);
     let comm = Arc::new(Comm { world: Mutex::new(world), rank, size });
     let role = if size <= 1 {
-        Role::Alone
+        Ranks::Alone
     } else if rank == 0 {
-        Role::Coordinator(comm)
+        Ranks::Coordinator(comm)
     } else {
-        Role::Worker(comm)
+        Ranks::Worker(comm)
     };
     Ok(Some((Mpi { _universe: universe }, role)))
 }
@@ -73,9 +63,6 @@ pub struct Comm {
 unsafe impl Send for Comm {}
 // SAFETY: as above: shared use is serialized by the mutex.
 unsafe impl Sync for Comm {}
-
-/// The longest pause between two polls for a message.
-const MAX_PAUSE: Duration = Duration::from_millis(20);
 
 impl Comm {
     fn send_to(&self, rank: usize, bytes: &[u8]) -> Result<(), String> {
@@ -113,16 +100,8 @@ impl WorkerLink for Comm {
         self.rank
     }
     fn receive(&self) -> Result<Vec<u8>, String> {
-        // polled with growing pauses rather than a blocking probe, which spins a core in most MPI
-        // libraries: a worker waits for rank 0's loading (e2) without taking its core
-        let mut pause = Duration::from_micros(200);
-        loop {
-            if let Some(bytes) = self.try_receive_from(0)? {
-                return Ok(bytes);
-            }
-            std::thread::sleep(pause);
-            pause = (pause * 2).min(MAX_PAUSE);
-        }
+        // polled rather than a blocking probe, which spins a core in most MPI libraries
+        grainwave_experiments::work::poll(|| self.try_receive_from(0))
     }
     fn send(&self, bytes: &[u8]) -> Result<(), String> {
         self.send_to(0, bytes)

@@ -88,31 +88,23 @@ fn run(cmd: Command, config: &Path, out: &Path, what: &str) {
 /// made from them is compared), JSON keys and CSV columns named `…seconds…`.
 fn outputs(d: &Path) -> Vec<(String, Vec<u8>)> {
     let mut files = Vec::new();
-    let mut stack = vec![d.to_path_buf()];
-    while let Some(p) = stack.pop() {
-        for e in std::fs::read_dir(&p).unwrap() {
-            let path = e.unwrap().path();
-            if path.is_dir() {
-                stack.push(path);
-                continue;
-            }
-            let name = path.strip_prefix(d).unwrap().display().to_string();
-            assert!(!name.contains(".tmp"), "a temporary file was left behind: {name}");
-            if ["run.log", ".grainwave.lock", "timing.json", "study.toml"].contains(&name.as_str()) || name.ends_with(".gwck") {
-                continue;
-            }
-            let bytes = std::fs::read(&path).unwrap();
-            let bytes = if name.ends_with(".json") {
-                let mut v: serde_json::Value = serde_json::from_slice(&bytes).unwrap();
-                drop_timings(&mut v);
-                serde_json::to_vec(&v).unwrap()
-            } else if name.ends_with(".csv") {
-                without_timing_columns(&String::from_utf8(bytes).unwrap()).into_bytes()
-            } else {
-                bytes
-            };
-            files.push((name, bytes));
+    for path in walk(d) {
+        let name = path.strip_prefix(d).unwrap().display().to_string();
+        assert!(!name.contains(".tmp"), "a temporary file was left behind: {name}");
+        if ["run.log", ".grainwave.lock", "timing.json", "study.toml"].contains(&name.as_str()) || name.ends_with(".gwck") {
+            continue;
         }
+        let bytes = std::fs::read(&path).unwrap();
+        let bytes = if name.ends_with(".json") {
+            let mut v: serde_json::Value = serde_json::from_slice(&bytes).unwrap();
+            drop_timings(&mut v);
+            serde_json::to_vec(&v).unwrap()
+        } else if name.ends_with(".csv") {
+            without_timing_columns(&String::from_utf8(bytes).unwrap()).into_bytes()
+        } else {
+            bytes
+        };
+        files.push((name, bytes));
     }
     files.sort();
     files

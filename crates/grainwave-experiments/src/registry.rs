@@ -220,7 +220,7 @@ pub fn resume(dir: &Path, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
 /// coordinator stopped before its run began: bad config, busy directory…) ends it at once.
 pub fn serve(link: &dyn WorkerLink, interrupt: Arc<AtomicBool>) -> Result<()> {
     let rank = link.rank();
-    let bytes = link.receive().map_err(|e| ExperimentError::Rank { rank, message: format!("lost the coordinator (rank 0): {e}") })?;
+    let bytes = link.receive().map_err(|e| crate::work::lost_coordinator(rank, e))?;
     match Message::decode(&bytes)? {
         Message::Begin { tag, state, out } => {
             let entry = PROTOCOLS

@@ -452,17 +452,9 @@ fn run_remote<W: Work>(work: &W, link: &dyn Link, rank: usize, k: usize, env: &U
     if let Err(e) = link.send(rank, &request) {
         return lost(format!("cannot send unit `{}`: {e}", work.units()[k].id));
     }
-    // units take milliseconds to hours: poll at most every 20 ms
-    let mut pause = std::time::Duration::from_micros(200);
-    let bytes = loop {
-        match link.try_receive(rank) {
-            Ok(Some(b)) => break b,
-            Ok(None) => {
-                std::thread::sleep(pause);
-                pause = (pause * 2).min(std::time::Duration::from_millis(20));
-            }
-            Err(e) => return lost(format!("no answer for unit `{}`: {e}", work.units()[k].id)),
-        }
+    let bytes = match poll(|| link.try_receive(rank)) {
+        Ok(b) => b,
+        Err(e) => return lost(format!("no answer for unit `{}`: {e}", work.units()[k].id)),
     };
     let message = match Message::decode(&bytes) {
         Ok(m) => m,
@@ -492,6 +484,25 @@ fn run_remote<W: Work>(work: &W, link: &dyn Link, rank: usize, k: usize, env: &U
         }
         other => lost(format!("answered {} to unit {k} (`{}`)", other.name(), work.units()[k].id)),
     }
+}
+
+/// Waits for `try_once` to return something, sleeping between tries with pauses that double from
+/// 0.2 ms up to 20 ms: units take milliseconds to hours, and a blocking wait inside most MPI
+/// libraries spins a core (a worker waiting for `e2`'s loading must not take rank 0's core).
+pub fn poll<T, E>(mut try_once: impl FnMut() -> std::result::Result<Option<T>, E>) -> std::result::Result<T, E> {
+    let mut pause = std::time::Duration::from_micros(200);
+    loop {
+        if let Some(v) = try_once()? {
+            return Ok(v);
+        }
+        std::thread::sleep(pause);
+        pause = (pause * 2).min(std::time::Duration::from_millis(20));
+    }
+}
+
+/// The error of a worker that lost its connection to the coordinator.
+pub(crate) fn lost_coordinator(rank: usize, e: String) -> ExperimentError {
+    ExperimentError::Rank { rank, message: format!("lost the coordinator (rank 0): {e}") }
 }
 
 /// Content tag of the messages between processes.
@@ -614,7 +625,7 @@ pub fn serve<W: Work>(work: &W, link: &dyn WorkerLink, out: &Path, interrupt: Ar
     let shared = Mutex::new(&mut ctx);
     let env = UnitEnv { ctx: &shared, flag: interrupt, running: AtomicUsize::new(0), report_every, shown: Mutex::new(String::new()) };
     let rank = link.rank();
-    let transport = |e: String| ExperimentError::Rank { rank, message: format!("lost the coordinator (rank 0): {e}") };
+    let transport = |e: String| lost_coordinator(rank, e);
     loop {
         let message = Message::decode(&link.receive().map_err(transport)?)?;
         let answer = match message {
