@@ -718,13 +718,15 @@ mod tests {
         local_only: Option<usize>,
         /// The units this instance ran.
         ran: Mutex<Vec<usize>>,
+        /// How long each unit takes here.
+        pause: std::time::Duration,
     }
 
     impl Squares {
         fn new(dir: &Path, n: usize) -> Self {
             // units 0..n/2 have no inputs; each later unit reads the two before it
             let units = (0..n).map(|k| Unit { id: format!("u{k:02}"), kind: "units", inputs: if k < n / 2 { vec![] } else { vec![k - 2, k - 1] } }).collect();
-            Squares { dir: dir.to_path_buf(), units, fail: None, interrupt_at: None, runs: AtomicUsize::new(0), local_only: None, ran: Mutex::new(Vec::new()) }
+            Squares { dir: dir.to_path_buf(), units, fail: None, interrupt_at: None, runs: AtomicUsize::new(0), local_only: None, ran: Mutex::new(Vec::new()), pause: std::time::Duration::ZERO }
         }
         fn file(&self, k: usize) -> std::path::PathBuf {
             self.dir.join("units").join(format!("{}.gwck", self.units[k].id))
@@ -746,6 +748,7 @@ mod tests {
             self.runs.fetch_add(1, Ordering::SeqCst);
             self.ran.lock().unwrap().push(k);
             env.log(&format!("unit {k} ran"));
+            std::thread::sleep(self.pause);
             if self.interrupt_at == Some(k) {
                 env.interrupt_flag().store(true, Ordering::SeqCst);
                 return Err(UnitStop::Interrupted);
@@ -990,6 +993,10 @@ mod tests {
         let dir = temp("ranks");
         let mut coordinator = Squares::new(&dir, n);
         coordinator.local_only = Some(1);
+        // the coordinator's units take 200 ms, the workers' none: the workers' slots start long
+        // before it could run every unit itself (units of no duration let one thread run them all
+        // before the workers' threads were scheduled on a loaded machine)
+        coordinator.pause = std::time::Duration::from_millis(200);
         let (outcome, log, ran) = distributed(&coordinator, 2, || Squares::new(&dir, n));
         assert_eq!(outcome.unwrap(), Finished::Complete);
         assert_eq!((0..n).map(|k| coordinator.value(k)).collect::<Vec<_>>(), expected(n));
