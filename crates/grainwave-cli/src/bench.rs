@@ -76,7 +76,7 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
     let say = |r: &BenchResult| {
         if !quiet {
             say!(
-                "{:<9} {:<8} shear {:<5} N {:>6} steps {:>5} workers {} | {:>8.3} s  {:>10.4e} particle-steps/s  contacts/grain {:.4}  rebuilds {:>4}  peak mem {:>6.1} MiB  KE {:.6e} {}",
+                "{:<9} {:<8} shear {:<5} N {:>6} steps {:>5} workers {} | {:>8.3} s  {:>10.4e} particle-steps/s  {:>10.4e} contact-steps/s  contacts/grain {:.4}  rebuilds {:>4}  peak mem {:>6.1} MiB  KE {:.6e} {}",
                 r.code,
                 r.case,
                 r.shear,
@@ -85,6 +85,7 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
                 r.workers,
                 r.loop_seconds,
                 r.particle_steps_per_second,
+                r.contact_steps_per_second,
                 r.contacts_per_grain,
                 r.neighbor_rebuilds,
                 r.peak_memory_bytes as f64 / (1024.0 * 1024.0),
@@ -109,16 +110,17 @@ pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
     if !quiet && args.repeat > 1 {
         say!("medians over {} runs:", args.repeat);
         for &case in &cases {
-            let rate = |code: &str| {
-                let v: Vec<f64> = all.iter().filter(|r| r.code == code && r.case == case.name()).map(|r| r.particle_steps_per_second).collect();
+            let rate = |code: &str, per: fn(&BenchResult) -> f64| {
+                let v: Vec<f64> = all.iter().filter(|r| r.code == code && r.case == case.name()).map(per).collect();
                 median(&v)
             };
-            let gw = rate("grainwave");
+            let gw = rate("grainwave", |r| r.particle_steps_per_second);
+            let gw_c = rate("grainwave", |r| r.contact_steps_per_second);
             if lammps.is_some() {
-                let lmp = rate("lammps");
-                say!("  {:<8} grainwave {gw:.4e}  lammps {lmp:.4e}  ratio {:.3}", case.name(), gw / lmp);
+                let lmp = rate("lammps", |r| r.particle_steps_per_second);
+                say!("  {:<8} grainwave {gw:.4e}  lammps {lmp:.4e}  ratio {:.3}  (grainwave {gw_c:.4e} contact-steps/s)", case.name(), gw / lmp);
             } else {
-                say!("  {:<8} grainwave {gw:.4e}", case.name());
+                say!("  {:<8} grainwave {gw:.4e}  ({gw_c:.4e} contact-steps/s)", case.name());
             }
         }
     }

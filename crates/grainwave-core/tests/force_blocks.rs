@@ -29,7 +29,7 @@ fn hashes<D: Dim>(make: impl Fn() -> Simulation<D> + Sync, steps: u64) -> Vec<u6
 
 #[test]
 fn block_length_and_thread_count_do_not_change_a_bit_2d() {
-    // frictional, damped, with rolling resistance (general kernel) and without (specialised)
+    // frictional, damped, with rolling resistance and without (both specialised)
     for rolling in [false, true] {
         let mut p = hooke(1.0e3, Some(0.8), 0.3);
         if rolling {
@@ -65,7 +65,7 @@ fn block_length_and_thread_count_do_not_change_a_bit_3d_with_walls_and_gravity()
 #[test]
 fn specialised_window_kernels_give_the_bits_of_the_general_kernel() {
     // Hertz–Mindlin (Tsuji and critical damping) and Hooke–Cundall–Strack (mass-proportional
-    // and restitution damping), 2D and 3D, still and shearing cells, 1 and 2 threads with
+    // and restitution damping), each also with rolling resistance, 2D and 3D, still and shearing cells, 1 and 2 threads with
     // several blocks, and one block.
     // (general, simd, one block): the general kernel, or a specialised one on the portable path
     // (simd 0), the fused AVX2 pass (1), the AVX-512 windows (2) or the fused pass on 512-bit
@@ -80,7 +80,16 @@ fn specialised_window_kernels_give_the_bits_of_the_general_kernel() {
         tsuji.tsuji_restitution = Some(0.5);
         let mut rate = hooke(1.0e3, None, 0.3);
         rate.normal_damping_rate = Some(5.0);
-        vec![tsuji, hertz(1.0e3, 0.3, 0.4, Some(0.05)), rate, hooke(1.0e3, Some(0.8), 0.3)]
+        // rolling resistance (E2's law: restitution damping, weak rolling stiffness and cap;
+        // and a stiff, damped one on Hertz–Mindlin, whose cap is reached often)
+        let mut e2 = hooke(1.0e3, Some(0.8), 0.3);
+        e2.rolling_stiffness = Some(0.5);
+        e2.rolling_friction = Some(0.01);
+        let mut hertz_rolling = hertz(1.0e3, 0.3, 0.4, Some(0.05));
+        hertz_rolling.rolling_stiffness = Some(5.0);
+        hertz_rolling.rolling_damping = Some(0.01);
+        hertz_rolling.rolling_friction = Some(0.05);
+        vec![tsuji, hertz(1.0e3, 0.3, 0.4, Some(0.05)), rate, hooke(1.0e3, Some(0.8), 0.3), e2, hertz_rolling]
     };
     for p in laws {
         let law = p.build(Partner::Grain, "contact").unwrap();

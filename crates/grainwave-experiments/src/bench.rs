@@ -10,7 +10,12 @@
 //! | `hooke3d` | same | `gran/hooke/history 1e4 NULL 50 NULL 0.5 1` | `hooke_cundall_strack`, k_n = 1e4, k_t = 2/7 k_n, γ_n = 50 m*, γ_t = γ_n/2, μ = 0.5 | 1e-3 |
 //! | `hooke2d` | `pack2d_084.data.gz`, 16 384 disks | `gran/hooke/history 2e4 NULL 50 NULL 0.2 1` | same with k_n = 2e4, μ = 0.2 | 2e-4 |
 //! | `walled2d` | the 2D packing inside four walls | — | E2 law: Hooke, e = 0.92, k_t = k_n/2, μ = 0.2, weak rolling resistance, frictionless walls | 2e-4 |
+//! | `piston2d` | the 2D packing as E1 `sphere2d` balls, periodic in x, floor and piston at p = 1e-4 | — | E1 law: Hertz–Mindlin, E* = 1, ν = 0, μ = 0.5, ζ = 0.2 | E1's: 0.05 × the contact time at the expected overlap |
+//! | `slab2d` | E3 lattice slab, 128 rows of 128 disks, floor and side walls, gravity | — | E3 law: Hooke k_N = 3000, k_T = 0.8 k_N, dashpots √(m̄k), μ = 0.5; Beeman | 5e-4 |
 //!
+//! The last three are the studies' own set-ups at the size of `hooke2d` (no LAMMPS deck): their
+//! throughput per contact, against the periodic cases, is what the studies' laws, walls, pistons
+//! and gravity cost.
 //! Every case starts, like the decks, with all translational velocities set to zero (angular
 //! velocities are kept from the file) and uses a Verlet skin of 0.1 checked every step.
 //! Throughput is N × steps / (wall-clock time of the stepping loop), as LAMMPS's "Loop time".
@@ -45,11 +50,15 @@ pub enum BenchCase {
     Hooke2d,
     /// 2D E2-style walled packing: the 16 384 disks inside four frictionless walls.
     Walled2d,
+    /// 2D E1-style packing: the 16 384 disks as `sphere2d` balls under a piston.
+    Piston2d,
+    /// E3 lattice slab of 16 384 disks under gravity.
+    Slab2d,
 }
 
 impl BenchCase {
     /// All cases, in order.
-    pub const ALL: [BenchCase; 4] = [BenchCase::Hertz3d, BenchCase::Hooke3d, BenchCase::Hooke2d, BenchCase::Walled2d];
+    pub const ALL: [BenchCase; 6] = [BenchCase::Hertz3d, BenchCase::Hooke3d, BenchCase::Hooke2d, BenchCase::Walled2d, BenchCase::Piston2d, BenchCase::Slab2d];
 
     /// Name used on the command line and in reports.
     pub fn name(self) -> &'static str {
@@ -58,6 +67,8 @@ impl BenchCase {
             BenchCase::Hooke3d => "hooke3d",
             BenchCase::Hooke2d => "hooke2d",
             BenchCase::Walled2d => "walled2d",
+            BenchCase::Piston2d => "piston2d",
+            BenchCase::Slab2d => "slab2d",
         }
     }
 
@@ -66,11 +77,12 @@ impl BenchCase {
         Self::ALL.into_iter().find(|c| c.name() == name)
     }
 
-    /// Packing file inside the benchmark directory.
-    pub fn data_file(self) -> &'static str {
+    /// Packing file inside the benchmark directory (`None`: the case builds its own).
+    pub fn data_file(self) -> Option<&'static str> {
         match self {
-            BenchCase::Hertz3d | BenchCase::Hooke3d => "pack3d_062.data.gz",
-            BenchCase::Hooke2d | BenchCase::Walled2d => "pack2d_084.data.gz",
+            BenchCase::Hertz3d | BenchCase::Hooke3d => Some("pack3d_062.data.gz"),
+            BenchCase::Hooke2d | BenchCase::Walled2d | BenchCase::Piston2d => Some("pack2d_084.data.gz"),
+            BenchCase::Slab2d => None,
         }
     }
 
@@ -78,15 +90,16 @@ impl BenchCase {
     pub fn default_steps(self) -> u64 {
         match self {
             BenchCase::Hertz3d | BenchCase::Hooke3d => 2000,
-            BenchCase::Hooke2d | BenchCase::Walled2d => 5000,
+            BenchCase::Hooke2d | BenchCase::Walled2d | BenchCase::Piston2d | BenchCase::Slab2d => 5000,
         }
     }
 
-    /// Time step.
-    pub fn dt(self) -> f64 {
+    /// Time step of the cases that fix it (`piston2d` takes E1's rule, `slab2d` E3's default).
+    pub fn dt(self) -> Option<f64> {
         match self {
-            BenchCase::Hertz3d | BenchCase::Hooke3d => 1e-3,
-            BenchCase::Hooke2d | BenchCase::Walled2d => 2e-4,
+            BenchCase::Hertz3d | BenchCase::Hooke3d => Some(1e-3),
+            BenchCase::Hooke2d | BenchCase::Walled2d => Some(2e-4),
+            BenchCase::Piston2d | BenchCase::Slab2d => None,
         }
     }
 
@@ -96,11 +109,12 @@ impl BenchCase {
             BenchCase::Hertz3d => Some(("bench3d.lmp", vec![("law", "hertz")])),
             BenchCase::Hooke3d => Some(("bench3d.lmp", vec![("law", "hooke")])),
             BenchCase::Hooke2d => Some(("bench2d.lmp", vec![])),
-            BenchCase::Walled2d => None,
+            BenchCase::Walled2d | BenchCase::Piston2d | BenchCase::Slab2d => None,
         }
     }
 
-    /// Grain–grain contact parameters (same law as the LAMMPS deck).
+    /// Grain–grain contact parameters (same law as the LAMMPS deck; the study's law for the
+    /// study cases).
     pub fn contact(self) -> ContactParams {
         match self {
             BenchCase::Hertz3d => ContactParams {
@@ -134,8 +148,35 @@ impl BenchCase {
                 rolling_friction: Some(0.01),
                 ..ContactParams::preset("hooke_cundall_strack")
             },
+            // E1 (SPEC §5.1): E* = 1 (E = 1 − ν² with ν = 0), μ = 0.5, ζ = 0.2 (the preparation's)
+            BenchCase::Piston2d => crate::e1::prepare::hertz_params(PISTON_FRICTION, 0.0, PISTON_DAMPING),
+            // E3 (SPEC §7.1): the default material (its dashpot coefficients are not preset keys)
+            BenchCase::Slab2d => {
+                let m = slab_material();
+                let mut p = ContactParams::preset("hooke_cundall_strack");
+                p.normal_stiffness = Some(m.normal_stiffness);
+                p.tangential_stiffness_ratio = Some(m.ratio);
+                p.friction = Some(m.friction);
+                p
+            }
         }
     }
+}
+
+/// `piston2d`: E1's friction, preparation damping and a pressure of its series.
+const PISTON_FRICTION: f64 = 0.5;
+const PISTON_DAMPING: f64 = 0.2;
+const PISTON_PRESSURE: f64 = 1e-4;
+/// `slab2d`: rows × grains per row (16 384 disks, as `hooke2d`).
+const SLAB_SIZE: usize = 128;
+/// `slab2d`: steps run before the timed ones.
+const SLAB_WARMUP: u64 = 1000;
+/// Steps between the contact samples of a timed run.
+const CONTACT_SAMPLE: u64 = 100;
+
+fn slab_material() -> crate::e3::slab::Material {
+    let m = crate::e3::config::MaterialConfig::default();
+    crate::e3::slab::Material::resolve(&m, m.friction, m.tangential_stiffness_ratio)
 }
 
 /// What to run.
@@ -227,6 +268,10 @@ pub struct BenchResult {
     /// Mean number of grain–grain contacts per grain at the end (each contact counted for both
     /// grains, walls not counted), as LAMMPS's `compute contact/atom`.
     pub contacts_per_grain: f64,
+    /// Grain–grain contacts (each counted once; grainwave: the mean of samples taken every
+    /// 100 steps, LAMMPS: at the end) × steps / loop time: the throughput per contact, to compare
+    /// cases whose packings have different contact numbers.
+    pub contact_steps_per_second: f64,
     /// Neighbor-list builds during the loop.
     pub neighbor_rebuilds: u64,
     /// Peak memory (bytes): grainwave's resident set high-water mark (whole process so far);
@@ -241,9 +286,15 @@ pub struct BenchResult {
 
 /// Runs one grainwave benchmark (in the current rayon pool).
 pub fn run_grainwave(cfg: &BenchConfig) -> Result<BenchResult> {
-    let path = cfg.dir.join(cfg.case.data_file());
-    let data = read_data(&path).map_err(|e| CoreError::Inconsistent(e.to_string()))?;
     let steps = cfg.steps.unwrap_or(cfg.case.default_steps());
+    if cfg.shear != 0.0 && !matches!(cfg.case, BenchCase::Hertz3d | BenchCase::Hooke3d | BenchCase::Hooke2d) {
+        return Err(CoreError::invalid("--shear", cfg.shear, "0 for the walled and study cases (a shearing cell needs a periodic case: hertz3d, hooke3d, hooke2d)").into());
+    }
+    if cfg.case == BenchCase::Slab2d {
+        return time_sim(cfg, slab(cfg)?, steps);
+    }
+    let path = cfg.dir.join(cfg.case.data_file().unwrap_or_default());
+    let data = read_data(&path).map_err(|e| CoreError::Inconsistent(e.to_string()))?;
     let opts = ImportOptions::default();
     match cfg.case {
         BenchCase::Hertz3d | BenchCase::Hooke3d => {
@@ -259,7 +310,72 @@ pub fn run_grainwave(cfg: &BenchConfig) -> Result<BenchResult> {
             let (grains, domain) = walled(grains, domain, &cfg.case.contact())?;
             time_run(cfg, grains, domain, steps)
         }
+        BenchCase::Piston2d => {
+            let (disks, domain) = data.to_packing_2d(&opts).map_err(|e| CoreError::Inconsistent(e.to_string()))?;
+            time_sim(cfg, piston(cfg, disks, &domain)?, steps)
+        }
+        BenchCase::Slab2d => unreachable!("built above"),
     }
+}
+
+/// `piston2d`: the disks of the periodic packing as E1's `sphere2d` balls (unit density, so unit
+/// mean diameter as in E1), periodic in x only, a fixed floor touching the lowest ball and a
+/// piston of one layer's mass touching the highest, pushing with p L_x d̄ (E1's piston,
+/// `e1::prepare::build_gas`); time step by E1's rule for that pressure.
+fn piston(cfg: &BenchConfig, disks: Grains<grainwave_core::dim::D2>, domain: &Domain<grainwave_core::dim::D2>) -> Result<grainwave_core::sim::Simulation<grainwave_core::dim::D2>> {
+    use crate::e1::prepare::default_expected_overlap;
+    use grainwave_core::domain::{TimeFunction, WallMotion};
+    use grainwave_core::grains::GrainKind;
+    let mut grains = Grains::<grainwave_core::dim::D2>::new(GrainKind::Sphere2d);
+    for (p, &r) in disks.pos.iter().zip(&disks.radius) {
+        grains.push(*p, r, 1.0, DVec2::ZERO);
+    }
+    if cfg.order == GrainOrder::Shuffled {
+        shuffle(&mut grains);
+    }
+    let params = cfg.case.contact();
+    let law = params.build(Partner::Grain, "contact")?;
+    let wall_law = params.build(Partner::Wall, "contact.wall")?;
+    let lo = grains.pos.iter().zip(&grains.radius).map(|(p, r)| p.y - r).fold(f64::INFINITY, f64::min);
+    let hi = grains.pos.iter().zip(&grains.radius).map(|(p, r)| p.y + r).fold(f64::NEG_INFINITY, f64::max);
+    let width = domain.hi.x - domain.lo.x;
+    let n = grains.len() as f64;
+    let mean_diameter = 2.0 * grains.radius.iter().sum::<f64>() / n;
+    let r_max = grains.radius.iter().cloned().fold(0.0, f64::max);
+    let piston_mass = width / mean_diameter * grains.total_mass() / n;
+    let force = PISTON_PRESSURE * width * mean_diameter;
+    let d = Domain::new(DVec2::new(domain.lo.x, lo), DVec2::new(domain.hi.x, hi), [true, false, false])
+        .with_wall(Wall::axis_aligned("bottom", 1, lo, true, wall_law))
+        .with_wall(Wall::axis_aligned("top", 1, hi, false, wall_law).with_motion(WallMotion::Piston { mass: piston_mass, force: TimeFunction::constant(force) }));
+    let preparation = crate::e1::config::PreparationConfig::default();
+    let sim = SimulationBuilder::new(grains, d, law)
+        .dt_fraction(preparation.dt_fraction)
+        .expected_overlap(default_expected_overlap(PISTON_PRESSURE, r_max))
+        .skin(0.1)
+        .max_initial_overlap(0.3)
+        .build()?;
+    Ok(sim)
+}
+
+/// `slab2d`: E3's slab (SPEC §7.2.1: full rows on a triangular lattice of spacing 2R̄, floor and
+/// side walls, gravity), 128 rows of 128 equal disks at rest, E3's default material and
+/// integration (`e3::slab::build`).
+fn slab(cfg: &BenchConfig) -> Result<grainwave_core::sim::Simulation<grainwave_core::dim::D2>> {
+    use crate::e3::config::{IntegrationConfig, RowLayout};
+    use crate::e3::slab::{build, Shape, Sites};
+    let sites = Sites::of(Shape::Slab { layers: SLAB_SIZE, grains_per_layer: SLAB_SIZE, rows: RowLayout::Full });
+    let radii = vec![1.0; sites.positions.len()];
+    let mut sim = build(&sites, &radii, &slab_material(), &IntegrationConfig::default(), 1)?;
+    if cfg.order == GrainOrder::Shuffled {
+        shuffle(&mut sim.grains);
+        sim.refresh()?;
+    }
+    // Untimed: the touching lattice sinks under its weight (a contact period 2π √(m̄/2k_N)
+    // ≈ 0.08 τ = 160 steps). After 1 000 steps the inclined contacts carry the weight (≈ 4 per
+    // grain); the horizontal ones close as the slab keeps settling between the side walls
+    // (≈ 5.6 per grain 5 000 steps later), which the per-contact throughput follows.
+    sim.steps(SLAB_WARMUP)?;
+    Ok(sim)
 }
 
 /// The periodic 2D packing closed by four frictionless walls, each touching the outermost disk
@@ -293,7 +409,13 @@ fn time_run<D: Dim>(cfg: &BenchConfig, mut grains: Grains<D>, mut domain: Domain
         shuffle(&mut grains);
     }
     let law = cfg.case.contact().build(Partner::Grain, "contact")?;
-    let mut sim = SimulationBuilder::new(grains, domain, law).dt(cfg.case.dt()).skin(0.1).max_initial_overlap(0.3).build()?;
+    let dt = cfg.case.dt().ok_or_else(|| CoreError::Inconsistent(format!("case `{}` has no fixed time step", cfg.case.name())))?;
+    let sim = SimulationBuilder::new(grains, domain, law).dt(dt).skin(0.1).max_initial_overlap(0.3).build()?;
+    time_sim(cfg, sim, steps)
+}
+
+/// Times `steps` steps of `sim` (the storage order and vector path of `cfg` applied first).
+fn time_sim<D: Dim>(cfg: &BenchConfig, mut sim: grainwave_core::sim::Simulation<D>, steps: u64) -> Result<BenchResult> {
     if let Some(level) = cfg.simd {
         sim.set_simd_level(level);
     }
@@ -301,15 +423,29 @@ fn time_run<D: Dim>(cfg: &BenchConfig, mut grains: Grains<D>, mut domain: Domain
         sim.sort_spatially();
         sim.refresh_forces()?;
     }
+    // grain–grain contacts now (the pass counts walls too)
+    let grain_contacts = |sim: &grainwave_core::sim::Simulation<D>| {
+        let wall_contacts = sim.nlist.wall_pairs.iter().filter(|p| p.state.in_contact()).count() as u64;
+        (sim.counters.contacts - wall_contacts) as f64
+    };
     let builds0 = sim.nlist.builds;
+    // steps in chunks (the same bits as one call), the contacts sampled after each: their mean
+    // over the run for the throughput per contact (a settling packing gains contacts as it goes)
+    let (mut done, mut contact_sum, mut samples) = (0, 0.0, 0u64);
     let start = Instant::now();
-    sim.steps(steps)?;
+    while done < steps {
+        let k = CONTACT_SAMPLE.min(steps - done);
+        sim.steps(k)?;
+        done += k;
+        contact_sum += grain_contacts(&sim) * k as f64;
+        samples += k;
+    }
     let loop_seconds = start.elapsed().as_secs_f64();
     let n = sim.len();
     let ke = grainwave_core::util::det_sum(n, |k| 0.5 * sim.grains.mass[k] * sim.grains.vel[k].norm2());
-    // grain–grain contacts, each counted for both grains (LAMMPS `compute contact/atom`)
-    let wall_contacts = sim.nlist.wall_pairs.iter().filter(|p| p.state.in_contact()).count() as u64;
-    let grain_contacts = (sim.counters.contacts - wall_contacts) as f64;
+    // grain–grain contacts at the end, each counted for both grains (LAMMPS `compute contact/atom`)
+    let grain_contacts_end = grain_contacts(&sim);
+    let mean_contacts = if samples > 0 { contact_sum / samples as f64 } else { grain_contacts_end };
     Ok(BenchResult {
         code: "grainwave".into(),
         case: cfg.case.name().into(),
@@ -320,7 +456,8 @@ fn time_run<D: Dim>(cfg: &BenchConfig, mut grains: Grains<D>, mut domain: Domain
         workers: rayon::current_num_threads(),
         loop_seconds,
         particle_steps_per_second: n as f64 * steps as f64 / loop_seconds,
-        contacts_per_grain: 2.0 * grain_contacts / n as f64,
+        contacts_per_grain: 2.0 * grain_contacts_end / n as f64,
+        contact_steps_per_second: mean_contacts * steps as f64 / loop_seconds,
         neighbor_rebuilds: sim.nlist.builds - builds0,
         peak_memory_bytes: peak_rss_bytes(),
         kinetic_energy: ke,
@@ -355,8 +492,9 @@ pub fn run_lammps(cfg: &BenchConfig, lmp: &LammpsCommand) -> Result<BenchResult>
     let steps = cfg.steps.unwrap_or(cfg.case.default_steps());
     let tmp = std::env::temp_dir().join(format!("grainwave-bench-{}", std::process::id()));
     std::fs::create_dir_all(&tmp).map_err(|e| io_error("cannot create", &tmp, e))?;
-    let data_gz = cfg.dir.join(cfg.case.data_file());
-    let data = tmp.join(cfg.case.data_file().trim_end_matches(".gz"));
+    let file = cfg.case.data_file().ok_or_else(|| CoreError::Inconsistent(format!("case `{}` has no packing file", cfg.case.name())))?;
+    let data_gz = cfg.dir.join(file);
+    let data = tmp.join(file.trim_end_matches(".gz"));
     if !data.exists() {
         let text = read_text(&data_gz).map_err(|e| CoreError::Inconsistent(e.to_string()))?;
         std::fs::write(&data, text).map_err(|e| io_error("cannot write", &data, e))?;
@@ -426,6 +564,7 @@ fn parse_lammps_output(text: &str, cfg: &BenchConfig, procs: usize) -> Result<Be
         loop_seconds: seconds,
         particle_steps_per_second: atoms as f64 * steps as f64 / seconds,
         contacts_per_grain: thermo[2].parse().unwrap_or(f64::NAN),
+        contact_steps_per_second: thermo[2].parse::<f64>().map_or(f64::NAN, |z| 0.5 * z * atoms as f64 * steps as f64 / seconds),
         neighbor_rebuilds: builds,
         peak_memory_bytes: (memory_mib * procs as f64 * 1024.0 * 1024.0) as u64,
         kinetic_energy: thermo[1].parse().unwrap_or(f64::NAN),
@@ -473,6 +612,33 @@ Neighbor list builds = 10
         assert_eq!(r.kinetic_energy, 2.6993005);
         assert!((r.particle_steps_per_second - 32000.0 * 2000.0 / 15.2738).abs() < 1e-6);
         assert_eq!(r.peak_memory_bytes, (24.02 * 1024.0 * 1024.0) as u64);
+    }
+
+    /// `slab2d` builds E3's slab itself (no packing file): after its warm-up the lattice carries
+    /// its weight on the inclined contacts (4 per interior disk of the triangular lattice; the
+    /// 6 of a fully closed lattice are the bound), the run is deterministic, and the
+    /// per-contact throughput uses the contacts sampled along the run.
+    #[test]
+    fn the_slab_case_runs_the_loaded_lattice() {
+        let cfg = BenchConfig { case: BenchCase::Slab2d, dir: PathBuf::from("/nonexistent"), steps: Some(250), shear: 0.0, order: GrainOrder::File, simd: None };
+        let a = run_grainwave(&cfg).unwrap();
+        assert_eq!((a.grains, a.steps), (128 * 128, 250));
+        assert!(a.contacts_per_grain > 3.9 && a.contacts_per_grain < 6.0, "{}", a.contacts_per_grain);
+        // samples at 100, 200 and 250 steps, each between the same bounds
+        let per_grain = 2.0 * a.contact_steps_per_second / a.particle_steps_per_second;
+        assert!(per_grain > 3.9 && per_grain < 6.0 && per_grain != a.contacts_per_grain, "{per_grain}");
+        assert_eq!(run_grainwave(&cfg).unwrap().state_hash, a.state_hash);
+    }
+
+    /// Only the periodic cases can shear; the others say so before reading anything.
+    #[test]
+    fn shear_is_refused_outside_the_periodic_cases() {
+        for case in [BenchCase::Walled2d, BenchCase::Piston2d, BenchCase::Slab2d] {
+            let cfg = BenchConfig { case, dir: PathBuf::from("/nonexistent"), steps: Some(1), shear: 0.1, order: GrainOrder::File, simd: None };
+            let e = run_grainwave(&cfg).unwrap_err().to_string();
+            assert!(e.contains("--shear") && e.contains("0.1") && e.contains("hooke2d"), "{e}");
+        }
+        assert!(BenchCase::Slab2d.data_file().is_none() && BenchCase::Slab2d.lammps_deck().is_none());
     }
 
     #[test]

@@ -34,9 +34,10 @@ pub use damping::{
 pub use kinematics::{pair_kinematics, wall_kinematics, Kinematics};
 pub use normal::{NormalElastic, NormalResponse};
 pub use params::{ContactParams, Partner, PRESETS};
-pub use parts::{HertzMindlin, HookeCundallStrack, LawParts, Specialized};
+pub use parts::{HertzMindlin, HookeCundallStrack, LawParts, Specialized, WithRolling};
 pub use rolling::{Rolling, Twisting};
 pub use tangential::{HistoryValue, Tangential, TangentialDamping, TangentialHistory};
+pub(crate) use coulomb::coulomb_cap_lanes;
 pub(crate) use damping::clamped_normal_force_lanes;
 pub(crate) use kinematics::{into_tangent_plane_lanes, pair_kinematics_lanes};
 pub(crate) use tangential::spring_step;

@@ -4,7 +4,7 @@
 //! [`evaluate_parts`](super::evaluate_parts) is written against [`LawParts`]. [`ContactLaw`]
 //! implements it by reading its enum fields at run time; [`HertzMindlin`] and
 //! [`HookeCundallStrack`] fix the normal and tangential parts and switch rolling and twisting
-//! off at compile time. Each part computes the same expression in every implementation, so a
+//! off at compile time; [`WithRolling`] adds a rolling spring–dashpot to either (E2's law). Each part computes the same expression in every implementation, so a
 //! specialised kernel gives exactly the bits of the general one (tested).
 
 use super::{ContactLaw, NormalDamping, NormalElastic, Rolling, Tangential, TangentialDamping, Twisting};
@@ -129,6 +129,49 @@ impl LawParts for HookeCundallStrack {
     common_parts!();
 }
 
+/// A specialised law `L` with rolling resistance added: a spring–dashpot on the relative rolling
+/// rotation, capped at μ_r R* F_n ([`Rolling::SpringDashpot`]), no twisting resistance. E2's law
+/// (SPEC §6.1) is `WithRolling<HookeCundallStrack>`.
+#[derive(Clone, Copy, Debug)]
+pub struct WithRolling<L> {
+    pub(crate) law: L,
+    /// k_r, γ_r, μ_r.
+    pub(crate) stiffness: f64,
+    pub(crate) damping: f64,
+    pub(crate) friction: f64,
+}
+
+impl<L: LawParts> LawParts for WithRolling<L> {
+    #[inline(always)]
+    fn normal(&self) -> NormalElastic {
+        self.law.normal()
+    }
+    #[inline(always)]
+    fn damping(&self) -> NormalDamping {
+        self.law.damping()
+    }
+    #[inline(always)]
+    fn tangential(&self) -> Tangential {
+        self.law.tangential()
+    }
+    #[inline(always)]
+    fn tangential_damping(&self) -> TangentialDamping {
+        self.law.tangential_damping()
+    }
+    #[inline(always)]
+    fn friction(&self) -> f64 {
+        self.law.friction()
+    }
+    #[inline(always)]
+    fn rolling(&self) -> Rolling {
+        Rolling::SpringDashpot { stiffness: self.stiffness, damping: self.damping, friction: self.friction }
+    }
+    #[inline(always)]
+    fn twisting(&self) -> Twisting {
+        Twisting::None
+    }
+}
+
 /// A law recognised as one of the specialised combinations, or the general law.
 #[derive(Clone, Copy, Debug)]
 pub enum Specialized {
@@ -136,24 +179,40 @@ pub enum Specialized {
     HertzMindlin(HertzMindlin),
     /// See [`HookeCundallStrack`].
     HookeCundallStrack(HookeCundallStrack),
-    /// Anything else (rolling or twisting resistance, no friction, rescaled Mindlin, mixed
-    /// parts): evaluated through [`ContactLaw`] itself.
+    /// [`HertzMindlin`] with rolling resistance.
+    HertzMindlinRolling(WithRolling<HertzMindlin>),
+    /// [`HookeCundallStrack`] with rolling resistance (E2's law).
+    HookeCundallStrackRolling(WithRolling<HookeCundallStrack>),
+    /// Anything else (twisting resistance, no friction, rescaled Mindlin, mixed parts):
+    /// evaluated through [`ContactLaw`] itself.
     General(ContactLaw),
 }
 
 impl ContactLaw {
     /// The fastest evaluation path for this law.
     pub fn specialize(&self) -> Specialized {
-        if self.rolling != Rolling::None || self.twisting != Twisting::None {
+        if self.twisting != Twisting::None {
             return Specialized::General(*self);
         }
         let (damping, tangential_damping, friction) = (self.damping, self.tangential_damping, self.friction);
-        match (self.normal, self.tangential) {
-            (NormalElastic::Hertz { effective_modulus }, Tangential::Mindlin { effective_shear_modulus, rescale_on_unloading: false }) => {
-                Specialized::HertzMindlin(HertzMindlin { effective_modulus, effective_shear_modulus, damping, tangential_damping, friction })
+        let rolling = match self.rolling {
+            Rolling::None => None,
+            Rolling::SpringDashpot { stiffness, damping, friction } => Some((stiffness, damping, friction)),
+        };
+        match (self.normal, self.tangential, rolling) {
+            (NormalElastic::Hertz { effective_modulus }, Tangential::Mindlin { effective_shear_modulus, rescale_on_unloading: false }, r) => {
+                let law = HertzMindlin { effective_modulus, effective_shear_modulus, damping, tangential_damping, friction };
+                match r {
+                    None => Specialized::HertzMindlin(law),
+                    Some((stiffness, damping, friction)) => Specialized::HertzMindlinRolling(WithRolling { law, stiffness, damping, friction }),
+                }
             }
-            (NormalElastic::Hooke { stiffness: normal_stiffness }, Tangential::Linear { stiffness: tangential_stiffness }) => {
-                Specialized::HookeCundallStrack(HookeCundallStrack { normal_stiffness, tangential_stiffness, damping, tangential_damping, friction })
+            (NormalElastic::Hooke { stiffness: normal_stiffness }, Tangential::Linear { stiffness: tangential_stiffness }, r) => {
+                let law = HookeCundallStrack { normal_stiffness, tangential_stiffness, damping, tangential_damping, friction };
+                match r {
+                    None => Specialized::HookeCundallStrack(law),
+                    Some((stiffness, damping, friction)) => Specialized::HookeCundallStrackRolling(WithRolling { law, stiffness, damping, friction }),
+                }
             }
             _ => Specialized::General(*self),
         }
@@ -208,8 +267,16 @@ mod tests {
         let mut hooke_e = hooke.clone();
         hooke_e.normal_damping_rate = None;
         hooke_e.restitution = Some(0.8);
+        // rolling resistance on both (E2's law is `hooke_e` with it)
+        let mut hertz_rolling = hertz_zeta.clone();
+        hertz_rolling.rolling_stiffness = Some(2e-3);
+        hertz_rolling.rolling_damping = Some(1e-4);
+        hertz_rolling.rolling_friction = Some(0.05);
+        let mut hooke_rolling = hooke_e.clone();
+        hooke_rolling.rolling_stiffness = Some(50.0);
+        hooke_rolling.rolling_friction = Some(0.01);
         let mut checked = 0;
-        for p in [hertz, hooke, hertz_zeta, hooke_e] {
+        for p in [hertz, hooke, hertz_zeta, hooke_e, hertz_rolling, hooke_rolling] {
             let law = p.build(Partner::Grain, "contact").unwrap();
             let v3 = |rng: &mut ChaCha8Rng| DVec3::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5);
             let mk3 = |rng: &mut ChaCha8Rng| (DVec3::new(0.9 + 0.1 * rng.random::<f64>(), 0.2 * rng.random::<f64>(), 0.1), v3(rng), v3(rng), v3(rng) * 10f64.powf(7.0 * rng.random::<f64>() - 3.0));
@@ -226,15 +293,24 @@ mod tests {
                     same_bits::<D3, _>(&s, &law, mk3);
                     same_bits::<D2, _>(&s, &law, mk2);
                 }
+                Specialized::HertzMindlinRolling(s) => {
+                    same_bits::<D3, _>(&s, &law, mk3);
+                    same_bits::<D2, _>(&s, &law, mk2);
+                }
+                Specialized::HookeCundallStrackRolling(s) => {
+                    same_bits::<D3, _>(&s, &law, mk3);
+                    same_bits::<D2, _>(&s, &law, mk2);
+                }
                 Specialized::General(_) => panic!("{law:?} should be specialised"),
             }
             checked += 1;
         }
-        assert_eq!(checked, 4);
-        // rolling resistance keeps the general path
+        assert_eq!(checked, 6);
+        // twisting resistance keeps the general path
         let mut p = ContactParams::preset("hooke_cundall_strack");
         p.normal_stiffness = Some(1e4);
         p.rolling_stiffness = Some(1.0);
+        p.twisting_stiffness = Some(1.0);
         assert!(matches!(p.build(Partner::Grain, "contact").unwrap().specialize(), Specialized::General(_)));
     }
 }

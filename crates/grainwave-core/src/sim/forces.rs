@@ -486,6 +486,15 @@ fn push_pair<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &mut History<D>, v: Vel
 #[inline(always)]
 fn eval_window<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D>, h: &mut History<D>, w: &mut Window, st: &mut ForceStats) {
     let len = w.len.min(CAP);
+    if law.rolls() {
+        // the rolling springs, gathered here (the window's fillers do not know the law)
+        for k in 0..len {
+            let q = w.pair[k] as usize - h.base;
+            debug_assert!(q < h.rolling.len());
+            // SAFETY: the window only holds pairs of this history range (`push_pair`, `push_pairs`).
+            lanes::put(&mut w.rolling, k, unsafe { *h.rolling.get_unchecked(q) });
+        }
+    }
     if VEC {
         // compiled into the caller, which enables AVX-512
         lanes::compute_inline::<D, L>(law, w, inp.dt);
@@ -501,6 +510,9 @@ fn eval_window<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D>, 
             *h.spring.get_unchecked_mut(q) = TangentialHistory(lanes::get(&w.new_spring, k));
             *h.overlap.get_unchecked_mut(q) = w.overlap[k];
             *h.sliding.get_unchecked_mut(q) = w.sliding[k];
+            if law.rolls() {
+                *h.rolling.get_unchecked_mut(q) = lanes::get(&w.new_rolling, k);
+            }
         }
         changes += (w.was[k] <= 0.0) as u64;
         sliding += w.sliding[k] as u64;
@@ -1014,6 +1026,8 @@ impl<D: Dim> Simulation<D> {
             match specialized {
                 Specialized::HertzMindlin(law) => cross_pairs_windowed(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0, kernels),
                 Specialized::HookeCundallStrack(law) => cross_pairs_windowed(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0, kernels),
+                Specialized::HertzMindlinRolling(law) => cross_pairs_windowed(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0, kernels),
+                Specialized::HookeCundallStrackRolling(law) => cross_pairs_windowed(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0, kernels),
                 Specialized::General(law) => cross_pairs::<D, ContactLaw>(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0),
             }
         };
@@ -1045,6 +1059,8 @@ impl<D: Dim> Simulation<D> {
             match specialized {
                 Specialized::HertzMindlin(law) => blocks_pass_windowed(&law, &inp, cross, &fin, 0..blocks, h, g, kernels),
                 Specialized::HookeCundallStrack(law) => blocks_pass_windowed(&law, &inp, cross, &fin, 0..blocks, h, g, kernels),
+                Specialized::HertzMindlinRolling(law) => blocks_pass_windowed(&law, &inp, cross, &fin, 0..blocks, h, g, kernels),
+                Specialized::HookeCundallStrackRolling(law) => blocks_pass_windowed(&law, &inp, cross, &fin, 0..blocks, h, g, kernels),
                 Specialized::General(law) => blocks_pass::<D, ContactLaw>(&law, &inp, cross, &fin, 0..blocks, h, g),
             }
         };

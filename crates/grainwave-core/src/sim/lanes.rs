@@ -9,7 +9,8 @@
 //! fused multiply–add), so the result is bitwise that of the general kernel (tested on whole
 //! runs).
 
-use crate::contact::{clamped_normal_force_lanes, contact_loads_lanes, into_tangent_plane_lanes, pair_kinematics_lanes, spring_step, HertzMindlin, HookeCundallStrack, LawParts, NormalDamping, NormalResponse, TangentialDamping};
+use crate::contact::{clamped_normal_force_lanes, contact_loads_lanes, coulomb_cap_lanes, into_tangent_plane_lanes, pair_kinematics_lanes, spring_step, HertzMindlin, HookeCundallStrack, LawParts, NormalDamping, NormalResponse, Rolling, TangentialDamping, WithRolling};
+use crate::real::dot;
 use crate::dim::{Dim, VectorOps};
 
 /// Contacts per window.
@@ -42,12 +43,15 @@ pub(super) struct Window {
     pub mass_j: Lane,
     /// Stored tangential history.
     pub spring: [Lane; 3],
+    /// Stored rolling spring θ_r (one component in 2D; laws with rolling resistance only).
+    pub rolling: [Lane; 3],
     /// Overlap at the last evaluation (the stored one).
     pub was: Lane,
     // outputs
     pub overlap: Lane,
     pub sliding: [bool; CAP],
     pub new_spring: [Lane; 3],
+    pub new_rolling: [Lane; 3],
     pub force: [Lane; 3],
     pub torque_i: [Lane; 3],
     pub torque_j: [Lane; 3],
@@ -70,10 +74,12 @@ impl Window {
             mass_i: [1.0; CAP],
             mass_j: [1.0; CAP],
             spring: [ZERO; 3],
+            rolling: [ZERO; 3],
             was: ZERO,
             overlap: ZERO,
             sliding: [false; CAP],
             new_spring: [ZERO; 3],
+            new_rolling: [ZERO; 3],
             force: [ZERO; 3],
             torque_i: [ZERO; 3],
             torque_j: [ZERO; 3],
@@ -99,10 +105,18 @@ pub(crate) use crate::real::Real;
 
 /// A law with a specialised kernel: its normal and tangential parts are fixed at compile time
 /// (the [`LawParts`] of the presets return a constant variant, so every `match` on a part
-/// folds away in the kernel).
-pub(super) trait WindowLaw: LawParts {}
+/// folds away in the kernel), and so is whether it has rolling resistance.
+pub(super) trait WindowLaw: LawParts {
+    /// Whether the law has rolling resistance: its contacts then read and write the rolling
+    /// spring (a constant of the law's type).
+    #[inline(always)]
+    fn rolls(&self) -> bool {
+        !matches!(self.rolling(), Rolling::None)
+    }
+}
 impl WindowLaw for HertzMindlin {}
 impl WindowLaw for HookeCundallStrack {}
+impl<L: WindowLaw> WindowLaw for WithRolling<L> {}
 
 /// Normal and tangential damping coefficients, resolved at compile time for the combinations of
 /// the presets (the general [`Dampers`] matches on the parts at every contact).
@@ -264,6 +278,8 @@ pub(super) struct ContactIn<R> {
     pub m_eff: Option<R>,
     /// Stored tangential history.
     pub spring: [R; 3],
+    /// Stored rolling spring θ_r (`ROT` components; read only by laws with rolling resistance).
+    pub rolling: [R; 3],
 }
 
 /// What the contact law gives for one contact per lane.
@@ -272,6 +288,8 @@ pub(super) struct ContactOut<R: Real> {
     pub overlap: R,
     pub sliding: R::Mask,
     pub new_spring: [R; 3],
+    /// The rolling spring to store (laws with rolling resistance only; zero otherwise).
+    pub new_rolling: [R; 3],
     /// Force on i, torques on i and j.
     pub force: [R; 3],
     pub torque_i: [R; 3],
@@ -294,6 +312,7 @@ fn lanes<const DIM: usize, const ROT: usize, L: WindowLaw, P: Dampers>(law: &L, 
             mass_j: w.mass_j[k],
             m_eff: None,
             spring: get(&w.spring),
+            rolling: [w.rolling[0][k], if ROT == 3 { w.rolling[1][k] } else { 0.0 }, if ROT == 3 { w.rolling[2][k] } else { 0.0 }],
         };
         let o = contact::<f64, DIM, ROT, L, P>(law, damp, &input, dt);
         w.overlap[k] = o.overlap;
@@ -305,6 +324,9 @@ fn lanes<const DIM: usize, const ROT: usize, L: WindowLaw, P: Dampers>(law: &L, 
         for c in 0..ROT {
             w.torque_i[c][k] = o.torque_i[c];
             w.torque_j[c][k] = o.torque_j[c];
+            if law.rolls() {
+                w.new_rolling[c][k] = o.new_rolling[c];
+            }
         }
     }
 }
@@ -334,9 +356,41 @@ pub(super) fn contact<R: Real, const DIM: usize, const ROT: usize, L: WindowLaw,
     let cap = R::splat(law.friction()) * f_n;
     let (f, new_spring, sliding) = spring_step::<R, DIM>(&tangential, rotated, k.v_t, k_t, gamma_t, dt, cap);
 
-    // forces and torques (no rolling resistance: M_r = 0)
-    let (force, torque_i, torque_j) = contact_loads_lanes::<R, DIM, ROT>(n, f, f_n, k.lever_i, k.lever_j, [zero; 3]);
-    ContactOut { overlap, sliding, new_spring, force, torque_i, torque_j }
+    // rolling resistance (as `evaluate_parts`): θ_r rotated into the tangent plane (3D) plus
+    // w_r Δt, with w_r = (ω_j − ω_i) less its twist component; trial torque k_r θ_r + γ_r w_r,
+    // capped at μ_r R* F_n, the spring reset to M_r / k_r where capped
+    let (mut m_r, mut new_rolling) = ([zero; 3], [zero; 3]);
+    if let Rolling::SpringDashpot { stiffness, damping, friction } = law.rolling() {
+        let mut w = [zero; 3];
+        for c in 0..ROT {
+            w[c] = x.w_j[c] - x.w_i[c];
+        }
+        let (w_roll, stored) = if ROT == 3 {
+            let twist = dot::<R, 3>(w, n);
+            let mut perp = [zero; 3];
+            for c in 0..3 {
+                perp[c] = w[c] - n[c] * twist;
+            }
+            (perp, into_tangent_plane_lanes::<R, 3>(x.rolling, n))
+        } else {
+            (w, x.rolling)
+        };
+        let (k_r, gamma_r, dt) = (R::splat(stiffness), R::splat(damping), R::splat(dt));
+        let (mut theta, mut trial) = ([zero; 3], [zero; 3]);
+        for c in 0..ROT {
+            theta[c] = stored[c] + w_roll[c] * dt;
+            trial[c] = theta[c] * k_r + w_roll[c] * gamma_r;
+        }
+        let (m, slid) = coulomb_cap_lanes::<R, ROT>(trial, R::splat(friction) * k.r_eff * f_n);
+        for c in 0..ROT {
+            new_rolling[c] = R::select(slid, m[c] / k_r, theta[c]);
+        }
+        m_r = m;
+    }
+
+    // forces and torques (M_r = 0 without rolling resistance: adding the zero keeps the bits)
+    let (force, torque_i, torque_j) = contact_loads_lanes::<R, DIM, ROT>(n, f, f_n, k.lever_i, k.lever_j, m_r);
+    ContactOut { overlap, sliding, new_spring, new_rolling, force, torque_i, torque_j }
 }
 
 /// Copies a vector into lane `k`.

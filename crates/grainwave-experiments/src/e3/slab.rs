@@ -22,7 +22,7 @@
 //! Polydisperse grains keep their lattice centres (the spacing fits the largest radius) and settle
 //! under gravity.
 
-use super::config::{E3Config, IntegratorName, MaterialConfig, RowLayout};
+use super::config::{IntegrationConfig, IntegratorName, MaterialConfig, RowLayout};
 use crate::error::Result;
 use glam::DVec2;
 use grainwave_core::contact::{ContactLaw, NormalDamping, NormalElastic, Rolling, Tangential, TangentialDamping, Twisting};
@@ -230,7 +230,7 @@ pub fn radii(n: usize, delta: f64, seed: u64) -> Result<Vec<f64>> {
 
 /// Builds the engine simulation of `sites` with `radii` and `material` (gravity −ẑ, floor and
 /// side walls; walls 0 = floor, 1 = left, 2 = right).
-pub fn build(sites: &Sites, radii: &[f64], material: &Material, config: &E3Config, seed: u64) -> Result<Simulation<D2>> {
+pub fn build(sites: &Sites, radii: &[f64], material: &Material, integration: &IntegrationConfig, seed: u64) -> Result<Simulation<D2>> {
     let mut grains = Grains::<D2>::new(GrainKind::Disk { thickness: 1.0 });
     for (p, &r) in sites.positions.iter().zip(radii) {
         grains.push(DVec2::new(p[0], p[1]), r, DENSITY, DVec2::ZERO);
@@ -242,11 +242,11 @@ pub fn build(sites: &Sites, radii: &[f64], material: &Material, config: &E3Confi
         .with_wall(Wall::axis_aligned("right", 0, sites.width, false, material.wall_law(material.side_wall_friction)));
     let sim = SimulationBuilder::new(grains, domain, material.grain_law())
         .gravity(DVec2::new(0.0, -1.0))
-        .integrator(match config.integration.integrator {
+        .integrator(match integration.integrator {
             IntegratorName::Beeman => Integrator::Beeman,
             IntegratorName::VelocityVerlet => Integrator::VelocityVerlet,
         })
-        .dt(config.integration.dt)
+        .dt(integration.dt)
         .safety(Safety { max_overlap_fraction: 0.3 })
         .seed(seed)
         .build()?;

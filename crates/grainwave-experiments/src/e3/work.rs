@@ -205,7 +205,7 @@ fn reference_unit(cfg: &E3Config, plan: &Plan, case: &Case, out: &Path, env: &Un
         grainwave_core::checkpoint::load::<Partial>(&partial_path, PARTIAL_TAG)?
     } else {
         let radii = slab::radii(sites.positions.len(), group.delta, case.seed)?;
-        let sim = slab::build(&sites, &radii, &material, cfg, case.seed)?;
+        let sim = slab::build(&sites, &radii, &material, &cfg.integration, case.seed)?;
         Partial { sim, start_step: 0, start_time: 0.0, stage: 0, steps_before: 0, newton: None, unit_start_step: 0, unit_start_time: 0.0, rounds: 0 }
     };
     let ke = kinetic_energy_limit(cfg, group.delta);

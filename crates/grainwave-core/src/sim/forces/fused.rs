@@ -647,6 +647,7 @@ unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: 
             mass_j: if known.is_some() { zero } else { V::rows(inp.mass.as_ptr(), 1, &g.j)[0] },
             m_eff: known.map(|k| k[2]),
             spring: V::rows(h.spring.as_ptr() as *const f64, dd, &qd),
+            rolling: if law.rolls() { V::rows(h.rolling.as_ptr() as *const f64, rot, if rot == dd { &qd } else { &q }) } else { [zero; 3] },
         };
         let o = match dd {
             2 => lanes::contact::<V, 2, 1, L, P>(law, damp, &input, inp.dt),
@@ -682,6 +683,15 @@ unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: 
                 *h.spring.get_unchecked_mut(k) = TangentialHistory(lane_of(&spring, l));
                 *h.overlap.get_unchecked_mut(k) = overlap[l];
                 *h.sliding.get_unchecked_mut(k) = sliding >> l & 1 != 0;
+            }
+        }
+        if law.rolls() {
+            let rolling = arrays(&o.new_rolling, rot);
+            let mut bits = touch;
+            while bits != 0 {
+                let l = bits.trailing_zeros() as usize;
+                bits &= bits - 1;
+                *h.rolling.get_unchecked_mut(q[l] as usize) = lane_of(&rolling, l);
             }
         }
         // Deepest contact (as `eval_pair`: overlap / smaller radius, the first pair reaching a
