@@ -23,6 +23,10 @@
 //! The sheared variants (`shear` > 0, LAMMPS `fix deform 1 xy erate shear remap v`) tilt the
 //! periodic cell at the engineering shear rate `shear` (tilt rate = shear × L_y): Lees–Edwards
 //! boundaries, the grains themselves are not moved.
+//!
+//! `replicate = [n_x, n_y, n_z]` tiles the periodic cases' packing n_x × n_y × n_z times
+//! ([`replicate`]): the 32 000-sphere packing tiled 4 × 4 × 2 is a 1 024 000-grain packing with
+//! the same local structure, to measure how memory and throughput scale with size alone.
 
 use crate::Result;
 use glam::DVec2;
@@ -195,6 +199,9 @@ pub struct BenchConfig {
     /// Vector path of the force pass (0 portable, 1 the fused AVX2 pass, 2 the AVX-512 windows;
     /// `None`: the engine's default, 1). Results are the same bits on every path.
     pub simd: Option<u8>,
+    /// Copies of the periodic packing along x, y, z (`[1, 1, 1]`: as read; see [`replicate`]).
+    /// The periodic cases only (`hertz3d`, `hooke3d`, `hooke2d`); z stays 1 in 2D.
+    pub replicate: [u32; 3],
 }
 
 /// Storage order of the grains in a benchmark run.
@@ -290,6 +297,10 @@ pub fn run_grainwave(cfg: &BenchConfig) -> Result<BenchResult> {
     if cfg.shear != 0.0 && !matches!(cfg.case, BenchCase::Hertz3d | BenchCase::Hooke3d | BenchCase::Hooke2d) {
         return Err(CoreError::invalid("--shear", cfg.shear, "0 for the walled and study cases (a shearing cell needs a periodic case: hertz3d, hooke3d, hooke2d)").into());
     }
+    let periodic = matches!(cfg.case, BenchCase::Hertz3d | BenchCase::Hooke3d | BenchCase::Hooke2d);
+    if cfg.replicate != [1, 1, 1] && !periodic {
+        return Err(CoreError::invalid("--replicate", format_replicate(cfg.replicate), "1x1x1 for the walled and study cases (tiling needs a periodic case: hertz3d, hooke3d, hooke2d)").into());
+    }
     if cfg.case == BenchCase::Slab2d {
         return time_sim(cfg, slab(cfg)?, steps);
     }
@@ -299,10 +310,12 @@ pub fn run_grainwave(cfg: &BenchConfig) -> Result<BenchResult> {
     match cfg.case {
         BenchCase::Hertz3d | BenchCase::Hooke3d => {
             let (grains, domain) = data.to_packing_3d(&opts).map_err(|e| CoreError::Inconsistent(e.to_string()))?;
+            let (grains, domain) = replicate(grains, domain, cfg.replicate)?;
             time_run(cfg, grains, domain, steps)
         }
         BenchCase::Hooke2d => {
             let (grains, domain) = data.to_packing_2d(&opts).map_err(|e| CoreError::Inconsistent(e.to_string()))?;
+            let (grains, domain) = replicate(grains, domain, cfg.replicate)?;
             time_run(cfg, grains, domain, steps)
         }
         BenchCase::Walled2d => {
@@ -316,6 +329,89 @@ pub fn run_grainwave(cfg: &BenchConfig) -> Result<BenchResult> {
         }
         BenchCase::Slab2d => unreachable!("built above"),
     }
+}
+
+/// `4x4x2` for `[4, 4, 2]`.
+fn format_replicate(n: [u32; 3]) -> String {
+    format!("{}x{}x{}", n[0], n[1], n[2])
+}
+
+/// Tiles a periodic packing `n[0] × n[1] × n[2]` times: the box grows by those factors, and copy
+/// (i, j, k) of grain g sits at x_g + (i L_x, j L_y, k L_z) with g's radius, mass, velocity and
+/// spin. Copies are stored tile after tile (x fastest), each in the original's order; ids are the
+/// storage indices, image flags start at zero. Because the box is periodic along every tiled
+/// axis, each grain of the tiled packing has the neighbours, at the same distances, that its
+/// original had among the original's periodic images: the same contacts and overlaps, a bigger
+/// sample of the same structure. `[1, 1, 1]` returns the packing unchanged.
+///
+/// Refused (naming `--replicate`, the value and what is allowed) for a factor of 0, a factor
+/// other than 1 along an axis that is not periodic or beyond the dimension, a tilted cell, or
+/// more than [`crate::limits::MAX_GRAINS`] grains in all — checked before anything is allocated.
+pub fn replicate<D: Dim>(grains: Grains<D>, domain: Domain<D>, n: [u32; 3]) -> Result<(Grains<D>, Domain<D>)> {
+    if n == [1, 1, 1] {
+        return Ok((grains, domain));
+    }
+    let shown = format_replicate(n);
+    for (k, &f) in n.iter().enumerate() {
+        if f == 0 {
+            return Err(CoreError::invalid("--replicate", &shown, "factors of at least 1 (e.g. 4x4x2)").into());
+        }
+        if f > 1 && (k >= D::D || !domain.is_periodic(k)) {
+            return Err(CoreError::invalid("--replicate", &shown, format!("1 along axis {k}: the packing is not periodic there (or has no such axis)")).into());
+        }
+    }
+    if domain.tilt.iter().any(|&t| t != 0.0) {
+        return Err(CoreError::invalid("--replicate", &shown, "1x1x1 for a tilted cell (tiling needs a rectangular periodic box)").into());
+    }
+    let copies = n.iter().map(|&f| f as f64).product::<f64>();
+    let total = copies * grains.len() as f64;
+    if total > crate::limits::MAX_GRAINS {
+        return Err(CoreError::invalid("--replicate", &shown, format!("at most {:.0} grains in all (this gives {total:.0})", crate::limits::MAX_GRAINS)).into());
+    }
+    if let Some(free) = crate::limits::available_memory() {
+        let need = total * crate::limits::BYTES_PER_GRAIN;
+        if need > free {
+            return Err(CoreError::invalid("--replicate", &shown, format!("a packing that fits in memory: {total:.0} grains need ≈ {:.1} GiB, {:.1} GiB available", need / 1073741824.0, free / 1073741824.0)).into());
+        }
+    }
+    let len: Vec<f64> = (0..3).map(|k| if k < D::D { domain.length(k) } else { 0.0 }).collect();
+    let mut tiled = Grains::<D>::new(grains.kind);
+    let cap = total as usize;
+    tiled.id.reserve_exact(cap);
+    tiled.radius.reserve_exact(cap);
+    tiled.mass.reserve_exact(cap);
+    tiled.inertia.reserve_exact(cap);
+    tiled.pos.reserve_exact(cap);
+    tiled.vel.reserve_exact(cap);
+    tiled.omega.reserve_exact(cap);
+    tiled.orientation.reserve_exact(cap);
+    tiled.image.reserve_exact(cap);
+    tiled.force.reserve_exact(cap);
+    tiled.torque.reserve_exact(cap);
+    for k in 0..n[2] {
+        for j in 0..n[1] {
+            for i in 0..n[0] {
+                let mut shift = D::Vector::ZERO;
+                for (axis, t) in [i, j, k].into_iter().enumerate().take(D::D) {
+                    shift.set(axis, t as f64 * len[axis]);
+                }
+                for g in 0..grains.len() {
+                    let c = tiled.push_with_mass(grains.pos[g] + shift, grains.radius[g], grains.mass[g], grains.vel[g]);
+                    let c = c as usize;
+                    tiled.inertia[c] = grains.inertia[g];
+                    tiled.omega[c] = grains.omega[g];
+                    tiled.orientation[c] = grains.orientation[g];
+                }
+            }
+        }
+    }
+    let mut hi = domain.hi;
+    for (axis, &f) in n.iter().enumerate().take(D::D) {
+        hi.set(axis, domain.lo.get(axis) + f as f64 * len[axis]);
+    }
+    let mut big = domain;
+    big.hi = hi;
+    Ok((tiled, big))
 }
 
 /// `piston2d`: the disks of the periodic packing as E1's `sphere2d` balls (unit density, so unit
@@ -604,7 +700,7 @@ Loop time of 15.2738 on 1 procs for 2000 steps with 32000 atoms
 
 Neighbor list builds = 10
 ";
-        let cfg = BenchConfig { case: BenchCase::Hertz3d, dir: PathBuf::new(), steps: None, shear: 0.0, order: GrainOrder::File, simd: None };
+        let cfg = BenchConfig { case: BenchCase::Hertz3d, dir: PathBuf::new(), steps: None, shear: 0.0, order: GrainOrder::File, simd: None, replicate: [1, 1, 1] };
         let r = parse_lammps_output(log, &cfg, 1).unwrap();
         assert_eq!((r.grains, r.steps, r.neighbor_rebuilds), (32000, 2000, 10));
         assert_eq!(r.loop_seconds, 15.2738);
@@ -620,7 +716,7 @@ Neighbor list builds = 10
     /// per-contact throughput uses the contacts sampled along the run.
     #[test]
     fn the_slab_case_runs_the_loaded_lattice() {
-        let cfg = BenchConfig { case: BenchCase::Slab2d, dir: PathBuf::from("/nonexistent"), steps: Some(250), shear: 0.0, order: GrainOrder::File, simd: None };
+        let cfg = BenchConfig { case: BenchCase::Slab2d, dir: PathBuf::from("/nonexistent"), steps: Some(250), shear: 0.0, order: GrainOrder::File, simd: None, replicate: [1, 1, 1] };
         let a = run_grainwave(&cfg).unwrap();
         assert_eq!((a.grains, a.steps), (128 * 128, 250));
         assert!(a.contacts_per_grain > 3.9 && a.contacts_per_grain < 6.0, "{}", a.contacts_per_grain);
@@ -634,11 +730,65 @@ Neighbor list builds = 10
     #[test]
     fn shear_is_refused_outside_the_periodic_cases() {
         for case in [BenchCase::Walled2d, BenchCase::Piston2d, BenchCase::Slab2d] {
-            let cfg = BenchConfig { case, dir: PathBuf::from("/nonexistent"), steps: Some(1), shear: 0.1, order: GrainOrder::File, simd: None };
+            let cfg = BenchConfig { case, dir: PathBuf::from("/nonexistent"), steps: Some(1), shear: 0.1, order: GrainOrder::File, simd: None, replicate: [1, 1, 1] };
             let e = run_grainwave(&cfg).unwrap_err().to_string();
             assert!(e.contains("--shear") && e.contains("0.1") && e.contains("hooke2d"), "{e}");
         }
         assert!(BenchCase::Slab2d.data_file().is_none() && BenchCase::Slab2d.lammps_deck().is_none());
+    }
+
+    #[test]
+    fn replicating_a_periodic_packing_keeps_every_grain_s_neighbourhood() {
+        use grainwave_core::dim::D2;
+        use grainwave_core::grains::GrainKind;
+        // three disks in a periodic 4 × 3 box, one straddling the x boundary through its image
+        let mut g = Grains::<D2>::new(GrainKind::Disk { thickness: 1.0 });
+        for (x, y) in [(0.3, 0.5), (3.8, 0.6), (2.0, 2.2)] {
+            g.push(DVec2::new(x, y), 0.5, 1.0, DVec2::new(x, -y));
+        }
+        let d = Domain::<D2>::new(DVec2::new(0.0, 0.0), DVec2::new(4.0, 3.0), [true, true, false]);
+        let (t, big) = replicate(g.clone(), d.clone(), [3, 2, 1]).unwrap();
+        assert_eq!(t.len(), 18);
+        assert_eq!((big.hi.x, big.hi.y), (12.0, 6.0));
+        assert_eq!(t.id, (0..18).collect::<Vec<u32>>());
+        // every tiled grain's neighbours closer than 1.4 (under half the original box, so that at
+        // most one image of a grain is that close) are at its original's distances: compare the
+        // sorted distances
+        let near = |grains: &Grains<D2>, dom: &Domain<D2>, a: usize| {
+            let mut v: Vec<f64> = Vec::new();
+            for b in 0..grains.len() {
+                if b != a {
+                    let r = dom.displacement(grains.pos[a], grains.pos[b]).norm();
+                    if r < 1.4 {
+                        v.push(r);
+                    }
+                }
+            }
+            v.sort_by(f64::total_cmp);
+            v
+        };
+        for a in 0..t.len() {
+            let o = a % 3;
+            let mine = near(&t, &big, a);
+            let orig = near(&g, &d, o);
+            assert_eq!(mine.len(), orig.len(), "grain {a}");
+            assert_eq!(mine.is_empty(), o == 2, "grain {a}: the pair across the x boundary is found");
+            for (x, y) in mine.iter().zip(&orig) {
+                assert!((x - y).abs() < 1e-12, "grain {a}: {x} vs {y}");
+            }
+            assert_eq!(t.vel[a], g.vel[o]);
+            assert_eq!(t.radius[a], g.radius[o]);
+        }
+        // 1x1x1 changes nothing; bad factors are refused naming the option
+        let (same, _) = replicate(g.clone(), d.clone(), [1, 1, 1]).unwrap();
+        assert_eq!(same.pos, g.pos);
+        for bad in [[0, 1, 1], [1, 1, 2]] {
+            let e = replicate(g.clone(), d.clone(), bad).unwrap_err().to_string();
+            assert!(e.contains("--replicate"), "{e}");
+        }
+        let open = Domain::<D2>::new(DVec2::new(0.0, 0.0), DVec2::new(4.0, 3.0), [true, false, false]);
+        assert!(replicate(g.clone(), open, [1, 2, 1]).is_err());
+        assert!(replicate(g, d, [10_000, 10_000, 1]).unwrap_err().to_string().contains("at most"));
     }
 
     #[test]

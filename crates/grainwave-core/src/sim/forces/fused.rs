@@ -869,6 +869,12 @@ unsafe fn block_close_wide<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, i
     unsafe { block_close_impl::<D, L, P, WideLanes>(law, damp, inp, cross, fin, b, h, g) }
 }
 
+/// Groups ahead whose partners' rows [`block_close_impl`] prefetches.
+const PREFETCH_GROUPS: usize = 2;
+
+/// Pairs ahead whose partners' positions and radii [`close_filter_wide`] prefetches.
+const FILTER_AHEAD: usize = 32;
+
 /// The body of [`block_close`] for lanes `V`.
 ///
 /// # Safety
@@ -889,6 +895,26 @@ unsafe fn block_close_impl<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, 
     let (mut k, ke) = (cross.close_start[b] as usize, cross.close_start[b + 1] as usize);
     while k < ke {
         let n = (ke - k).min(V::N);
+        // Prefetch the partners' rows of the group after next: positions, velocities, spins and
+        // sums. A partner lies ahead of the owners in memory (i < j), so its row is first
+        // touched here; in a packing larger than the cache that is a trip to memory, which the
+        // hardware prefetchers (they follow the owners' streams) do not foresee.
+        let ahead = k + PREFETCH_GROUPS * V::N;
+        if ahead < ke {
+            let (pp, vp, wp, fp, tp) = (inp.pos.as_ptr(), vel.as_ptr(), omega.as_ptr(), force.as_ptr(), torque.as_ptr());
+            for e in ahead..ahead + (ke - ahead).min(V::N) {
+                // SAFETY: e < ke indexes the close list; its partners are grains of the block
+                // (the rows prefetched exist; a prefetch changes no state).
+                unsafe {
+                    let j = *cross.close_partner.get_unchecked(e) as usize;
+                    _mm_prefetch::<_MM_HINT_T0>(pp.add(j) as *const i8);
+                    _mm_prefetch::<_MM_HINT_T0>(vp.add(j - g0) as *const i8);
+                    _mm_prefetch::<_MM_HINT_T0>(wp.add(j - g0) as *const i8);
+                    _mm_prefetch::<_MM_HINT_T0>(fp.add(j - g0) as *const i8);
+                    _mm_prefetch::<_MM_HINT_T0>(tp.add(j - g0) as *const i8);
+                }
+            }
+        }
         // lanes past n: the first pair and its owner (not looked at)
         let mut gr = Group::new();
         // eight lanes at a time
@@ -1159,6 +1185,16 @@ pub(super) unsafe fn close_filter_wide(
         let mut p = pairs.start;
         while p < pairs.end {
             let n = (pairs.end - p).min(8);
+            // the partners' positions and radii, FILTER_AHEAD pairs on: this filter is the first
+            // to touch them in a step (see `block_close_impl`)
+            let ahead = p + FILTER_AHEAD;
+            if ahead < pairs.end {
+                for e in ahead..ahead + (pairs.end - ahead).min(8) {
+                    let j = *partner.get_unchecked(e) as usize;
+                    _mm_prefetch::<_MM_HINT_T0>(pos.add(3 * j) as *const i8);
+                    _mm_prefetch::<_MM_HINT_T0>(radius.as_ptr().add(j) as *const i8);
+                }
+            }
             let live = _mm256_cmpgt_epi32_mask(_mm256_set1_epi32(n as i32), lane);
             // lanes past n: the first pair (valid indices), not kept
             let first = _mm256_set1_epi32(p as i32);
