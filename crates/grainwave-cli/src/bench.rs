@@ -9,7 +9,8 @@ use std::path::PathBuf;
 /// Arguments of `grainwave bench`.
 #[derive(Debug, Args)]
 pub struct BenchArgs {
-    /// Cases to run: hertz3d, hooke3d, hooke2d, walled2d (default: the three LAMMPS cases).
+    /// Cases to run: hertz3d, hooke3d, hooke2d, walled2d, piston2d, slab2d (default: the three
+    /// LAMMPS cases).
     #[arg(value_name = "CASE", value_parser = parse_case)]
     pub cases: Vec<BenchCase>,
 
