@@ -294,10 +294,10 @@ pub struct BenchResult {
 /// Runs one grainwave benchmark (in the current rayon pool).
 pub fn run_grainwave(cfg: &BenchConfig) -> Result<BenchResult> {
     let steps = cfg.steps.unwrap_or(cfg.case.default_steps());
-    if cfg.shear != 0.0 && !matches!(cfg.case, BenchCase::Hertz3d | BenchCase::Hooke3d | BenchCase::Hooke2d) {
+    let periodic = matches!(cfg.case, BenchCase::Hertz3d | BenchCase::Hooke3d | BenchCase::Hooke2d);
+    if cfg.shear != 0.0 && !periodic {
         return Err(CoreError::invalid("--shear", cfg.shear, "0 for the walled and study cases (a shearing cell needs a periodic case: hertz3d, hooke3d, hooke2d)").into());
     }
-    let periodic = matches!(cfg.case, BenchCase::Hertz3d | BenchCase::Hooke3d | BenchCase::Hooke2d);
     if cfg.replicate != [1, 1, 1] && !periodic {
         return Err(CoreError::invalid("--replicate", format_replicate(cfg.replicate), "1x1x1 for the walled and study cases (tiling needs a periodic case: hertz3d, hooke3d, hooke2d)").into());
     }
