@@ -159,3 +159,29 @@ fn grain_escaping_through_a_wall_is_a_blow_up() {
     let e = sim.steps(10).unwrap_err().to_string();
     assert!(e.contains("left the domain through wall `floor`") || e.contains("overlap with wall `floor`"), "{e}");
 }
+
+/// The overlap guard of a grain–wall contact scales with the wall's softness (an absorbing wall of
+/// SPEC §6.7 has K_n/√N): a disk resting under gravity at 0.4 R in a floor 64 × softer than the
+/// grains carries the force of a 0.4/64 R grain contact and must run on, while the same 0.4 R
+/// in a floor as stiff as the grains exceeds the guard (0.3 R) and stops the run.
+#[test]
+fn soft_wall_overlap_guard_scales_with_the_wall_stiffness() {
+    let k = 1.0e4;
+    let settle = |k_wall: f64| {
+        let wall = hooke(k_wall, Some(0.3), 0.0).build(Partner::Wall, "contact.wall").unwrap();
+        let mut g = Grains::<D2>::new(GrainKind::Disk { thickness: 1.0 });
+        g.push(DVec2::new(0.0, 0.5), 0.5, 1.0, DVec2::ZERO);
+        let m = g.mass[0];
+        let d = Domain::new(DVec2::splat(-5.0), DVec2::splat(5.0), [false; 3]).with_wall(Wall::axis_aligned("floor", 1, 0.0, true, wall));
+        // static overlap m g / k_w = 0.2 = 0.4 R
+        let gravity = DVec2::new(0.0, -0.2 * k_wall / m);
+        let mut sim = SimulationBuilder::new(g, d, law()).gravity(gravity).build().unwrap();
+        let r = sim.steps(20_000);
+        (r, 0.5 - sim.grains.pos[0].y)
+    };
+    let (soft, overlap) = settle(k / 64.0);
+    soft.expect("a 64 × softer wall allows 0.4 R");
+    assert!((overlap / 0.2 - 1.0).abs() < 0.02, "settled overlap {overlap}");
+    let e = err_of(settle(k).0);
+    assert!(e.contains("overlap with wall `floor`") && e.contains("limit 0.300"), "{e}");
+}

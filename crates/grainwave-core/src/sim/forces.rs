@@ -39,7 +39,7 @@
 
 use super::lanes::{self, Window, WindowLaw, CAP};
 use super::{CrossForce, CrossIndex, Simulation, WallForce};
-use crate::contact::{contact_loads, evaluate_parts, pair_kinematics, wall_kinematics, ContactLaw, ContactState, LawParts, Rolling, Specialized, TangentialHistory, Twisting};
+use crate::contact::{contact_loads, evaluate_parts, pair_kinematics, wall_kinematics, ContactLaw, ContactState, LawParts, NormalElastic, Rolling, Specialized, TangentialHistory, Twisting};
 use crate::dim::{Dim, VectorOps};
 use crate::domain::{Domain, PeriodicImage, WallMotion};
 use crate::error::{CoreError, Result};
@@ -954,6 +954,7 @@ impl<D: Dim> Simulation<D> {
     pub(crate) fn compute_forces(&mut self, dt_hist: f64, use_eval: bool, kick: Option<f64>) -> Result<()> {
         let specialized = if self.work.general_kernel { Specialized::General(self.law) } else { self.law.specialize() };
         let time = self.time;
+        let (grain_law, overlap_limit) = (self.law, self.safety.max_overlap_fraction);
         let Simulation { grains, domain, nlist, work, loads, gravity, .. } = self;
         let n = grains.len();
 
@@ -987,7 +988,7 @@ impl<D: Dim> Simulation<D> {
                             changes: !was as u64,
                             contacts: 1,
                             sliding: o.sliding as u64,
-                            deepest: (kin.overlap / radius[g], 1, k),
+                            deepest: (kin.overlap / radius[g] * wall_overlap_scale(&grain_law, &wall.law, overlap_limit), 1, k),
                             bad: usize::MAX,
                         }
                     }
@@ -1085,19 +1086,19 @@ impl<D: Dim> Simulation<D> {
         }
         if stats.deepest.0 > self.safety.max_overlap_fraction {
             let (ratio, is_wall, idx) = stats.deepest;
-            let (k, partner) = if is_wall == 0 {
+            let limit = self.safety.max_overlap_fraction;
+            let (k, partner, ratio, limit) = if is_wall == 0 {
                 let list = &self.nlist.list;
-                (list.owner_of(idx), format!("grain id {}", self.grains.id[list.partner[idx] as usize]))
+                (list.owner_of(idx), format!("grain id {}", self.grains.id[list.partner[idx] as usize]), ratio, limit)
             } else {
                 let wp = &self.nlist.wall_pairs[idx];
-                (wp.grain as usize, format!("wall `{}`", self.domain.walls[wp.wall as usize].name))
+                let wall = &self.domain.walls[wp.wall as usize];
+                let scale = wall_overlap_scale(&self.law, &wall.law, limit);
+                (wp.grain as usize, format!("wall `{}`", wall.name), ratio / scale, limit / scale)
             };
             return Err(self.blow_up(
                 k,
-                format!(
-                    "overlap with {partner} reached {ratio:.3} of the smaller radius (limit {}, key `max_overlap_fraction`)",
-                    self.safety.max_overlap_fraction
-                ),
+                format!("overlap with {partner} reached {ratio:.3} of the smaller radius (limit {limit:.3}, key `max_overlap_fraction`)"),
             ));
         }
         Ok(())
@@ -1277,3 +1278,18 @@ impl<D: Dim> CrossIndex<D> {
 
 /// Margin of the close list as a fraction of the neighbor-list skin.
 const CLOSE_FRACTION: f64 = 0.3;
+
+/// Factor applied to a grain–wall overlap ratio ξ/R before the blow-up guard compares it with
+/// `limit` (`max_overlap_fraction`): a linear wall softer than the linear grain law by k_g/k_w
+/// (an absorbing wall, SPEC §6.7: K_n/√N) carries the force of a grain contact at an overlap
+/// k_g/k_w times deeper, so its guard is `limit` × k_g/k_w, capped at 1 (the grain's centre on the
+/// wall plane, past which the confinement check stops the run anyway). Every other pair: 1.
+pub(crate) fn wall_overlap_scale(grain: &ContactLaw, wall: &ContactLaw, limit: f64) -> f64 {
+    match (&grain.normal, &wall.normal) {
+        (&NormalElastic::Hooke { stiffness: kg }, &NormalElastic::Hooke { stiffness: kw }) if kw > 0.0 && kw < kg => {
+            let wall_limit = (limit * kg / kw).min(1.0).max(limit);
+            limit / wall_limit
+        }
+        _ => 1.0,
+    }
+}

@@ -128,12 +128,13 @@ fn prepare<D: Dim>(
     fingerprint: u64,
     wrap: fn(Simulation<D>) -> AnySim,
     plan: &Plan,
+    pressure: f64,
     dir: &Path,
     env: &UnitEnv<'_, '_, '_>,
 ) -> Result<Option<(AnySim, PreparationInfo)>> {
     let preparing = dir.join("preparing.gwck");
     let mut save = |s: &Simulation<D>, i: &PreparationInfo| save_file(&preparing, PREPARING_TAG, &PackingFile { fingerprint, sim: wrap(s.clone()), info: i.clone() });
-    let status = relax(&mut sim, &mut info, &plan.config.preparation, env.interrupt_flag(), plan.config.output.save_every_seconds, &mut save)?;
+    let status = relax(&mut sim, &mut info, &plan.config.preparation, pressure, env.interrupt_flag(), plan.config.output.save_every_seconds, &mut save)?;
     match status {
         RelaxStatus::Interrupted => {
             save(&sim, &info)?;
@@ -227,8 +228,8 @@ fn obtain_system(plan: &Plan, task: &Task, out: &Path, dir: &Path, env: &UnitEnv
         }
     };
     let r = match sim {
-        AnySim::D2(s) => prepare(s, info, fingerprint, AnySim::D2, plan, dir, env)?,
-        AnySim::D3(s) => prepare(s, info, fingerprint, AnySim::D3, plan, dir, env)?,
+        AnySim::D2(s) => prepare(s, info, fingerprint, AnySim::D2, plan, pressure, dir, env)?,
+        AnySim::D3(s) => prepare(s, info, fingerprint, AnySim::D3, plan, pressure, dir, env)?,
     };
     Ok(r.map(|(s, i)| (s, Some(i))))
 }

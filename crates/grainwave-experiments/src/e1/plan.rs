@@ -215,6 +215,21 @@ pub fn plan(src: &ConfigSource, cfg: &E1Config) -> Result<Plan, ConfigError> {
     if !(pc.dt_fraction > 0.0 && pc.dt_fraction <= 0.2) {
         return Err(err(src, "preparation.dt_fraction", format!("{} (allowed: a fraction in (0, 0.2])", pc.dt_fraction)));
     }
+    // measured: a tail at 0.2 of the contact period (factor 4) left 1 packing of 20 at p = 1e-6
+    // in a slow cycle that never converged; 0.15 (factor 3) converged for all
+    if !(pc.tail_dt_factor >= 1.0 && pc.dt_fraction * pc.tail_dt_factor <= 0.15 + 1e-12) {
+        return Err(err(
+            src,
+            "preparation.tail_dt_factor",
+            format!("{} (allowed: a factor ≥ 1 with dt_fraction × factor ≤ 0.15, i.e. at most {} with dt_fraction = {})", pc.tail_dt_factor, (0.15 / pc.dt_fraction * 1e9).round() / 1e9, pc.dt_fraction),
+        ));
+    }
+    if !(pc.tail_kinetic_energy.is_finite() && pc.tail_kinetic_energy >= 0.0) {
+        return Err(err(src, "preparation.tail_kinetic_energy", format!("{} (allowed: a finite energy ≥ 0, in units of p d̄³)", pc.tail_kinetic_energy)));
+    }
+    if !(0.0..=1.0).contains(&pc.tail_sliding_fraction) {
+        return Err(err(src, "preparation.tail_sliding_fraction", format!("{} (allowed: a fraction in [0, 1])", pc.tail_sliding_fraction)));
+    }
     if let Some(x) = pc.expected_overlap {
         if !(x > 0.0 && x < 0.5) {
             return Err(err(src, "preparation.expected_overlap", format!("{x} (allowed: a fraction in (0, 0.5))")));
