@@ -801,6 +801,61 @@ strips = 12
     // state's (0) and the old protocol's (0.0049 v_a)
     assert!((sp - sn).abs() > 0.006, "static: c(+1e-9) = {sp}, c(−1e-9) = {sn}: the sign asymmetry is gone");
     assert!((dp - dn).abs() < 0.006, "deforming: c(+1e-9) = {dp}, c(−1e-9) = {dn}");
+    // the affine test: E flips with the sign of p_a, so every mobilised contact is pushed on by
+    // exactly one of the two pulses; in compression the rarefaction (p_a < 0, an extension along
+    // x, the loading's lateral direction) pushes on most of them
+    let st = replay("static");
+    let pushed = |k: usize| st["pairs"][k]["pushed_on"].as_u64().unwrap();
+    let m0 = st["pairs"][0]["mobilised"][0].as_u64().unwrap();
+    eprintln!("gentle: static state {m0} mobilised, pushed on by +1e-9: {}, by −1e-9: {}", pushed(0), pushed(1));
+    assert_eq!(pushed(0) + pushed(1), m0);
+    assert!(pushed(1) > 2 * pushed(0), "pushed on by +1e-9: {}, by −1e-9: {}", pushed(0), pushed(1));
+}
+
+/// The Δc/c₀ table by both arrival definitions: with synthetic speeds (the replays' own arrival
+/// in `speed`, SPEC's maximum in `speed_maximum`), each process is the difference of the two
+/// states' speeds over c₀, computed independently here.
+#[test]
+fn static_limit_table_reports_the_spec_arrival_beside_the_replays_own() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/papers/e2-compression-64.toml");
+    let cfg = grainwave_experiments::e2::prepare(&ConfigSource::from_file(&dir).unwrap()).unwrap();
+    let sl = &cfg.static_limit;
+    let units = serde_json::json!({"pressure": 1.0, "normal_stiffness": 2000.0, "total_mass": 1.0, "area": 1.0, "density": 1.0, "length": 1.0,
+        "time": 1.0, "mean_diameter": 1.0, "mean_mass": 1.0, "acoustic_velocity": 1.0, "acoustic_time": 1.0});
+    // (name, speed, speed_maximum, pushed_on) for p_a = +1e-9 and −1e-9
+    let states = [
+        (sl.undeformed.clone().unwrap(), [0.85, 0.85], [0.86, 0.84], [0, 0]),
+        (sl.non_sliding.clone().unwrap(), [0.65, 0.64], [0.66, 0.63], [0, 0]),
+        (sl.static_state.clone().unwrap(), [0.62, 0.51], [0.60, 0.47], [269, 1329]),
+        (sl.deforming.clone().unwrap(), [0.40, 0.41], [0.46, 0.45], [253, 1330]),
+    ];
+    let replays: Vec<ReplayReport> = states
+        .iter()
+        .map(|(name, c, m, on)| {
+            let pair = |k: usize, a: f64| {
+                serde_json::json!({"amplitude": a, "speed": c[k], "speed_maximum": m[k], "speed_first_lobe": c[k], "incident_amplitude": 1.0,
+                    "resolution_floor": 0.0, "strips_used": 50, "arrived": 4000, "max_difference": 1.0, "max_sliding_difference": 0,
+                    "final_sliding_difference": 0, "mobilised": [1598, 1444, 1598], "pushed_on": on[k], "flagged": [41, 0, 0], "samples": 300, "files": []})
+            };
+            let strain = if name == sl.deforming.as_ref().unwrap() { 0.01 } else { 0.0 };
+            serde_json::from_value(serde_json::json!({"name": name, "checkpoint": 1000, "strain_yy": strain, "modification": "wall_pulse",
+                "units": units, "pairs": [pair(0, 1e-9), pair(1, -1e-9)], "single": null, "seconds": 1.0}))
+            .unwrap()
+        })
+        .collect();
+    let rows = grainwave_experiments::e2::outputs::static_limit_rows(&cfg, &replays);
+    assert_eq!(rows.len(), 2);
+    for (k, r) in rows.iter().enumerate() {
+        let [c0, cns, cs, cd] = [0, 1, 2, 3].map(|s| states[s].1[k]);
+        let [m0, mns, ms, md] = [0, 1, 2, 3].map(|s| states[s].2[k]);
+        let close = |a: Option<f64>, b: f64| (a.unwrap() - b).abs() < 1e-12;
+        assert!(r.direction == "compression");
+        assert!(close(r.sliding, (cns - cs) / c0) && close(r.strain_rate, (cs - cd) / c0) && close(r.total, (c0 - cd) / c0), "{r:?}");
+        let b = &r.by_maximum;
+        assert!(close(b[0], m0) && close(b[1], mns) && close(b[2], ms) && close(b[3], md), "{r:?}");
+        assert!(close(b[4], (m0 - mns) / m0) && close(b[5], (mns - ms) / m0) && close(b[6], (ms - md) / m0) && close(b[7], (m0 - md) / m0), "{r:?}");
+        assert_eq!(r.static_pushed_on, states[2].3[k]);
+    }
 }
 
 #[test]
@@ -884,4 +939,78 @@ duration = 1.5
 
 fn bincode_of(ck: &grainwave_experiments::e2::biaxial::StrainCheckpoint) -> Vec<u8> {
     grainwave_core::checkpoint::encode("state", ck).unwrap()
+}
+
+/// The affine sliding test (`model::sliding_drive`) against the contact law itself: a contact
+/// driven tangentially to the Coulomb limit (both senses, normals all round the circle) is then
+/// given one step of the relative displacement E b of a small strain increment E; it must slide
+/// on (the law's cap flag) exactly when the drive is positive. This checks the sign conventions
+/// (normal i → j, tangential force on i, compression-positive normal force) that the
+/// sign-dependence diagnosis of the static state rests on. Dampers off: the test is elastic, as
+/// is the drive; contacts whose |drive| is within 1e-6 of its scale are not judged (the finite
+/// increment's second-order terms decide them).
+#[test]
+fn affine_sliding_drive_agrees_with_the_contact_law() {
+    use grainwave_core::contact::pair_kinematics;
+    use grainwave_core::snapshot::{ContactRecord, Counterpart};
+    let material = MaterialConfig { restitution: 1.0, tangential_damping_ratio: 0.0, rolling_stiffness: 0.0, ..MaterialConfig::default() };
+    let mu = 0.2;
+    let law = model::grain_law(&material, mu);
+    let (r, xi, dt) = (0.5, 1e-3, 1e-4);
+    let k_n = material.normal_stiffness;
+    let cases: [[[f64; 2]; 2]; 5] = [[[-1.0, 0.0], [0.0, 0.0]], [[1.0, 0.0], [0.0, 0.0]], [[0.0, 0.0], [0.0, -1.0]], [[0.0, 0.5], [0.5, 0.0]], [[1.2, 0.0], [0.0, -1.0]]];
+    let (mut judged, mut on, mut off) = (0, 0, 0);
+    for k in 0..48 {
+        let theta = (k as f64 + 0.37) * std::f64::consts::TAU / 48.0;
+        let n = DVec2::new(theta.cos(), theta.sin());
+        let t = DVec2::new(-n.y, n.x);
+        for sense in [1.0, -1.0] {
+            for e in cases {
+                let mut state = grainwave_core::contact::ContactState::<D2>::default();
+                let r_ij = n * (2.0 * r - xi);
+                // load: j slides along ±t at constant overlap until the cap holds
+                let v = sense * 1e-2;
+                let mut out = None;
+                for _ in 0..3000 {
+                    let kin = pair_kinematics::<D2>(r_ij, r, r, 1.0, 1.0, DVec2::ZERO, t * v, 0.0, 0.0).unwrap();
+                    out = Some((kin, law.evaluate(&kin, &mut state, dt)));
+                }
+                let (kin, o) = out.unwrap();
+                assert!(o.sliding, "θ = {theta}: the loading must reach the Coulomb limit");
+                let record = ContactRecord::<D2> {
+                    i: 0,
+                    j: Counterpart::Grain(1),
+                    normal: kin.normal,
+                    branch: r_ij,
+                    overlap: kin.overlap,
+                    lever_i: kin.lever_i,
+                    lever_j: kin.lever_j,
+                    normal_force: o.normal_force,
+                    tangential_force: o.tangential_force,
+                    rolling_torque: 0.0,
+                    normal_stiffness: o.normal_stiffness,
+                    tangential_stiffness: o.tangential_stiffness,
+                    sliding: o.sliding,
+                };
+                let drive = model::sliding_drive(&record, mu, e);
+                // one step of the increment: relative displacement η E b, η ≪ ξ/b
+                let eta = 1e-6;
+                let delta = DVec2::new(e[0][0] * r_ij.x + e[0][1] * r_ij.y, e[1][0] * r_ij.x + e[1][1] * r_ij.y) * eta;
+                let kin2 = pair_kinematics::<D2>(r_ij + delta, r, r, 1.0, 1.0, DVec2::ZERO, delta / dt, 0.0, 0.0).unwrap();
+                let o2 = law.evaluate(&kin2, &mut state, dt);
+                if drive.abs() < 1e-6 * k_n {
+                    continue;
+                }
+                judged += 1;
+                assert_eq!(o2.sliding, drive > 0.0, "θ = {theta:.3}, sense {sense}, E = {e:?}: drive {drive:.4e}, the law says sliding = {}", o2.sliding);
+                if drive > 0.0 {
+                    on += 1
+                } else {
+                    off += 1
+                }
+            }
+        }
+    }
+    // both outcomes occur, for almost every case judged
+    assert!(judged > 450 && on > 100 && off > 100, "judged {judged}, pushed on {on}, released {off}");
 }

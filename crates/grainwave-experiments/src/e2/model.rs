@@ -314,6 +314,48 @@ pub fn mobilised_contacts(sim: &Simulation<D2>) -> u64 {
         .count() as u64
 }
 
+/// Whether a small homogeneous strain increment pushes a contact that sits at the Coulomb limit
+/// further into sliding: the affine test behind the sign dependence of the sliding loss.
+///
+/// `e` is the displacement gradient of the increment (extension positive; a compressive pulse
+/// along x is `[[-1, 0], [0, 0]]`, any positive scale). The relative displacement of j with
+/// respect to i is E b, b = (ℓ_i + ℓ_j) n the branch vector, so the normal force grows by
+/// δF_n = −k_n n·E b and the tangential force on i by δF_t = k_t (t·E b) t (t = (−n_y, n_x)).
+/// The contact stays at the limit and slides on when F̂_t·δF_t > μ δF_n; the value returned is
+/// ŝ k_t (t·E b) + μ k_n (n·E b), ŝ = sign(F_t·t) [force per unit strain]: positive = pushed on,
+/// negative = released (it sticks). Meaningful for mobilised contacts only
+/// ([`MOBILISATION_TOLERANCE`]); the grains' actual motion under a pulse is not affine, so this
+/// says where the mean increment pushes, not what each contact does.
+pub fn sliding_drive(c: &grainwave_core::snapshot::ContactRecord<D2>, friction: f64, e: [[f64; 2]; 2]) -> f64 {
+    let n = c.normal;
+    let t = glam::DVec2::new(-n.y, n.x);
+    let b = n * (c.lever_i + c.lever_j);
+    let eb = glam::DVec2::new(e[0][0] * b.x + e[0][1] * b.y, e[1][0] * b.x + e[1][1] * b.y);
+    let s = c.tangential_force.dot(t).signum();
+    s * c.tangential_stiffness * t.dot(eb) + friction * c.normal_stiffness * n.dot(eb)
+}
+
+/// Of the grain–grain contacts of `sim` at the Coulomb limit at rest (counted as
+/// [`mobilised_contacts`] does), how many a strain increment `e` pushes on
+/// ([`sliding_drive`] > 0): `(mobilised, pushed on)`.
+pub fn mobilised_pushed_on(sim: &Simulation<D2>, e: [[f64; 2]; 2]) -> (u64, u64) {
+    let mu = sim.law.friction;
+    if !(mu > 0.0) {
+        return (0, 0);
+    }
+    let records = sim.contact_records();
+    let mobilised: Vec<_> = records
+        .iter()
+        .filter(|c| {
+            matches!(c.j, grainwave_core::snapshot::Counterpart::Grain(_))
+                && c.normal_force > 0.0
+                && c.tangential_force.length() >= (1.0 - MOBILISATION_TOLERANCE) * mu * c.normal_force
+        })
+        .collect();
+    let on = mobilised.iter().filter(|c| sliding_drive(c, mu, e) > 0.0).count();
+    (mobilised.len() as u64, on as u64)
+}
+
 /// Wall stresses [p*]: σ_xx = load on the right wall / height, σ_yy = load on the top wall / width
 /// (compression positive).
 pub fn wall_stresses(sim: &Simulation<D2>) -> (f64, f64) {

@@ -72,6 +72,11 @@ pub struct PairReport {
     /// M_s at rest by mobilisation, |F_t| ≥ (1 − 1e−6) μ F_n (SPEC §6.2): at the start, and at
     /// the end with and without the perturbation.
     pub mobilised: [u64; 3],
+    /// Wall pulses: of the contacts mobilised at the start, those that the pulse's mean strain
+    /// increment (a compression or rarefaction along the wall normal) pushes further into sliding
+    /// (the affine test of `model::sliding_drive`).
+    #[serde(default)]
+    pub pushed_on: u64,
     /// The engine's cap flag count M_s at the start, and at the end with and without the
     /// perturbation (differs from `mobilised` at rest; see docs/e2.md).
     pub flagged: [u64; 3],
@@ -329,6 +334,7 @@ pub fn write_pair(
         max_sliding_difference: max_sd,
         final_sliding_difference: diff.last().copied().unwrap_or(0.0) as i64,
         mobilised: r.mobilised,
+        pushed_on: r.pushed_on,
         flagged: [r.sliding.first().copied().unwrap_or(0), r.sliding.last().copied().unwrap_or(0), r.sliding_reference.last().copied().unwrap_or(0)],
         samples: r.times.len(),
         files,
@@ -414,6 +420,15 @@ pub struct StaticLimitRow {
     pub total: Option<f64>,
     /// M_s at rest (mobilised) of the static state before the pulse, and after it (with, without).
     pub static_mobilised: [u64; 3],
+    /// Of the static state's mobilised contacts, those that the pulse's mean strain increment
+    /// pushes further into sliding (`model::sliding_drive`).
+    #[serde(default)]
+    pub static_pushed_on: u64,
+    /// The same decomposition by SPEC §6.5's arrival (the time of the maximum of |δv_x|), which
+    /// the replays may not have used (`arrival = "first_lobe"`): c₀, c_ns, c_s, c_d [v_a], then
+    /// contact loss, sliding, strain rate and total [fractions of c₀].
+    #[serde(default)]
+    pub by_maximum: [Option<f64>; 8],
 }
 
 /// One amplitude of one state of the anisotropy table.
@@ -473,6 +488,8 @@ pub struct PulseRow {
     pub speed: Option<f64>,
     /// M_s by mobilisation at the start, at the end with the pulse, at the end without.
     pub mobilised: [u64; 3],
+    /// Of the contacts mobilised at the start, those the pulse's mean strain increment pushes on.
+    pub pushed_on: u64,
     /// M_s by the cap flag at the start, at the end with the pulse, at the end without.
     pub flagged: [u64; 3],
     /// Largest |M_s(with) − M_s(without)| (cap flag) during the replay.
@@ -491,6 +508,7 @@ pub fn pulse_rows(replays: &[ReplayReport]) -> Vec<PulseRow> {
                 amplitude: p.amplitude,
                 speed: p.speed,
                 mobilised: p.mobilised,
+                pushed_on: p.pushed_on,
                 flagged: p.flagged,
                 max_sliding_difference: p.max_sliding_difference,
             })
@@ -528,6 +546,16 @@ pub fn static_limit_rows(cfg: &E2Config, replays: &[ReplayReport]) -> Vec<Static
                 strain_rate: rel(cs, cd),
                 total: rel(c0, cd),
                 static_mobilised: st.pairs.get(k).map(|p| p.mobilised).unwrap_or_default(),
+                static_pushed_on: st.pairs.get(k).map(|p| p.pushed_on).unwrap_or_default(),
+                by_maximum: {
+                    let m = |r: &ReplayReport| r.pairs.get(k).and_then(|p| p.speed_maximum);
+                    let (c0, cns, cs, cd) = (m(u), m(ns), m(st), m(d));
+                    let rel = |a: Option<f64>, b: Option<f64>| match (c0, a, b) {
+                        (Some(c0), Some(a), Some(b)) => Some((a - b) / c0),
+                        _ => None,
+                    };
+                    [c0, cns, cs, cd, rel(c0, cns), rel(cns, cs), rel(cs, cd), rel(c0, cd)]
+                },
             }
         })
         .collect()
@@ -540,10 +568,11 @@ fn write_static_limit(dir: &Path, cfg: &E2Config, rows: &[StaticLimitRow], repla
     let f = |x: Option<f64>| x.map(|v| format!("{v:.9e}")).unwrap_or_default();
     write_csv(
         &dir.join("static_limit.csv"),
-        "direction,amplitude,undeformed,non_sliding,static,deforming,contact_loss,sliding,strain_rate,total,static_mobilised_before,static_mobilised_after",
+        "direction,amplitude,undeformed,non_sliding,static,deforming,contact_loss,sliding,strain_rate,total,static_mobilised_before,static_mobilised_after,static_pushed_on,\
+         undeformed_maximum,non_sliding_maximum,static_maximum,deforming_maximum,contact_loss_maximum,sliding_maximum,strain_rate_maximum,total_maximum",
         rows.iter().map(|r| {
             format!(
-                "{},{:e},{},{},{},{},{},{},{},{},{},{}",
+                "{},{:e},{},{},{},{},{},{},{},{},{},{},{},{}",
                 r.direction,
                 r.amplitude,
                 f(r.undeformed),
@@ -555,7 +584,9 @@ fn write_static_limit(dir: &Path, cfg: &E2Config, rows: &[StaticLimitRow], repla
                 f(r.strain_rate),
                 f(r.total),
                 r.static_mobilised[0],
-                r.static_mobilised[1]
+                r.static_mobilised[1],
+                r.static_pushed_on,
+                r.by_maximum.iter().map(|&x| f(x)).collect::<Vec<_>>().join(",")
             )
         }),
     )?;
@@ -611,6 +642,8 @@ fn unit_system() -> BTreeMap<String, String> {
             "wall_pulse delta: p_a, a time in t* (impulse p_a p* L_wall t*, SPEC §6.4); wall_pulse wavelet: dimensionless; radius: relative change",
         ),
         ("replays.*.pairs.*.mobilised / flagged", "contacts: M_s by |F_t| ≥ (1 − 1e−6) μ F_n / by the engine's cap flag"),
+        ("replays.*.pairs.*.pushed_on, static_limit.*.static_pushed_on", "contacts: of those mobilised at the start, the ones the pulse's mean strain increment pushes further into sliding"),
+        ("static_limit.*.by_maximum", "the decomposition by the SPEC arrival (maximum of |δv_x|): c₀, c_ns, c_s, c_d [v_a], contact loss, sliding, strain rate, total [fractions of c₀]"),
         ("static_limit.*", "v_a (speeds), fractions of c₀ (losses)"),
         ("replays.*.pairs.*.max_difference", "v_a"),
         ("replays.*.single.kinetic_energy", "p* L*²"),
@@ -673,10 +706,10 @@ pub fn write_summary(dir: &Path, state: &E2State, wall_seconds: f64) -> Result<E
     if !pulses.is_empty() {
         write_csv(
             &dir.join("pulses.csv"),
-            "replay,checkpoint,strain_yy,amplitude,speed,mobilised_start,mobilised_end_with,mobilised_end_without,flagged_start,flagged_end_with,flagged_end_without,max_sliding_difference",
+            "replay,checkpoint,strain_yy,amplitude,speed,mobilised_start,mobilised_end_with,mobilised_end_without,flagged_start,flagged_end_with,flagged_end_without,max_sliding_difference,pushed_on",
             pulses.iter().map(|r| {
                 format!(
-                    "{},{},{:e},{:e},{},{},{},{},{},{},{},{}",
+                    "{},{},{:e},{:e},{},{},{},{},{},{},{},{},{}",
                     r.replay,
                     r.checkpoint,
                     r.strain_yy,
@@ -688,7 +721,8 @@ pub fn write_summary(dir: &Path, state: &E2State, wall_seconds: f64) -> Result<E
                     r.flagged[0],
                     r.flagged[1],
                     r.flagged[2],
-                    r.max_sliding_difference
+                    r.max_sliding_difference,
+                    r.pushed_on
                 )
             }),
         )?;

@@ -85,6 +85,11 @@ pub struct PairResult {
     /// M_s at rest by mobilisation ([`model::mobilised_contacts`]): at the start (both copies),
     /// and at the end of the perturbed and of the unperturbed copy.
     pub mobilised: [u64; 3],
+    /// Wall pulses: of the contacts counted in `mobilised[0]`, those that the pulse's mean strain
+    /// increment pushes further into sliding ([`model::sliding_drive`] > 0 for a compression
+    /// (p_a > 0) or a rarefaction (p_a < 0) along the pulsing wall's normal). 0 for other
+    /// perturbations.
+    pub pushed_on: u64,
 }
 
 /// Runs the paired replay of `base` driven by `drive` for `steps` steps (see the module docs).
@@ -115,6 +120,9 @@ pub fn paired_replay(base: &Simulation<D2>, drive: &Drive, perturbation: &Pertur
         out.sliding_reference.push(b.counters.sliding);
     };
     out.mobilised[0] = model::mobilised_contacts(&with);
+    if matches!(perturbation, Perturbation::WallPulse { .. }) && amplitude != 0.0 {
+        out.pushed_on = model::mobilised_pushed_on(base, pulse_strain(drive.pulse_wall, amplitude)).1;
+    }
     sample(&with, &without, &mut out);
     grainwave_core::util::in_pool(|| -> Result<()> {
         for s in 1..=steps {
@@ -130,6 +138,18 @@ pub fn paired_replay(base: &Simulation<D2>, drive: &Drive, perturbation: &Pertur
     out.mobilised[1] = model::mobilised_contacts(&with);
     out.mobilised[2] = model::mobilised_contacts(&without);
     Ok(out)
+}
+
+/// The direction of the mean strain increment of a pulse from wall `wall` ([`model::RIGHT`]:
+/// along x; otherwise along y) of amplitude `amplitude`: a displacement gradient, extension
+/// positive, so a compressive pulse (p_a > 0) is −e e.
+pub fn pulse_strain(wall: usize, amplitude: f64) -> [[f64; 2]; 2] {
+    let e = -amplitude.signum();
+    if wall == model::RIGHT {
+        [[e, 0.0], [0.0, 0.0]]
+    } else {
+        [[0.0, 0.0], [0.0, e]]
+    }
 }
 
 /// Id of the grain nearest the centre of the box.

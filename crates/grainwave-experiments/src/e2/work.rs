@@ -359,11 +359,14 @@ pub fn run_replay(cfg: &E2Config, k: usize, out_root: &Path, source: &Path, env:
             let show = |s: Option<f64>| s.map(|s| format!("{s:.4}")).unwrap_or("—".into());
             let (speed, by_max, by_lobe) = (pair.speed, pair.speed_maximum, pair.speed_first_lobe);
             env.log(&format!(
-                "replay {name} a = {a:e}: speed {} v_a (maximum {}, first lobe {}), max |δv| = {:.3e} v_a",
+                "replay {name} a = {a:e}: speed {} v_a (maximum {}, first lobe {}), max |δv| = {:.3e} v_a, M_s (mobilised) {} → {}, {} pushed on by the pulse's mean strain",
                 show(speed),
                 show(by_max),
                 show(by_lobe),
-                r.max_difference / u.acoustic_velocity
+                r.max_difference / u.acoustic_velocity,
+                r.mobilised[0],
+                r.mobilised[1],
+                r.pushed_on
             ));
             if let (Some(m), Some(l)) = (by_max, by_lobe) {
                 if (m - l).abs() > 0.05 * l.abs() {

@@ -1,0 +1,98 @@
+//! Where the contacts at the Coulomb limit of an E2 state sit, and which way a homogeneous strain
+//! increment would push them (SPEC §6.2, §6.6; issue: why compressive pulses release so little
+//! sliding in compression).
+//!
+//! For a state file (a replay's `final.gwck`, e.g. `replays/stop500_g3/final.gwck`, the static
+//! state before its pulses; or a strain checkpoint `checkpoints/ck-*.gwck` holding a full state) it
+//! prints, over the grain–grain contacts:
+//!
+//! * the margin 1 − |F_t|/(μ F_n) from the Coulomb limit, as counts below 1e-12 … 1e-2
+//!   (the static-state count of SPEC §6.2 is the margin ≤ 1e-6);
+//! * for the mobilised contacts (margin ≤ 1e-6), the affine test of `e2::model::sliding_drive`:
+//!   under a small homogeneous strain increment E a contact at the limit keeps sliding when
+//!   F̂_t·δF_t > μ δF_n for the affine increments δF_n = −k_n n·E b, δF_t = k_t (t·E b) t. Counted for E =
+//!   ∓ e_x e_x (a compressive / rarefying pulse from the right wall, p_a > 0 / < 0), ∓ e_y e_y (the
+//!   same from the top wall) and the loading's own increment, E ∝ −(ε_xx, ε_yy) (the state's
+//!   strain, counted positive in compression), which must push most mobilised contacts on if
+//!   the sign conventions are right;
+//! * the mobilised contacts' positions: counts per fifth of the box along x (the right wall
+//!   emits the pulses) and along y, and the mean |cos θ| of their normals against all contacts'.
+//!
+//! ```text
+//! cargo run --release -p grainwave-experiments --example e2_contact_state -- STATE.gwck
+//! ```
+//! A pulse is not homogeneous and the grains' response is not affine, so the test says only where
+//! the mean increment pushes; that it predicts almost no sliding for compressive pulses in a
+//! compressed packing while the replays show some is the point of printing it.
+use grainwave_core::prelude::*;
+use grainwave_experiments::e2::biaxial::read_full_checkpoint;
+use grainwave_experiments::e2::model::sliding_drive;
+use std::path::PathBuf;
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let path: PathBuf = std::env::args().nth(1).ok_or("usage: e2_contact_state STATE.gwck")?.into();
+    let ck = read_full_checkpoint(&path)?;
+    let sim = &ck.sim;
+    let snap = sim.snapshot();
+    let mu = snap.law.friction;
+    let records: Vec<_> = snap.contacts.iter().filter(|c| matches!(c.j, Counterpart::Grain(_))).collect();
+    let index: std::collections::HashMap<u32, usize> = snap.id.iter().enumerate().map(|(k, &id)| (id, k)).collect();
+    let (mut x0, mut x1, mut y0, mut y1) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY, f64::NEG_INFINITY);
+    for p in &snap.pos {
+        x0 = x0.min(p.x);
+        x1 = x1.max(p.x);
+        y0 = y0.min(p.y);
+        y1 = y1.max(p.y);
+    }
+    println!("state {}: {} grains, {} grain–grain contacts, μ = {mu}, strain (ε_xx, ε_yy) = ({:.4e}, {:.4e})", path.display(), snap.id.len(), records.len(), ck.strain.0, ck.strain.1);
+
+    let margin = |c: &&ContactRecord<D2>| 1.0 - c.tangential_force.norm() / (mu * c.normal_force);
+    let bounds = [1e-12, 1e-9, 1e-8, 1e-7, 1e-6, 1e-5, 1e-4, 1e-3, 1e-2];
+    let flagged = records.iter().filter(|c| c.sliding).count();
+    print!("margin 1 − |F_t|/(μ F_n) ≤");
+    for b in bounds {
+        print!("  {b:.0e}: {}", records.iter().filter(|c| margin(c) <= b).count());
+    }
+    println!("  (cap flag: {flagged})");
+
+    let mobilised: Vec<_> = records.iter().filter(|c| margin(c) <= 1e-6).collect();
+    let drive = |c: &ContactRecord<D2>, e: [[f64; 2]; 2]| sliding_drive(c, mu, e);
+    let (ex, ey) = ck.strain;
+    let scale = ex.abs().max(ey.abs()).max(f64::MIN_POSITIVE);
+    let cases: [(&str, [[f64; 2]; 2]); 5] = [
+        ("right-wall pulse p_a > 0 (E = −e_x e_x)", [[-1.0, 0.0], [0.0, 0.0]]),
+        ("right-wall pulse p_a < 0 (E = +e_x e_x)", [[1.0, 0.0], [0.0, 0.0]]),
+        ("top-wall pulse p_a > 0 (E = −e_y e_y)", [[0.0, 0.0], [0.0, -1.0]]),
+        ("top-wall pulse p_a < 0 (E = +e_y e_y)", [[0.0, 0.0], [0.0, 1.0]]),
+        ("the loading's increment (E ∝ −the strain)", [[-ex / scale, 0.0], [0.0, -ey / scale]]),
+    ];
+    println!("mobilised (margin ≤ 1e-6): {}; pushed on (drive > 0) by", mobilised.len());
+    for (name, e) in cases {
+        let on = mobilised.iter().filter(|c| drive(c, e) > 0.0).count();
+        println!("  {name}: {on} ({:.1} %)", 100.0 * on as f64 / mobilised.len().max(1) as f64);
+    }
+
+    let bins = 5;
+    let at = |c: &ContactRecord<D2>| {
+        let p = snap.pos[index[&c.i]] + c.normal * c.lever_i;
+        (p.x, p.y)
+    };
+    let mut along_x = vec![0usize; bins];
+    let mut along_y = vec![0usize; bins];
+    let mut all_x = vec![0usize; bins];
+    for c in &records {
+        let (x, _) = at(c);
+        all_x[(((x - x0) / (x1 - x0) * bins as f64) as usize).min(bins - 1)] += 1;
+    }
+    for c in &mobilised {
+        let (x, y) = at(c);
+        along_x[(((x - x0) / (x1 - x0) * bins as f64) as usize).min(bins - 1)] += 1;
+        along_y[(((y - y0) / (y1 - y0) * bins as f64) as usize).min(bins - 1)] += 1;
+    }
+    println!("mobilised per fifth along x (left → right wall): {along_x:?} of all contacts {all_x:?}");
+    println!("mobilised per fifth along y (bottom → top): {along_y:?}");
+    let mean_cos = |v: &[&&ContactRecord<D2>]| v.iter().map(|c| c.normal.x.abs()).sum::<f64>() / v.len().max(1) as f64;
+    let all: Vec<_> = records.iter().collect();
+    println!("mean |n_x|: mobilised {:.3}, all contacts {:.3}", mean_cos(&mobilised), mean_cos(&all));
+    Ok(())
+}
