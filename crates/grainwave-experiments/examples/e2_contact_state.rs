@@ -18,8 +18,18 @@
 //! * the mobilised contacts' positions: counts per fifth of the box along x (the right wall
 //!   emits the pulses) and along y, and the mean |cos θ| of their normals against all contacts'.
 //!
+//! With amplitudes after the state (`p_a` in t*, e.g. `1e-9 -1e-9`), it also replays a δ pulse
+//! from the state's pulsing wall for `E2_PULSE_TA` acoustic times (default 2, as the static-limit
+//! replays), next to the same replay without the pulse, and counts, among the mobilised contacts
+//! that the affine test says the pulse pushes on and among those it says the pulse releases, how
+//! many the pulse made slide (the engine's cap flag set in some step of the pulsed copy and in no
+//! step of the unpulsed one): how far the grains' response is from the affine one. With
+//! `E2_ARRIVALS` = the replay's `aK_arrivals.csv` files (comma-separated, one per amplitude), the
+//! contacts that slid are split into those whose first sliding step comes no later than the
+//! pulse's arrival at grain i (they can slow the front) and those after it (the pulse's tail).
+//!
 //! ```text
-//! cargo run --release -p grainwave-experiments --example e2_contact_state -- STATE.gwck
+//! cargo run --release -p grainwave-experiments --example e2_contact_state -- STATE.gwck [p_a ...]
 //! ```
 //! A pulse is not homogeneous and the grains' response is not affine, so the test says only where
 //! the mean increment pushes; that it predicts almost no sliding for compressive pulses in a
@@ -27,7 +37,40 @@
 use grainwave_core::prelude::*;
 use grainwave_experiments::e2::biaxial::read_full_checkpoint;
 use grainwave_experiments::e2::model::sliding_drive;
+use grainwave_experiments::e2::config::PulseShape;
+use grainwave_experiments::e2::replay::{pulse_strain, Perturbation};
+use std::collections::HashMap;
 use std::path::PathBuf;
+
+/// Grain–grain contacts (i, j) whose cap flag is set in some step of `steps`, with the first such
+/// step (counted from 1).
+fn flagged_over(sim: &mut Simulation<D2>, drive: &grainwave_experiments::e2::model::Drive, steps: u64) -> Result<HashMap<(u32, u32), u64>, Box<dyn std::error::Error>> {
+    let mut seen = HashMap::new();
+    for s in 1..=steps {
+        drive.step(sim)?;
+        for c in sim.contact_records() {
+            if let (true, Counterpart::Grain(j)) = (c.sliding, c.j) {
+                seen.entry((c.i, j)).or_insert(s);
+            }
+        }
+    }
+    Ok(seen)
+}
+
+/// Arrival time [t_a] by grain id from a replay's `aK_arrivals.csv` (`id,x,y,distance,arrival`).
+fn read_arrivals(path: &str) -> Result<HashMap<u32, f64>, Box<dyn std::error::Error>> {
+    let text = std::fs::read_to_string(path)?;
+    let mut out = HashMap::new();
+    for line in text.lines().skip(1) {
+        let f: Vec<&str> = line.split(',').collect();
+        if let (Some(id), Some(t)) = (f.first(), f.get(4)) {
+            if let (Ok(id), Ok(t)) = (id.parse::<u32>(), t.parse::<f64>()) {
+                out.insert(id, t);
+            }
+        }
+    }
+    Ok(out)
+}
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let path: PathBuf = std::env::args().nth(1).ok_or("usage: e2_contact_state STATE.gwck")?.into();
@@ -94,5 +137,77 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mean_cos = |v: &[&&ContactRecord<D2>]| v.iter().map(|c| c.normal.x.abs()).sum::<f64>() / v.len().max(1) as f64;
     let all: Vec<_> = records.iter().collect();
     println!("mean |n_x|: mobilised {:.3}, all contacts {:.3}", mean_cos(&mobilised), mean_cos(&all));
+
+    let amplitudes: Vec<f64> = std::env::args().skip(2).map(|a| a.parse::<f64>()).collect::<Result<_, _>>()?;
+    let span: f64 = std::env::var("E2_PULSE_TA").ok().map(|v| v.parse()).transpose()?.unwrap_or(2.0);
+    let steps = (span * ck.units.acoustic_time / sim.dt).ceil() as u64;
+    let arrival_files: Vec<String> = std::env::var("E2_ARRIVALS").map(|v| v.split(',').map(String::from).collect()).unwrap_or_default();
+    let mut without: Option<HashMap<(u32, u32), u64>> = None;
+    for (k, a) in amplitudes.into_iter().enumerate() {
+        let e = pulse_strain(ck.drive.pulse_wall, a);
+        let (on, off): (Vec<_>, Vec<_>) = mobilised.iter().partition(|c| drive(c, e) > 0.0);
+        let key = |c: &&&&ContactRecord<D2>| match c.j {
+            Counterpart::Grain(j) => (c.i, j),
+            _ => unreachable!("grain–grain contacts only"),
+        };
+        if without.is_none() {
+            let mut sim0 = sim.clone();
+            without = Some(flagged_over(&mut sim0, &ck.drive, steps)?);
+        }
+        let mut sim1 = sim.clone();
+        let mut drive1 = ck.drive.clone();
+        // delivered in the first step, as the replays do (delay one step)
+        let pulse = Perturbation::WallPulse { shape: PulseShape::Delta, time_unit: ck.units.time, delay: sim.dt, width: 0.0 };
+        pulse.apply(&mut sim1, &mut drive1, a)?;
+        let with = flagged_over(&mut sim1, &drive1, steps)?;
+        let reference = without.as_ref().expect("set above");
+        let arrivals = match arrival_files.get(k) {
+            Some(path) => Some(read_arrivals(path)?),
+            None => None,
+        };
+        // (slid, of which no later than the front's arrival at grain i, of which with an arrival,
+        // contacts of the class with an arrival at grain i)
+        let slid = |v: &[&&&ContactRecord<D2>]| {
+            let mut n = [0usize; 4];
+            for c in v {
+                if arrivals.as_ref().is_some_and(|m| m.contains_key(&c.i)) {
+                    n[3] += 1;
+                }
+                let Some(&first) = with.get(&key(c)) else { continue };
+                if reference.contains_key(&key(c)) {
+                    continue;
+                }
+                n[0] += 1;
+                if let Some(t) = arrivals.as_ref().and_then(|m| m.get(&c.i)) {
+                    n[2] += 1;
+                    if first as f64 * sim.dt / ck.units.acoustic_time <= *t {
+                        n[1] += 1;
+                    }
+                }
+            }
+            n
+        };
+        let (s_on, s_off) = (slid(&on), slid(&off));
+        let others = with.keys().filter(|q| !reference.contains_key(q)).count() - s_on[0] - s_off[0];
+        println!(
+            "pulse p_a = {a:e} t* over {span} t_a ({steps} steps): slid (cap flag in the pulsed copy only) {} of the {} pushed on, {} of the {} released, and {} contacts that were not mobilised",
+            s_on[0],
+            on.len(),
+            s_off[0],
+            off.len(),
+            others
+        );
+        if arrivals.is_some() {
+            println!(
+                "  where the pulse arrived (grain i has an arrival): {} pushed on, {} released; slid no later than the front: {} and {}; slid later: {} and {}",
+                s_on[3],
+                s_off[3],
+                s_on[1],
+                s_off[1],
+                s_on[2] - s_on[1],
+                s_off[2] - s_off[1]
+            );
+        }
+    }
     Ok(())
 }
