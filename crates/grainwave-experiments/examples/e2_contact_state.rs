@@ -36,7 +36,7 @@
 //! compressed packing while the replays show some is the point of printing it.
 use grainwave_core::prelude::*;
 use grainwave_experiments::e2::biaxial::read_full_checkpoint;
-use grainwave_experiments::e2::model::sliding_drive;
+use grainwave_experiments::e2::model::{is_mobilised, sliding_drive};
 use grainwave_experiments::e2::config::PulseShape;
 use grainwave_experiments::e2::replay::{pulse_strain, Perturbation};
 use std::collections::HashMap;
@@ -98,7 +98,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     }
     println!("  (cap flag: {flagged})");
 
-    let mobilised: Vec<_> = records.iter().filter(|c| margin(c) <= 1e-6).collect();
+    let mobilised: Vec<_> = records.iter().filter(|c| is_mobilised(c, mu)).collect();
     let drive = |c: &ContactRecord<D2>, e: [[f64; 2]; 2]| sliding_drive(c, mu, e);
     let (ex, ey) = ck.strain;
     let scale = ex.abs().max(ey.abs()).max(f64::MIN_POSITIVE);

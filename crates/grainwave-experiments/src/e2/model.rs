@@ -304,14 +304,15 @@ pub fn mobilised_contacts(sim: &Simulation<D2>) -> u64 {
     if !(mu > 0.0) {
         return 0;
     }
-    sim.contact_records()
-        .iter()
-        .filter(|c| {
-            matches!(c.j, grainwave_core::snapshot::Counterpart::Grain(_))
-                && c.normal_force > 0.0
-                && c.tangential_force.length() >= (1.0 - MOBILISATION_TOLERANCE) * mu * c.normal_force
-        })
-        .count() as u64
+    sim.contact_records().iter().filter(|c| is_mobilised(c, mu)).count() as u64
+}
+
+/// The test of [`mobilised_contacts`] for one record: a grain–grain contact with F_n > 0 and
+/// |F_t| ≥ (1 − [`MOBILISATION_TOLERANCE`]) μ F_n.
+pub fn is_mobilised(c: &grainwave_core::snapshot::ContactRecord<D2>, friction: f64) -> bool {
+    matches!(c.j, grainwave_core::snapshot::Counterpart::Grain(_))
+        && c.normal_force > 0.0
+        && c.tangential_force.length() >= (1.0 - MOBILISATION_TOLERANCE) * friction * c.normal_force
 }
 
 /// Whether a small homogeneous strain increment pushes a contact that sits at the Coulomb limit
@@ -344,14 +345,7 @@ pub fn mobilised_pushed_on(sim: &Simulation<D2>, e: [[f64; 2]; 2]) -> (u64, u64)
         return (0, 0);
     }
     let records = sim.contact_records();
-    let mobilised: Vec<_> = records
-        .iter()
-        .filter(|c| {
-            matches!(c.j, grainwave_core::snapshot::Counterpart::Grain(_))
-                && c.normal_force > 0.0
-                && c.tangential_force.length() >= (1.0 - MOBILISATION_TOLERANCE) * mu * c.normal_force
-        })
-        .collect();
+    let mobilised: Vec<_> = records.iter().filter(|c| is_mobilised(c, mu)).collect();
     let on = mobilised.iter().filter(|c| sliding_drive(c, mu, e) > 0.0).count();
     (mobilised.len() as u64, on as u64)
 }

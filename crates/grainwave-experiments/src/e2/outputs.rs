@@ -530,10 +530,10 @@ pub fn static_limit_rows(cfg: &E2Config, replays: &[ReplayReport]) -> Vec<Static
         .map(|k| {
             let c = |r: &ReplayReport| r.pairs.get(k).and_then(|p| p.speed);
             let (c0, cns, cs, cd) = (c(u), c(ns), c(st), c(d));
-            let rel = |a: Option<f64>, b: Option<f64>| match (c0, a, b) {
-                (Some(c0), Some(a), Some(b)) => Some((a - b) / c0),
-                _ => None,
-            };
+            let [contact_loss, sliding, strain_rate, total] = losses([c0, cns, cs, cd]);
+            let m = |r: &ReplayReport| r.pairs.get(k).and_then(|p| p.speed_maximum);
+            let by_max = [m(u), m(ns), m(st), m(d)];
+            let [lm0, lm1, lm2, lm3] = losses(by_max);
             StaticLimitRow {
                 direction: if d.strain_yy >= 0.0 { "compression" } else { "extension" }.into(),
                 amplitude: u.pairs[k].amplitude,
@@ -541,24 +541,27 @@ pub fn static_limit_rows(cfg: &E2Config, replays: &[ReplayReport]) -> Vec<Static
                 non_sliding: cns,
                 static_state: cs,
                 deforming: cd,
-                contact_loss: rel(c0, cns),
-                sliding: rel(cns, cs),
-                strain_rate: rel(cs, cd),
-                total: rel(c0, cd),
+                contact_loss,
+                sliding,
+                strain_rate,
+                total,
                 static_mobilised: st.pairs.get(k).map(|p| p.mobilised).unwrap_or_default(),
                 static_pushed_on: st.pairs.get(k).map(|p| p.pushed_on).unwrap_or_default(),
-                by_maximum: {
-                    let m = |r: &ReplayReport| r.pairs.get(k).and_then(|p| p.speed_maximum);
-                    let (c0, cns, cs, cd) = (m(u), m(ns), m(st), m(d));
-                    let rel = |a: Option<f64>, b: Option<f64>| match (c0, a, b) {
-                        (Some(c0), Some(a), Some(b)) => Some((a - b) / c0),
-                        _ => None,
-                    };
-                    [c0, cns, cs, cd, rel(c0, cns), rel(cns, cs), rel(cs, cd), rel(c0, cd)]
-                },
+                by_maximum: [by_max[0], by_max[1], by_max[2], by_max[3], lm0, lm1, lm2, lm3],
             }
         })
         .collect()
+}
+
+/// The decomposition of SPEC §6.6 from the speeds [c₀, c_ns, c_s, c_d]: contact loss
+/// (c₀ − c_ns)/c₀, sliding (c_ns − c_s)/c₀, strain rate (c_s − c_d)/c₀ and total (c₀ − c_d)/c₀
+/// (None where a speed is missing).
+fn losses([c0, cns, cs, cd]: [Option<f64>; 4]) -> [Option<f64>; 4] {
+    let rel = |a: Option<f64>, b: Option<f64>| match (c0, a, b) {
+        (Some(c0), Some(a), Some(b)) => Some((a - b) / c0),
+        _ => None,
+    };
+    [rel(c0, cns), rel(cns, cs), rel(cs, cd), rel(c0, cd)]
 }
 
 fn write_static_limit(dir: &Path, cfg: &E2Config, rows: &[StaticLimitRow], replays: &[ReplayReport]) -> Result<()> {

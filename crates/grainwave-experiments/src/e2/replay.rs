@@ -119,9 +119,12 @@ pub fn paired_replay(base: &Simulation<D2>, drive: &Drive, perturbation: &Pertur
         out.sliding.push(a.counters.sliding);
         out.sliding_reference.push(b.counters.sliding);
     };
-    out.mobilised[0] = model::mobilised_contacts(&with);
+    // a wall pulse leaves the grains as they are (it arms the drive), so one pass over the
+    // contacts gives both counts
     if matches!(perturbation, Perturbation::WallPulse { .. }) && amplitude != 0.0 {
-        out.pushed_on = model::mobilised_pushed_on(base, pulse_strain(drive.pulse_wall, amplitude)).1;
+        (out.mobilised[0], out.pushed_on) = model::mobilised_pushed_on(&with, pulse_strain(drive.pulse_wall, amplitude));
+    } else {
+        out.mobilised[0] = model::mobilised_contacts(&with);
     }
     sample(&with, &without, &mut out);
     grainwave_core::util::in_pool(|| -> Result<()> {
