@@ -1014,3 +1014,58 @@ fn affine_sliding_drive_agrees_with_the_contact_law() {
     // both outcomes occur, for almost every case judged
     assert!(judged > 450 && on > 100 && off > 100, "judged {judged}, pushed on {on}, released {off}");
 }
+
+#[test]
+fn removed_gravity_leaves_a_gravity_free_equilibrium_before_the_loading() {
+    // `preparation.remove_gravity`: the packing converges under gravity, the gravity is switched
+    // off and the packing relaxes again to the same tolerance. Checkpoint 0 (the start of the
+    // loading, the state every replay of the undeformed packing starts from) must then carry no
+    // gravity, the preparation must end converged below `max_force` without it, and the state must
+    // differ from the one the same seed reaches with gravity kept (else the switch did nothing).
+    let run = |name: &str, remove: bool| -> (PathBuf, serde_json::Value) {
+        let out = tmp(name);
+        let text = format!(
+            r#"
+experiment = "e2"
+seed = 9
+[packing]
+columns = 8
+rows = 8
+[preparation]
+remove_gravity = {remove}
+[loading]
+strain_rate = 0.005
+final_strain = 2e-5
+checkpoint_strain = 2e-5
+sample_every = 5
+"#
+        );
+        let mut rep = SilentReporter;
+        let mut ctx = RunContext::new(&out, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
+        registry::run(&ConfigSource::from_text(name, &text), &mut ctx).unwrap();
+        drop(ctx);
+        let summary = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+        (out, summary)
+    };
+    let (kept_dir, kept) = run("gravity-kept", false);
+    let (removed_dir, removed) = run("gravity-removed", true);
+    let ck_kept = load_checkpoint(&kept_dir, 0).unwrap();
+    let ck_removed = load_checkpoint(&removed_dir, 0).unwrap();
+    assert!(ck_kept.sim.gravity.length() > 0.0, "the default keeps the preparation's gravity");
+    assert_eq!(ck_removed.sim.gravity, DVec2::ZERO);
+    for s in [&kept, &removed] {
+        assert_eq!(s["preparation"]["converged"], true);
+        assert!(s["preparation"]["max_force"].as_f64().unwrap() < 1e-4, "{}", s["preparation"]);
+    }
+    // the second relaxation takes steps of its own
+    assert!(
+        removed["preparation"]["steps"].as_u64().unwrap() > kept["preparation"]["steps"].as_u64().unwrap(),
+        "kept {} removed {}",
+        kept["preparation"],
+        removed["preparation"]
+    );
+    let moved = ck_kept.sim.grains.pos.iter().zip(&ck_removed.sim.grains.pos).map(|(a, b)| (*a - *b).length()).fold(0.0, f64::max);
+    assert!(moved > 0.0, "removing gravity left every grain where it was");
+    let log = std::fs::read_to_string(removed_dir.join("run.log")).unwrap();
+    assert!(log.contains("gravity now off"), "{log}");
+}

@@ -5,7 +5,8 @@
 //! At each chunk boundary the piston forces are set to p* × the current wall lengths, and when the
 //! power Σ F_i·v_i + Σ M a_w v_w of the forces is negative every velocity (pistons included) is set
 //! to zero (quench). Equilibrium: every |F_i| and every piston's |M a_w| below `max_force` p* d̄.
-//! Then friction is switched on (the tangential springs start at zero).
+//! With `remove_gravity`, the gravity is then switched off and the packing relaxes once more to the
+//! same tolerance. Then friction is switched on (the tangential springs start at zero).
 //!
 //! **Loading.** The top wall moves at the constant speed ε̇ H₀ (down in compression, up in
 //! extension), the right wall is a piston whose force p* × height is set before every step. Every
@@ -298,6 +299,14 @@ pub fn prepare(
                         "preparation: converged with stiff walls at step {} ({:.3} t*); bottom, left and top walls now absorbing",
                         sim.step, info.time
                     ));
+                    continue;
+                }
+                if pc.remove_gravity && sim.gravity != glam::DVec2::ZERO {
+                    // the gravity-free variant: relax once more, without gravity, to the same
+                    // tolerance (the state carries its gravity, so a resumed run continues here)
+                    sim.gravity = glam::DVec2::ZERO;
+                    sim.refresh()?;
+                    ctx.log(&format!("preparation: converged under gravity at step {} ({:.3} t*); gravity now off (`preparation.remove_gravity`)", sim.step, info.time));
                     continue;
                 }
                 info.converged = true;

@@ -130,8 +130,15 @@ pub struct PreparationConfig {
     /// Mass of each piston [M*].
     pub wall_mass: f64,
     /// Strength of the diagonal gravity as M* g / (p* L*): the weight of the packing over the force
-    /// on one wall (0: no gravity). Gravity stays on for the whole run.
+    /// on one wall (0: no gravity). It stays on for the whole run unless `remove_gravity`.
     pub gravity: f64,
+    /// Switch the gravity off once the packing has converged under it (after the walls became
+    /// absorbing) and relax again, frictionless, to the same equilibrium tolerance before μ is
+    /// switched on: the biaxial test and every replay then run without gravity. SPEC §6.2 is
+    /// silent on gravity after the preparation and the published study names it only there;
+    /// false (the default) keeps it on throughout, true is the variant that tests whether it
+    /// matters.
+    pub remove_gravity: bool,
     /// Equilibrium when every grain's |F_i| and every piston's |M a| are below this [p* d̄].
     pub max_force: f64,
     /// Check equilibrium (and update the piston forces p* × length) every this many steps [steps].
@@ -144,7 +151,7 @@ pub struct PreparationConfig {
 
 impl Default for PreparationConfig {
     fn default() -> Self {
-        PreparationConfig { wall_mass: 0.01, gravity: 0.01, max_force: 1e-4, check_every: 200, max_time: 200.0, dt_fraction: 0.05 }
+        PreparationConfig { wall_mass: 0.01, gravity: 0.01, remove_gravity: false, max_force: 1e-4, check_every: 200, max_time: 200.0, dt_fraction: 0.05 }
     }
 }
 
