@@ -1,0 +1,107 @@
+#!/usr/bin/env python3
+"""E2 Table 2 (the decomposition of the pulse-speed loss, SPEC §6.6) per packing and over packings,
+by both arrival definitions, from the committed summaries of the 64 × 64 runs.
+
+    python3 examples/papers/e2-table2.py                      # the canonical packings in docs/data/e2-64
+    python3 examples/papers/e2-table2.py DIR [DIR ...]        # any run directories (summary.json)
+    python3 examples/papers/e2-table2.py --amplitude 1e-10    # another |p_a| [t*] (default 1e-9)
+
+Arrival definitions (SPEC §6.5): "maximum" = the time of the maximum of |δv_x| (SPEC's headline
+definition), "first lobe" = the first lobe of the front (the replays' own, docs/e2.md). Losses
+Δc/c₀ are written positive (the published table writes them negative). Means ± standard error
+(SD/√n) over the packings, and the sample SD. Standard library only.
+"""
+import json
+import math
+import os
+import sys
+
+ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
+CANONICAL = {
+    "compression": ["compression", "compression-seed2", "compression-seed3", "compression-seed4"],
+    "extension": ["extension", "extension-seed2", "extension-seed3"],
+}
+PUBLISHED = {  # (p_a > 0, p_a < 0), magnitudes
+    "compression": {"contact_loss": (0.236, 0.233), "sliding": (0.179, 0.260),
+                    "strain_rate": (0.115, 0.034), "total": (0.530, 0.527)},
+    "extension": {"contact_loss": (0.037, 0.038), "sliding": (0.107, 0.090),
+                  "strain_rate": (0.014, 0.032), "total": (0.158, 0.160)},
+}
+PROCESSES = ["contact_loss", "sliding", "strain_rate", "total"]
+KEYS = {"maximum": "speed_maximum", "first lobe": "speed_first_lobe"}
+
+
+def speeds(summary, key):
+    out = {}
+    for r in summary["replays"]:
+        if r["name"] in ("undeformed", "nonsliding", "static", "deforming"):
+            for p in r["pairs"]:
+                out[(r["name"], p["amplitude"])] = p[key]
+    return out
+
+
+def losses(sp, amp):
+    c0 = sp[("undeformed", amp)]
+    cns, cs, cd = sp[("nonsliding", amp)], sp[("static", amp)], sp[("deforming", amp)]
+    return {"contact_loss": (c0 - cns) / c0, "sliding": (cns - cs) / c0,
+            "strain_rate": (cs - cd) / c0, "total": (c0 - cd) / c0}
+
+
+def stats(xs):
+    n = len(xs)
+    m = sum(xs) / n
+    s = math.sqrt(sum((x - m) ** 2 for x in xs) / (n - 1)) if n > 1 else float("nan")
+    return m, s / math.sqrt(n), s
+
+
+def table(title, runs, amp, published):
+    print(f"### {title}: Δc/c₀ at |p_a| = {amp:g} t*, p_a > 0 / p_a < 0\n")
+    print("| packing | arrival | contact loss | sliding | strain rate | total |")
+    print("|---|---|---|---|---|---|")
+    per = {k: {p: ([], []) for p in PROCESSES} for k in KEYS}
+    for name, s in runs:
+        for label, key in KEYS.items():
+            sp = speeds(s, key)
+            lp, lm = losses(sp, amp), losses(sp, -amp)
+            cells = []
+            for p in PROCESSES:
+                per[label][p][0].append(lp[p])
+                per[label][p][1].append(lm[p])
+                cells.append(f"{lp[p]:.3f} / {lm[p]:.3f}")
+            print(f"| {name if label == 'maximum' else ''} | {label} | " + " | ".join(cells) + " |")
+    n = len(runs)
+    for label in KEYS:
+        cells = []
+        for p in PROCESSES:
+            (mp, ep, sp_), (mm, em, sm) = stats(per[label][p][0]), stats(per[label][p][1])
+            cells.append(f"{mp:.3f} ± {ep:.3f} / {mm:.3f} ± {em:.3f} (SD {sp_:.3f} / {sm:.3f})")
+        print(f"| **mean ± SE ({n})** | {label} | " + " | ".join(cells) + " |")
+    if published:
+        print("| published (128², one packing) | maximum | " + " | ".join(
+            f"{published[p][0]:.3f} / {published[p][1]:.3f}" for p in PROCESSES) + " |")
+    print()
+
+
+def load(d):
+    with open(os.path.join(d, "summary.json")) as f:
+        return json.load(f)
+
+
+def main(argv):
+    amp = 1e-9
+    if "--amplitude" in argv:
+        i = argv.index("--amplitude")
+        amp = abs(float(argv[i + 1]))
+        del argv[i:i + 2]
+    if argv:
+        runs = [(os.path.basename(os.path.normpath(d)), load(d)) for d in argv]
+        table("runs", runs, amp, None)
+        return 0
+    for direction, names in CANONICAL.items():
+        runs = [(n, load(os.path.join(ROOT, "docs", "data", "e2-64", n))) for n in names]
+        table(f"{direction}, 64 × 64, {len(runs)} packings", runs, amp, PUBLISHED[direction])
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))
