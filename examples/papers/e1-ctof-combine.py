@@ -27,7 +27,7 @@ def boot(series, B=2000):
     return np.array([slope([s[rng.integers(0, len(s), len(s))] for s in series]) for _ in range(B)])
 for name, s in (("c_l", cl), ("c_t", ct)):
     b = boot(s); print(f"  slope {name}: {slope(s):.4f} (95 % bootstrap {np.percentile(b,2.5):.4f} … {np.percentile(b,97.5):.4f})",
-        "effective", [round(np.log(s[i+1].mean()/s[i].mean())/np.log(ps[i+1]/ps[i]), 4) for i in range(len(s)-1)])
+        "effective", [round(float(np.log(s[i+1].mean()/s[i].mean())/np.log(ps[i+1]/ps[i])), 4) for i in range(len(s)-1)])
 if len(sys.argv) > 3:
     h25, h8 = load(sys.argv[2]), load(sys.argv[3])
     print("c_tof (10 % leading edge, L ≈ 8 → 25):")
@@ -47,4 +47,4 @@ if len(sys.argv) > 3:
     sl = np.polyfit(np.log(pp), np.log(cs), 1)[0]
     bsl = np.array([np.polyfit(np.log(pp), np.log([b[k] for b in bs]), 1)[0] for k in range(2000)])
     print(f"  slope c_tof: {sl:.4f} (95 % bootstrap {np.percentile(bsl,2.5):.4f} … {np.percentile(bsl,97.5):.4f}) vs 1/6 = 0.1667",
-        "effective", [round(np.log(cs[i+1]/cs[i])/np.log(pp[i+1]/pp[i]), 4) for i in range(len(cs)-1)])
+        "effective", [round(float(np.log(cs[i+1]/cs[i])/np.log(pp[i+1]/pp[i])), 4) for i in range(len(cs)-1)])

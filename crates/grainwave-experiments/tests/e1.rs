@@ -405,6 +405,21 @@ fn outputs_and_checkpoint() {
     assert!(written.iter().any(|f| f == "plots/arrival_times.png") && dir.join("plots/arrival_times.png").exists());
     let r: SampleResult = grainwave_core::checkpoint::load(&dir.join("samples/p1e-4_N24/s0011/result.gwck"), "e1-sample-result").unwrap();
     assert!(r.failure.is_none() && r.statistics.is_some() && r.moduli.is_some());
+    // zero modes in samples.csv: the rattlers' part and the backbone's add up, and the rattlers'
+    // part holds at least 3 per contactless rattler + 1 per rattler on one frictional contact
+    // (rolling about it): independent motions on disjoint grains
+    let csv = std::fs::read_to_string(dir.join("samples.csv")).unwrap();
+    let mut lines = csv.lines();
+    let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+    let col = |name: &str| header.iter().position(|h| *h == name).unwrap_or_else(|| panic!("samples.csv has no column {name}"));
+    let (z, zr, zb, c0, c1, rat) = (col("zero_modes"), col("rattler_zero_modes"), col("backbone_zero_modes"), col("contactless_rattlers"), col("one_contact_rattlers"), col("rattlers"));
+    for line in lines {
+        let v: Vec<f64> = line.split(',').map(|x| x.parse::<f64>().unwrap_or(f64::NAN)).collect();
+        eprintln!("zero modes {} = {} rattlers' + {} backbone; rattlers {}, contactless {}, one contact {}", v[z], v[zr], v[zb], v[rat], v[c0], v[c1]);
+        assert_eq!(v[z], v[zr] + v[zb]);
+        assert!(v[zr] >= 3.0 * v[c0] + v[c1], "{line}");
+        assert!(v[c0] + v[c1] <= v[rat]);
+    }
     // The summary's sample work is the sum of the samples' own wall-clock (which already includes
     // a preparation made in the same task), not that plus the preparation a second time.
     let mut sum = 0.0;
@@ -518,4 +533,42 @@ fn a_tolerance_met_by_the_uncompressed_gas_is_refused_by_check() {
     let e = check_err(&text(1.3e-4, "piston_mass = 1.0\n"));
     assert!(e.message.contains("allowed: below 1.2000e-4"), "{e}");
     registry::check(&ConfigSource::from_text("ok.toml", text(1.1e-4, "piston_mass = 1.0\n"))).unwrap();
+}
+
+/// Zero modes of a sample (docs/e1.md, Pulse): the frictional lattice between its frictional walls
+/// has none; shrinking one bulk grain so that it touches nothing (a rattler) adds exactly its 3
+/// free motions (sphere2d: 2 translations, 1 rotation), and all 3 are counted as the rattlers'
+/// (P = Zᵀ M_R Z has eigenvalues 1); with `rattlers = "remove"` they are gone.
+#[test]
+fn a_contactless_rattler_adds_three_zero_modes_all_of_them_the_rattlers() {
+    let text = |rattlers: &str| format!("experiment = \"e1\"\n[lattice]\nrows = [9]\ncolumns = 10\npressures = [1e-4]\nfriction = 0.5\n[pulse]\nrattlers = \"{rattlers}\"\n");
+    let zero_modes = |rattlers: &str, shrink: Option<usize>| {
+        let plan = e1::prepare(&ConfigSource::from_text("e1.toml", text(rattlers))).unwrap();
+        let group = &plan.groups[0];
+        let spec = TriangularLatticeSpec { rows: 9, columns: 10, pressure: 1e-4, friction: 0.5, ..Default::default() };
+        let mut sim = spec.build().unwrap();
+        if let Some(g) = shrink {
+            sim.grains.radius[g] = 0.3;
+            sim.refresh().unwrap();
+        }
+        let mut result = SampleResult::new(0, 0, 0, 1);
+        e1::sample::analyze_packing(&sim, &plan, group, 0, &mut result).unwrap();
+        let stats = result.statistics.unwrap();
+        let p = result.pulse.unwrap();
+        eprintln!(
+            "rattlers = {rattlers}, shrunk {shrink:?}: {} rattlers, {} zero modes, {} of rattlers (weights ≥ {:.3e}, others ≤ {:.3e}), contactless {}, gap {:.2e}",
+            stats.rattlers, p.zero_modes, p.rattler_zero_modes, p.rattler_weight_min, p.other_weight_max, p.contactless_rattlers, p.zero_mode_gap
+        );
+        (stats.rattlers, p.zero_modes, p.rattler_zero_modes, p.contactless_rattlers, p.rattler_weight_min, p.zero_mode_gap)
+    };
+    let (r, z, zr, c, _, gap) = zero_modes("keep", None);
+    assert_eq!((r, z, zr, c), (0, 0, 0, 0));
+    assert!(gap > 1e-6, "the lattice's softest mode {gap:e} of max ω² is not zero");
+    let shrunk = 4 * 10 + 4; // a bulk grain
+    let (r, z, zr, c, w, _) = zero_modes("keep", Some(shrunk));
+    assert_eq!((r, z, zr, c), (1, 3, 3, 1));
+    // the three modes are the rattler's alone, to rounding
+    assert!((w - 1.0).abs() < 1e-9, "{w}");
+    let (r, z, zr, _, _, _) = zero_modes("remove", Some(shrunk));
+    assert_eq!((r, z, zr), (1, 0, 0));
 }

@@ -86,7 +86,7 @@ pub mod statics_direct;
 pub use dofs::{Constraints, DofLayout};
 pub use dynamical::{AssemblyOptions, DynamicalMatrix, LinearSystem, PreStress, Rattlers, SlidingContacts, ZeroRows};
 pub use error::{LinearError, Result};
-pub use linalg::eigen::{EigenOptions, Modes};
+pub use linalg::eigen::{EigenOptions, Modes, ZeroSpaceSplit};
 pub use statics::{solve_static, StaticOptions, StaticSolution};
 
 /// The names most programs need.
@@ -94,7 +94,7 @@ pub mod prelude {
     pub use crate::dofs::{Constraints, DofLayout};
     pub use crate::dynamical::{AssemblyOptions, DynamicalMatrix, LinearSystem, PreStress, Rattlers, SlidingContacts, ZeroRows};
     pub use crate::error::{LinearError, Result};
-    pub use crate::linalg::eigen::{EigenOptions, Modes};
+    pub use crate::linalg::eigen::{EigenOptions, Modes, ZeroSpaceSplit};
     pub use crate::linalg::symplectic::Scheme;
     pub use crate::moduli::{elastic_moduli, local_modulus, ElasticModuli, LocalLoading, ModuliOptions, VolumeConvention};
     pub use crate::propagation::{propagate_signal, MatrixFree, PropagationOptions, Propagator, StiffnessOperator};

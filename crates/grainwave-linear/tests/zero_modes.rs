@@ -13,6 +13,12 @@
 //! | frictional, between frictional walls | (d + r) per rattler only |
 //! | free periodic, frictional, rattlers removed | d |
 //!
+//! The zero space splits into motions of the rattlers and the rest (`Modes::zero_space_split`):
+//! every rattler mode above is carried by the rattlers alone (weight 1 of P = Zᵀ M_rattlers Z),
+//! the rigid translations and, without friction, the rotations of the other grains and the sliding
+//! of the backbone along frictionless walls by the rest (weight 0); a grain resting on one frictional contact has exactly one zero mode, rolling about
+//! the contact point.
+//!
 //! A mode counts as zero when |ω²| ≤ 1e-10 max ω²; the test also requires a clean gap (the next
 //! eigenvalue above 1e-5 max ω²; measured gaps are printed) so that the count cannot be an
 //! accident of the threshold. Symmetry: the blocks are assembled from one bilinear form, so
@@ -202,4 +208,92 @@ fn block_products_equal_csr_products() {
     let snap3 = lattice_3d(2, 2, &hertz_params(0.5, 0.0), true, None, 6, &[]).build().unwrap().snapshot();
     let dm3 = DynamicalMatrix::assemble(&snap3, &AssemblyOptions::default()).unwrap();
     check(&dm3.free_system(&Constraints::new(), ZeroRows::Keep).unwrap(), true);
+}
+
+/// The rattler part of the zero space of `snap` (rattlers = the grains in `rattlers`), with the
+/// check that the split is clean: every eigenvalue of P = Zᵀ M_R Z is 0 or 1 to rounding (the
+/// constructed packings' zero motions are either on the rattlers or off them), so that the count
+/// cannot depend on the 0.99 threshold.
+fn split<D: Dim>(name: &str, snap: &Snapshot<D>, rattlers: &[usize]) -> ZeroSpaceSplit {
+    let dm = DynamicalMatrix::assemble(snap, &AssemblyOptions::default()).unwrap();
+    let system = dm.free_system(&Constraints::new(), ZeroRows::Keep).unwrap();
+    let modes = Modes::compute(&system, &EigenOptions::default()).unwrap();
+    let layout = *dm.layout();
+    let selected: Vec<bool> = modes.free_dofs().iter().map(|&f| rattlers.contains(&layout.grain_of(f))).collect();
+    let s = modes.zero_space_split(1e-10, &selected, 0.99).unwrap();
+    assert_eq!(s.zero_modes, modes.zero_modes(1e-10));
+    let (counted, rest) = s.weights.split_at(s.localized);
+    eprintln!(
+        "{name}: {} zero modes, {} on the rattlers; smallest counted weight {:?}, largest other {:?}",
+        s.zero_modes,
+        s.localized,
+        counted.last(),
+        rest.first()
+    );
+    // exact-arithmetic weights are 1 and 0; the eigenvectors of a degenerate zero space carry
+    // rounding of order ε‖D‖/gap (gap ≥ 1e-5 of ‖D‖ above): 1e-9 leaves a wide margin
+    assert!(counted.iter().all(|&w| (w - 1.0).abs() < 1e-9), "{name}: {counted:?}");
+    assert!(rest.iter().all(|&w| w.abs() < 1e-9), "{name}: {rest:?}");
+    s
+}
+
+#[test]
+fn zero_space_splits_into_rattler_and_backbone_motions() {
+    let nr = RATTLERS_2D.len();
+    let walls = lattice_2d(8, 8, GrainKind::Sphere2d, &hertz_params(0.5, 0.0), true, None, 1, &RATTLERS_2D).build().unwrap().snapshot();
+    let n = walls.len();
+    // between walls, frictional: 3 per contactless rattler, all of them the rattlers'
+    let s = split("2D frictional between walls", &walls, &RATTLERS_2D);
+    assert_eq!((s.zero_modes, s.localized), (3 * nr, 3 * nr));
+    // the same packing, asking about grains that are held: none of the zero space is theirs
+    let s = split("2D frictional between walls, held grains selected", &walls, &[0, 10, 20]);
+    assert_eq!((s.zero_modes, s.localized), (3 * nr, 0));
+    // one grain more shrunk: 3 zero modes more, all of them the rattlers'
+    let more = [RATTLERS_2D[0], RATTLERS_2D[1], RATTLERS_2D[2], 36];
+    let walls4 = lattice_2d(8, 8, GrainKind::Sphere2d, &hertz_params(0.5, 0.0), true, None, 1, &more).build().unwrap().snapshot();
+    let s = split("2D frictional between walls, 4 rattlers", &walls4, &more);
+    assert_eq!((s.zero_modes, s.localized), (3 * nr + 3, 3 * nr + 3));
+    // free periodic: the 2 rigid translations belong to the backbone
+    let periodic = lattice_2d(8, 8, GrainKind::Sphere2d, &hertz_params(0.5, 0.0), false, None, 1, &RATTLERS_2D).build().unwrap().snapshot();
+    let s = split("2D periodic frictional", &periodic, &RATTLERS_2D);
+    assert_eq!((s.zero_modes, s.localized), (2 + 3 * nr, 3 * nr));
+    // frictionless between walls: every grain's rotation is free, and the frictionless walls let
+    // the whole backbone slide along the periodic axis; the rattlers' rotations and translations
+    // are theirs, the other n − nr rotations and the sliding the backbone's
+    let frictionless = lattice_2d(8, 8, GrainKind::Sphere2d, &hertz_params(0.0, 0.0), true, None, 1, &RATTLERS_2D).build().unwrap().snapshot();
+    let s = split("2D frictionless between walls", &frictionless, &RATTLERS_2D);
+    assert_eq!((s.zero_modes, s.localized), (n + 2 * nr + 1, 3 * nr));
+    // 3D, between walls: 6 per rattler
+    let nr3 = RATTLERS_3D.len();
+    let walls3 = lattice_3d(2, 2, &hertz_params(0.5, 0.0), true, None, 2, &RATTLERS_3D).build().unwrap().snapshot();
+    let s = split("3D frictional between walls", &walls3, &RATTLERS_3D);
+    assert_eq!((s.zero_modes, s.localized), (6 * nr3, 6 * nr3));
+}
+
+/// A frictional grain on one contact (a rattler by the default threshold of 2) has one zero mode,
+/// rolling without slipping about the contact point (u = −θ × R n̂ for a rotation θ), and it is the
+/// grain's; the normal and tangential springs hold the other two dofs.
+#[test]
+fn a_grain_on_one_frictional_contact_has_one_rolling_zero_mode() {
+    let params = hooke_params(100.0, 0.5, 0.5);
+    let law = params.build(Partner::Grain, "contact").unwrap();
+    let wall = params.build(Partner::Wall, "contact.wall").unwrap();
+    let mut g = Grains::<D2>::new(GrainKind::Disk { thickness: 1.0 });
+    g.push(DVec2::new(5.0, 0.49), 0.5, 1.0, DVec2::ZERO);
+    let domain = Domain::new(DVec2::ZERO, DVec2::new(10.0, 5.0), [true, false, false]).with_wall(Wall::axis_aligned("floor", 1, 0.0, true, wall));
+    let snap = SimulationBuilder::new(g, domain, law).max_initial_overlap(0.1).build().unwrap().snapshot();
+    assert_eq!(grainwave_linear::rattlers::find_rattlers(&snap, 2), vec![true]);
+    let s = split("one grain on a frictional floor", &snap, &[0]);
+    assert_eq!((s.zero_modes, s.localized), (1, 1));
+    // the zero mode is the rolling motion: u_x = −R θ (centre 0.49 above the contact point, R = 0.5
+    // minus the overlap: the lever arm), u_y = 0
+    let dm = DynamicalMatrix::assemble(&snap, &AssemblyOptions::default()).unwrap();
+    let modes = Modes::compute(&dm.free_system(&Constraints::new(), ZeroRows::Keep).unwrap(), &EigenOptions::default()).unwrap();
+    let v = modes.mode(0);
+    let at = |full: usize| v[modes.free_dofs().iter().position(|&f| f == full).unwrap()];
+    let layout = dm.layout();
+    let (ux, uy, theta) = (at(layout.translation(0, 0)), at(layout.translation(0, 1)), at(layout.rotation(0, 0)));
+    let lever = dm.contacts()[0].lever_i;
+    assert!(uy.abs() < 1e-12 * theta.abs(), "{v:?}");
+    assert!((ux / theta + lever).abs() < 1e-9 * lever, "u_x/θ = {} vs −{lever}", ux / theta);
 }

@@ -3,7 +3,7 @@
 //! times, c_tof, exponents) and over pressures (speeds and their log–log slopes).
 
 use super::plan::{Plan, StudyKind};
-use super::sample::SampleResult;
+use super::sample::{PulseResult, SampleResult};
 use grainwave_analysis::ensemble::{mean_and_rms, mean_std, MeanStd};
 use grainwave_analysis::pulse_series::{analyze_heights, bootstrap_exponents, BootstrapOptions, ExponentIntervals, HeightSeries, SeriesGroup, SeriesOptions};
 use grainwave_analysis::signal::{linear_fit, power_law_fit, pulse_metrics, LinearFit, PowerLawFit, PulseMetrics, PulseOptions};
@@ -194,6 +194,15 @@ pub fn aggregate(plan: &Plan, results: &[Option<SampleResult>]) -> (Aggregate, V
             pu.insert("zero_crossing_time".into(), stats(metrics.iter().map(|m| m.zero_crossing_time.unwrap_or(f64::NAN))));
             pu.insert("width".into(), stats(metrics.iter().map(|m| m.width.unwrap_or(f64::NAN))));
             pu.insert("fwhm".into(), stats(metrics.iter().map(|m| m.fwhm.unwrap_or(f64::NAN))));
+            if pulses.iter().any(|(_, p)| !p.omega_squared.is_empty()) {
+                let modal: Vec<&PulseResult> = pulses.iter().map(|(_, p)| *p).filter(|p| !p.omega_squared.is_empty()).collect();
+                pu.insert("zero_modes".into(), stats(modal.iter().map(|p| p.zero_modes as f64)));
+                pu.insert("rattler_zero_modes".into(), stats(modal.iter().map(|p| p.rattler_zero_modes as f64)));
+                pu.insert("backbone_zero_modes".into(), stats(modal.iter().map(|p| (p.zero_modes - p.rattler_zero_modes) as f64)));
+                pu.insert("contactless_rattlers".into(), stats(modal.iter().map(|p| p.contactless_rattlers as f64)));
+                pu.insert("one_contact_rattlers".into(), stats(modal.iter().map(|p| p.one_contact_rattlers as f64)));
+                pu.insert("zero_mode_gap".into(), stats(modal.iter().map(|p| p.zero_mode_gap)));
+            }
             pu.insert("samples_without_peak".into(), MeanStd { mean: (pulses.len() - metrics.len()) as f64, std: 0.0, count: 1 });
         }
         let sig: Vec<Vec<f64>> = pulses.iter().map(|(_, p)| p.signal.clone()).collect();

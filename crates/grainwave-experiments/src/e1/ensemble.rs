@@ -94,6 +94,9 @@ impl Work for Samples<'_> {
         if let Some(m) = result.pulse.as_ref().and_then(|p| p.metrics.as_ref()) {
             line.push_str(&format!(", leading edge at t = {:.4}", m.leading_edge_time));
         }
+        if let Some(p) = result.pulse.as_ref().filter(|p| !p.omega_squared.is_empty()) {
+            line.push_str(&format!(", {} zero modes ({} of rattlers)", p.zero_modes, p.rattler_zero_modes));
+        }
         ctx.log(&line);
         Ok(())
     }

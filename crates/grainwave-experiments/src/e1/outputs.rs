@@ -79,6 +79,9 @@ pub fn units(study: StudyKind) -> BTreeMap<String, String> {
     put("mean_force_over_p", "dimensionless: ⟨N⟩/(p d̄²)");
     put("phi2, phi3, phi3_star, f0, z, z_star, Z2, Z3, F2, F2_strong, sigma_ratio, sliding_fraction", "dimensionless");
     put("signal, peak_amplitude", "F_sig per unit initial condition: force E* d̄² per unit kick strength h (IC A, h = wall displacement × duration, in d̄ × d̄ √(ρ/E*)) or per unit displacement δ (IC B, in d̄)");
+    put("rattlers, zero_modes, rattler_zero_modes, backbone_zero_modes, contactless_rattlers, one_contact_rattlers", "count (whole packing, boundary layers included)");
+    put("rattler_weight_min, other_weight_max", "dimensionless: share of a zero-space direction's kinetic energy on rattler dofs");
+    put("zero_mode_gap", "dimensionless: |ω²| of the first non-zero mode / max ω²");
     put("preparation.seconds, sample_seconds, wall_seconds", "s (wall clock)");
     put("preparation.max_acceleration, piston_acceleration", "d̄ / (d̄ √(ρ/E*))² = E*/(ρ d̄)");
     u
@@ -141,6 +144,19 @@ pub fn write_outputs(out: &Path, plan: &Plan, wall_seconds: f64) -> Result<E1Rep
     csv_f64(&mut t, "peak_amplitude", pm(&|m| m.peak_amplitude))?;
     csv_f64(&mut t, "width", pm(&|m| m.width.unwrap_or(f64::NAN)))?;
     csv_f64(&mut t, "fwhm", pm(&|m| m.fwhm.unwrap_or(f64::NAN)))?;
+    // zero modes of the modal sum (NaN without one): all, the rattlers' part, the rest (backbone)
+    let zm = |f: &dyn Fn(&super::sample::PulseResult) -> f64| -> Vec<f64> {
+        done.iter().map(|(_, r)| r.pulse.as_ref().filter(|p| !p.omega_squared.is_empty()).map_or(f64::NAN, f)).collect()
+    };
+    csv_f64(&mut t, "rattlers", st(&|s| s.rattlers as f64))?;
+    csv_f64(&mut t, "zero_modes", zm(&|p| p.zero_modes as f64))?;
+    csv_f64(&mut t, "rattler_zero_modes", zm(&|p| p.rattler_zero_modes as f64))?;
+    csv_f64(&mut t, "backbone_zero_modes", zm(&|p| (p.zero_modes - p.rattler_zero_modes) as f64))?;
+    csv_f64(&mut t, "contactless_rattlers", zm(&|p| p.contactless_rattlers as f64))?;
+    csv_f64(&mut t, "one_contact_rattlers", zm(&|p| p.one_contact_rattlers as f64))?;
+    csv_f64(&mut t, "rattler_weight_min", zm(&|p| p.rattler_weight_min))?;
+    csv_f64(&mut t, "other_weight_max", zm(&|p| p.other_weight_max))?;
+    csv_f64(&mut t, "zero_mode_gap", zm(&|p| p.zero_mode_gap))?;
     csv_f64(&mut t, "seconds", done.iter().map(|(_, r)| r.seconds).collect())?;
     write_csv_atomic(&out.join("samples.csv"), &t)?;
     files.push("samples.csv".into());

@@ -13,6 +13,7 @@ use grainwave_linear::prelude::{
     detector_vector, propagate_signal, source_vector, AssemblyOptions, Constraints, DynamicalMatrix, EigenOptions, InitialCondition, ModalSignal, Modes,
     PreStress, PropagationOptions, Propagator, Rattlers, ZeroRows,
 };
+use grainwave_linear::contact::Partner;
 use grainwave_linear::reference::ChainSpec;
 use serde::{Deserialize, Serialize};
 
@@ -72,8 +73,26 @@ pub struct PulseResult {
     pub participation: Vec<f64>,
     /// Free dofs of the linear system.
     pub dofs: usize,
-    /// Zero modes (ω² ≤ 1e-12 max ω²).
+    /// Zero modes (|ω²| ≤ 1e-12 max ω², [`grainwave_linear::pulse::ZERO_MODE_TOLERANCE`]; modal sum
+    /// only).
     pub zero_modes: usize,
+    /// The rattlers' part of the zero space: the eigenvalues ≥ [`RATTLER_ZERO_MODE_WEIGHT`] of
+    /// P = Zᵀ M_R Z (Z the M-normalized zero modes, M_R the mass on the rattlers' dofs), i.e. the
+    /// dimension of the zero-energy motions with at least 99 % of their kinetic energy on rattlers
+    /// (see [`grainwave_linear::Modes::zero_space_split`]). Rattlers as in the characterization.
+    pub rattler_zero_modes: usize,
+    /// Smallest eigenvalue of P counted in `rattler_zero_modes` (1 when all are exact; NaN when none).
+    pub rattler_weight_min: f64,
+    /// Largest eigenvalue of P not counted (0 for a clean split; NaN when every zero mode is counted).
+    pub other_weight_max: f64,
+    /// |ω²| of the first mode above the zero modes over max ω² (the gap that makes the count).
+    pub zero_mode_gap: f64,
+    /// Rattlers without any linearized contact (k_n > 0): 3 zero modes each in 2D (6 in 3D).
+    pub contactless_rattlers: usize,
+    /// Rattlers with exactly one linearized contact: with friction, at least one zero mode each
+    /// (rolling about the contact point). 3 × contactless + one-contact (2D, frictional) is a lower
+    /// bound of `rattler_zero_modes`.
+    pub one_contact_rattlers: usize,
     /// Chains: the closed-form mode sum on the same grid.
     pub closed_form: Option<Vec<f64>>,
     /// Chains: max |generic − closed form| / max |closed form|.
@@ -153,6 +172,12 @@ impl SampleResult {
         }
     }
 }
+
+/// A direction of the zero space counts as the rattlers' when at least this share of its kinetic
+/// energy is on rattler dofs. The constructed packings of the linear crate's tests give shares of
+/// exactly 0 or 1 (to 1e-9), so any threshold inside (0, 1) counts the same there; in prepared
+/// packings `rattler_weight_min` and `other_weight_max` record how clean the split is.
+pub const RATTLER_ZERO_MODE_WEIGHT: f64 = 0.99;
 
 fn pulse_options(c: &PulseConfig) -> PulseOptions {
     PulseOptions { edge_fraction: c.edge_fraction, peak_threshold: c.peak_threshold.unwrap_or(grainwave_analysis::signal::DEFAULT_PEAK_THRESHOLD) }
@@ -244,7 +269,8 @@ pub fn analyze_packing<D: Dim>(sim: &Simulation<D>, plan: &Plan, group: &Group, 
             InitialConditionName::Displacement => InitialCondition::Displacement { amplitude: 1.0 },
         };
         let fields = if sample == 0 { pc.field_times.clone() } else { Vec::new() };
-        let pulse = linear_pulse(&snap, &options, &Constraints::new(), &ic, group, pc, &fields)?;
+        let flags = result.statistics.as_ref().map(|s| s.rattler_flags.as_slice());
+        let pulse = linear_pulse(&snap, &options, &Constraints::new(), &ic, group, pc, &fields, flags)?;
         if let Some(d) = &cfg.damped {
             if sample < d.samples {
                 result.damped = damped_runs(sim, plan, group, d, &pulse)?;
@@ -264,6 +290,7 @@ fn linear_pulse<D: Dim>(
     group: &Group,
     pc: &PulseConfig,
     field_fractions: &[f64],
+    rattlers: Option<&[bool]>,
 ) -> crate::Result<PulseResult> {
     let started = std::time::Instant::now();
     let dm = DynamicalMatrix::assemble(snap, options).map_err(linear_error)?;
@@ -292,6 +319,12 @@ fn linear_pulse<D: Dim>(
         participation: Vec::new(),
         dofs: system.dofs(),
         zero_modes: 0,
+        rattler_zero_modes: 0,
+        rattler_weight_min: f64::NAN,
+        other_weight_max: f64::NAN,
+        zero_mode_gap: f64::NAN,
+        contactless_rattlers: 0,
+        one_contact_rattlers: 0,
         closed_form: None,
         closed_form_difference: None,
         fields: Vec::new(),
@@ -305,7 +338,28 @@ fn linear_pulse<D: Dim>(
             out.omega_squared = modes.omega_squared().to_vec();
             out.contributions = modal.contributions(ic).to_vec();
             out.participation = modes.participation().to_vec();
-            out.zero_modes = modes.zero_modes(grainwave_linear::pulse::ZERO_MODE_TOLERANCE);
+            let tolerance = grainwave_linear::pulse::ZERO_MODE_TOLERANCE;
+            out.zero_modes = modes.zero_modes(tolerance);
+            let w2 = modes.omega_squared();
+            let scale = w2.iter().fold(0.0_f64, |a, &b| a.max(b.abs()));
+            out.zero_mode_gap = w2.iter().map(|w| w.abs()).filter(|&w| w > tolerance * scale).fold(f64::INFINITY, f64::min) / scale;
+            // (with rattlers removed from the system there is nothing of theirs to count)
+            if let (Some(flags), false) = (rattlers, dm.removed().iter().any(|&r| r)) {
+                let selected: Vec<bool> = modes.free_dofs().iter().map(|&f| flags[layout.grain_of(f)]).collect();
+                let split = modes.zero_space_split(tolerance, &selected, RATTLER_ZERO_MODE_WEIGHT).map_err(linear_error)?;
+                out.rattler_zero_modes = split.localized;
+                out.rattler_weight_min = split.weights[..split.localized].last().copied().unwrap_or(f64::NAN);
+                out.other_weight_max = split.weights.get(split.localized).copied().unwrap_or(f64::NAN);
+                let mut held = vec![0usize; layout.grains];
+                for c in dm.contacts().iter().filter(|c| c.normal_stiffness > 0.0) {
+                    held[c.i] += 1;
+                    if let Partner::Grain(j) = c.j {
+                        held[j] += 1;
+                    }
+                }
+                out.contactless_rattlers = (0..layout.grains).filter(|&g| flags[g] && held[g] == 0).count();
+                out.one_contact_rattlers = (0..layout.grains).filter(|&g| flags[g] && held[g] == 1).count();
+            }
             let (m, e) = metrics_of(times, &out.signal, pc);
             if let (Some(m), false) = (&m, field_fractions.is_empty()) {
                 let alpha = modes.project(&state.displacement).map_err(linear_error)?;
@@ -378,7 +432,7 @@ pub fn analyze_chain(spec: &ChainSpec, plan: &Plan, group: &Group, result: &mut 
         InitialConditionName::Impulse => spec.impulse(),
         InitialConditionName::Displacement => spec.displacement(),
     };
-    let mut pulse = linear_pulse(&snap, &AssemblyOptions::default(), &spec.constraints(), &ic, group, pc, &[])?;
+    let mut pulse = linear_pulse(&snap, &AssemblyOptions::default(), &spec.constraints(), &ic, group, pc, &[], None)?;
     if spec.polydispersity == 0.0 {
         let closed: Vec<f64> = group.times.iter().map(|&t| spec.closed_form_signal(t, &ic)).collect();
         let scale = closed.iter().fold(0.0_f64, |a, &b| a.max(b.abs()));

@@ -47,6 +47,19 @@ impl Default for EigenOptions {
     }
 }
 
+/// The zero space of [`Modes`] split by where it lives ([`Modes::zero_space_split`]).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct ZeroSpaceSplit {
+    /// Zero modes: |ω²| ≤ tolerance × max |ω²|.
+    pub zero_modes: usize,
+    /// Dimension of the part of the zero space on the selected dofs: eigenvalues of
+    /// P = Zᵀ M_S Z at or above the weight threshold.
+    pub localized: usize,
+    /// Eigenvalues of P (the selected dofs' share of the kinetic energy along the principal
+    /// directions of the zero space), decreasing, each in [0, 1] up to rounding.
+    pub weights: Vec<f64>,
+}
+
 /// Eigenmodes of a linear system, sorted by increasing ω².
 #[derive(Clone, Debug)]
 pub struct Modes {
@@ -152,6 +165,51 @@ impl Modes {
     pub fn zero_modes(&self, tolerance: f64) -> usize {
         let scale = self.omega_squared.iter().fold(0.0_f64, |a, &b| a.max(b.abs()));
         self.omega_squared.iter().filter(|&&w| w.abs() <= tolerance * scale).count()
+    }
+
+    /// Splits the zero space (the modes with |ω²| ≤ `tolerance` × max |ω²|) by where it lives: the
+    /// dimension of its part carried by the `selected` free dofs (e.g. the rattlers' dofs).
+    ///
+    /// With Z = [v_n] the k M-normalized zero modes (Zᵀ M Z = I) and M_S the mass restricted to the
+    /// selected dofs, the k × k matrix
+    ///
+    /// ```text
+    /// P = Zᵀ M_S Z,      P_ab = Σ_{r selected} m_r v_ra v_rb
+    /// ```
+    ///
+    /// has eigenvalues cos² θ_a ∈ [0, 1], θ_a the principal angles (in the M inner product)
+    /// between the zero space and the selected dofs: an eigenvalue 1 is a zero-energy motion
+    /// entirely on the selected dofs, 0 one without any part there. Its eigenvalues do not
+    /// depend on which basis the eigensolver chose inside the (degenerate) zero space, where the
+    /// weight Σ m_r v_rn² of single modes does: a rattler's free translation can come out mixed
+    /// with a backbone mechanism. `localized` counts the eigenvalues ≥ `weight` (e.g. 0.99: at
+    /// least 99 % of the kinetic energy on the selected dofs).
+    pub fn zero_space_split(&self, tolerance: f64, selected: &[bool], weight: f64) -> Result<ZeroSpaceSplit> {
+        LinearError::check_len("selected", self.len(), selected.len())?;
+        let scale = self.omega_squared.iter().fold(0.0_f64, |a, &b| a.max(b.abs()));
+        let zero: Vec<usize> = (0..self.len()).filter(|&n| self.omega_squared[n].abs() <= tolerance * scale).collect();
+        let k = zero.len();
+        let rows: Vec<usize> = (0..self.len()).filter(|&r| selected[r]).collect();
+        let mut p = Mat::<f64>::zeros(k, k);
+        for a in 0..k {
+            let va = self.vectors.col(zero[a]);
+            for b in 0..=a {
+                let vb = self.vectors.col(zero[b]);
+                let s: f64 = rows.iter().map(|&r| self.mass[r] * va[r] * vb[r]).sum();
+                p[(a, b)] = s;
+                p[(b, a)] = s;
+            }
+        }
+        let mut s = Diag::<f64>::zeros(k);
+        if k > 0 {
+            let scratch = evd::self_adjoint_evd_scratch::<f64>(k, evd::ComputeEigenvectors::No, Par::Seq, Default::default());
+            evd::self_adjoint_evd(p.as_ref(), s.as_mut(), None, Par::Seq, MemStack::new(&mut MemBuffer::new(scratch)), Default::default())
+                .map_err(|e| LinearError::Eigen { dofs: k, reason: format!("{e:?}") })?;
+        }
+        let mut weights: Vec<f64> = (0..k).map(|a| s[a]).collect();
+        weights.sort_by(|a, b| b.total_cmp(a));
+        let localized = weights.iter().filter(|&&w| w >= weight).count();
+        Ok(ZeroSpaceSplit { zero_modes: k, localized, weights })
     }
 
     /// Projections v_nᵀ M x of a free-dof vector on every mode.
