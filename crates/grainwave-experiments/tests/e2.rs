@@ -304,6 +304,110 @@ fn small_run_writes_checkpoints_series_replays_and_plots() {
 }
 
 #[test]
+fn the_undeformed_state_is_not_jolted_by_the_switch_to_a_top_piston() {
+    // Checkpoint 0 (the undeformed state) is taken as the loading starts, with the top wall
+    // already at the loading speed ε̇ H. Turning that wall into a piston for the pulses along y
+    // used to keep the speed: the piston carried it into the packing and launched a wave of
+    // particle velocity ≈ ε̇ H before the pulses. Now the piston starts at rest under the load
+    // the wall carries at rest. 10 × 10 disks, seed 2 (its preparation ends on a quench: the
+    // grains of checkpoint 0 are exactly at rest), loading at 1e-3/t* (a fast rate makes the jolt
+    // large; the canonical 2e-5/t* gives 2500 × less energy). Measured, old / new code: KE
+    // 0 → 2.8e-7 / 5.5e-14 p* L*² after 1 t_a (E_v = ½ M* (ε̇ H)² = 5e-7 p* L*²); M_s
+    // (mobilised) 0 → 3 / 0; a fixed top wall (wall_stop over 1e-6 t_a, the control) 0 → 1;
+    // c_y after 1 t_a and 4 t_a of quiet 0.849 / 0.808 v_a (old), 0.8750 / 0.8750 (new).
+    let out = tmp("top-piston-at-rest");
+    let text = r#"
+experiment = "e2"
+seed = 2
+[packing]
+columns = 10
+rows = 10
+[loading]
+strain_rate = 1e-3
+final_strain = 1e-4
+checkpoint_strain = 1e-4
+[output]
+plots = false
+fields = false
+[[replays]]
+name = "stopped"
+checkpoint = 0
+modification = "wall_stop"
+stop_time = 1e-6
+duration = 1.0
+[[replays]]
+name = "top"
+checkpoint = 0
+modification = "top_piston"
+duration = 1.0
+[[replays]]
+name = "top_quiet"
+checkpoint = 0
+modification = "top_piston"
+duration = 4.0
+[[replays]]
+name = "py"
+from = "top"
+pulse_wall = "top"
+amplitudes = [1e-9]
+duration = 2.0
+strips = 10
+[[replays]]
+name = "px"
+from = "top"
+amplitudes = [1e-9]
+duration = 2.0
+strips = 10
+[[replays]]
+name = "py_quiet"
+from = "top_quiet"
+pulse_wall = "top"
+amplitudes = [1e-9]
+duration = 2.0
+strips = 10
+[[replays]]
+name = "px_quiet"
+from = "top_quiet"
+amplitudes = [1e-9]
+duration = 2.0
+strips = 10
+"#;
+    let src = ConfigSource::from_text("top piston at rest", text);
+    let mut rep = SilentReporter;
+    let mut ctx = RunContext::new(&out, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
+    registry::run(&src, &mut ctx).unwrap();
+    let summary: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
+    let replay = |n: &str| summary["replays"].as_array().unwrap().iter().find(|r| r["name"] == n).unwrap().clone();
+    // the case exercised: the top wall of checkpoint 0 moves at the loading speed
+    let ck = load_checkpoint(&out, 0).unwrap();
+    let (_, h) = model::box_size(&ck.sim);
+    let v = ck.sim.domain.walls[model::TOP].speed;
+    assert!((v / h * ck.units.time - 1e-3).abs() < 1e-9, "checkpoint 0: top wall at {v}, not at the loading speed");
+    // the energy a piston carrying that speed feeds the packing, ½ M* (ε̇ H)² [p* L*²]
+    let e_v = 0.5 * ck.units.total_mass * v * v / (ck.units.pressure * ck.units.length * ck.units.length);
+    let single = |n: &str, key: &str, k: usize| replay(n)["single"][key][k].clone();
+    for n in ["top", "top_quiet"] {
+        let (ke0, ke1) = (single(n, "kinetic_energy", 0).as_f64().unwrap(), single(n, "kinetic_energy", 1).as_f64().unwrap());
+        // at rest the piston adds no energy: KE stays within 1e-3 E_v of the start (measured
+        // 1e-7 E_v; the old piston 0.57 E_v)
+        assert!(ke1 <= ke0 + 1e-3 * e_v, "{n}: KE {ke0:e} → {ke1:e} p* L*² (E_v = {e_v:e})");
+        // no more contacts reach the Coulomb limit than under a fixed top wall, whose packing
+        // mobilises 1 (friction has just been switched on); the old piston mobilised 3
+        let (m0, m1) = (single(n, "mobilised", 0).as_u64().unwrap(), single(n, "mobilised", 1).as_u64().unwrap());
+        let control = single("stopped", "mobilised", 1).as_u64().unwrap();
+        assert!(m1 <= m0.max(control), "{n}: M_s (mobilised) {m0} → {m1}, fixed top wall {control}");
+    }
+    // a state at rest has the same pulse speeds after 1 and after 4 t_a of quiet (measured: the
+    // same to 4 digits; the old piston's moving state: c_y 0.849 → 0.808 v_a); 0.005 v_a is
+    // below the anisotropy to be measured (≈ 0.01 in the undeformed state)
+    let speed = |n: &str| replay(n)["pairs"][0]["speed"].as_f64().unwrap();
+    for (a, b) in [("py", "py_quiet"), ("px", "px_quiet")] {
+        assert!((speed(a) - speed(b)).abs() < 0.005, "{a} {} v_a, after a longer quiet period {} v_a", speed(a), speed(b));
+    }
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
 fn delta_pulse_delivers_the_impulse_p_a_p_star_l_wall_t_star() {
     // SPEC §6.4: p(t) = p*[1 + p_a δ(t)] with p_a a time in t*, so the extra impulse on the right
     // wall is p_a · p* · L_wall · t*. Hand computation in engine units: p* = 1, M* = Σ π R²
@@ -700,7 +804,8 @@ duration = 5.0
 fn e2_paper_configs_pass_validation_and_follow_the_canonical_protocol() {
     // examples/papers/e2-*.toml are too big for the suite, but must stay valid and canonical:
     // published rate, absorbing walls, the slow-down to 2e-8/t* for Δε = 2e-6, the stop over
-    // 500 t_a with 100 t_a of radiation, μ = 2 after the stop.
+    // 500 t_a with 100 t_a of radiation, μ = 2 after the stop. A small study that loads faster
+    // says so in a header line `# deviation: loading at …` (e2-compression-16.toml).
     let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../../examples/papers");
     let mut checked = 0;
     for e in std::fs::read_dir(&dir).unwrap() {
@@ -712,10 +817,17 @@ fn e2_paper_configs_pass_validation_and_follow_the_canonical_protocol() {
         let src = ConfigSource::from_file(&path).unwrap();
         registry::check(&src).unwrap_or_else(|e| panic!("{name}: {e}"));
         let cfg = grainwave_experiments::e2::prepare(&src).unwrap();
-        assert_eq!(cfg.loading.strain_rate, 2e-5, "{name}");
+        let text = std::fs::read_to_string(&path).unwrap();
+        let declared = text.lines().any(|l| l.starts_with("# deviation: loading at"));
+        assert!(cfg.loading.strain_rate == 2e-5 || declared, "{name}: loading at {} /t*, not the published 2e-5, and no `# deviation: loading at` line", cfg.loading.strain_rate);
         assert!(cfg.material.absorbing_walls, "{name}");
         let find = |n: &str| cfg.replays.iter().find(|r| r.name.as_deref() == Some(n)).unwrap_or_else(|| panic!("{name}: no replay {n}"));
-        let stat = find(cfg.static_limit.static_state.as_deref().unwrap());
+        // a config of one state only (e2-undeformed-64.toml) has no static-limit chain to check
+        let Some(static_state) = cfg.static_limit.static_state.as_deref() else {
+            assert!(cfg.static_limit.undeformed.is_none() && cfg.static_limit.non_sliding.is_none(), "{name}: a decomposition without a static state");
+            continue;
+        };
+        let stat = find(static_state);
         let stop = find(stat.from.as_deref().unwrap());
         assert_eq!((stop.stop_time, stop.duration), (500.0, 600.0), "{name}");
         let slow = find(stop.from.as_deref().unwrap());

@@ -294,6 +294,21 @@ pub fn apply_single(rc: &ReplayConfig, sim: &mut Simulation<D2>, drive: &mut Dri
             Ok(())
         }
         Modification::TopPiston => {
+            // The piston starts at rest. A prescribed-speed wall keeps its last speed in
+            // `speed`, and a piston integrates from it: checkpoint 0 (the undeformed state) is
+            // taken as the loading starts, with the top wall already at the loading speed
+            // ε̇ H, so the piston would carry that speed (and a dashpot load computed with it)
+            // into the packing and launch a compression wave of particle velocity ≈ ε̇ H
+            // through it before the pulses (KE ≈ ½ M* (ε̇ H)², docs/e2.md, "The state before
+            // the top-wall pulses"). A stopped wall (the static states) is at rest already and
+            // is left to the bit as it was.
+            if sim.domain.walls[TOP].speed != 0.0 {
+                let w = &mut sim.domain.walls[TOP];
+                w.speed = 0.0;
+                // the load of the wall at rest: the absorbing wall's dashpot no longer sees the
+                // loading speed
+                sim.refresh_forces()?;
+            }
             let load = sim.domain.walls[TOP].normal_load();
             sim.domain.walls[TOP].motion = WallMotion::Piston { mass: cfg.preparation.wall_mass * u.total_mass, force: TimeFunction::constant(load) };
             drive.pistons.retain(|(k, _)| *k != TOP);

@@ -395,6 +395,16 @@ pub fn run_replay(cfg: &E2Config, k: usize, out_root: &Path, source: &Path, env:
             let ke0 = sim.kinetic_energy() / energy;
             let m0 = sim.counters.sliding;
             let mob0 = model::mobilised_contacts(&sim);
+            if rc.modification == Modification::TopPiston {
+                let (_, h) = model::box_size(&sim);
+                let v = sim.domain.walls[model::TOP].speed;
+                env.log(&format!(
+                    "replay {name}: top wall speed at the switch {:.4e} v_a (strain rate {:.4e} /t*){}",
+                    v / u.acoustic_velocity,
+                    v / h * u.time,
+                    if v != 0.0 { "; the piston starts at rest" } else { "" }
+                ));
+            }
             replay::apply_single(rc, &mut sim, &mut drive, &u, cfg)?;
             let t0 = sim.time;
             SinglePartial { sim, drive, rows: Vec::new(), done: 0, t0, ke0, m0, mob0 }
