@@ -316,8 +316,14 @@ pub struct ResponseConfig {
     /// Width of the layer along the walls and the free surface left out of the moduli window [R̄].
     pub boundary_layer: f64,
     /// A response whose antisymmetric fraction A_s (mirror symmetry of the floor response about
-    /// the load, SPEC §7.2.5) exceeds this is reported **asymmetric**, whatever its peak count.
+    /// the load, SPEC §7.2.5) exceeds this — and `asymmetry_factor` times its small-force value —
+    /// is reported **asymmetric**, whatever its peak count.
     pub asymmetry_threshold: f64,
+    /// "Well above its small-force value": under a vertical load without torque, a response is
+    /// asymmetric only when its A_s also exceeds this factor times the A_s of the smallest force
+    /// of its packing (the asymmetry the packing itself has: walls, disorder). Inclined loads and
+    /// torques, asymmetric by construction, are judged on `asymmetry_threshold` alone.
+    pub asymmetry_factor: f64,
 }
 
 impl Default for ResponseConfig {
@@ -332,6 +338,7 @@ impl Default for ResponseConfig {
             prominence: 0.05,
             boundary_layer: 4.0,
             asymmetry_threshold: super::measure::ASYMMETRY_THRESHOLD,
+            asymmetry_factor: super::measure::ASYMMETRY_FACTOR,
         }
     }
 }

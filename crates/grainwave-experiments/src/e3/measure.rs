@@ -174,6 +174,17 @@ pub const MIRROR_TOLERANCE: f64 = 0.5;
 /// Default threshold of the **asymmetric** flag on the antisymmetric fraction A_s (see
 /// [`Symmetry`]; `response.asymmetry_threshold`).
 pub const ASYMMETRY_THRESHOLD: f64 = 0.05;
+/// Default factor over the small-force A_s of the **asymmetric** flag (`response.asymmetry_factor`).
+pub const ASYMMETRY_FACTOR: f64 = 3.0;
+
+/// The A_s above which a response is reported asymmetric: `threshold`, and under a vertical load
+/// without torque also `factor` times the small-force value `small` (when known and finite).
+pub fn asymmetry_limit(threshold: f64, factor: f64, vertical: bool, small: Option<f64>) -> f64 {
+    match small {
+        Some(s) if vertical && s.is_finite() => threshold.max(factor * s),
+        _ => threshold,
+    }
+}
 
 /// Mirror symmetry of a floor response about the load (SPEC §7.2.5).
 ///

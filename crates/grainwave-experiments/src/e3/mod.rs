@@ -237,6 +237,9 @@ pub fn prepare(src: &ConfigSource) -> Result<E3Config, ConfigError> {
     }
     non_negative(src, "response.boundary_layer", rc.boundary_layer)?;
     positive(src, "response.asymmetry_threshold", rc.asymmetry_threshold)?;
+    if !(rc.asymmetry_factor.is_finite() && rc.asymmetry_factor >= 1.0) {
+        return Err(src.error_at_key("response.asymmetry_factor", format!("{} (allowed: a factor ≥ 1)", rc.asymmetry_factor)));
+    }
     // modes
     if cfg.mode == Mode::Superposition {
         positive(src, "superposition.separation", cfg.superposition.separation)?;

@@ -290,11 +290,16 @@ pub struct Aggregate {
     /// Mean of the samples' own A_s.
     #[serde(default)]
     pub asymmetry_of_samples: f64,
-    /// Samples whose own A_s exceeds `response.asymmetry_threshold`.
+    /// Samples whose own A_s exceeds their limit (`measure::asymmetry_limit` with the A_s of their
+    /// packing's smallest force).
     #[serde(default)]
     pub asymmetric_samples: usize,
-    /// A_s of the mean response exceeds `response.asymmetry_threshold`: reported asymmetric
-    /// whatever its peak count.
+    /// The limit on A_s of this ensemble: `response.asymmetry_threshold`, and under a vertical
+    /// load `asymmetry_factor` times the A_s of the group's smallest force.
+    #[serde(default)]
+    pub asymmetry_limit: f64,
+    /// A_s of the mean response exceeds `asymmetry_limit`: reported asymmetric whatever its peak
+    /// count.
     #[serde(default)]
     pub asymmetric: bool,
     /// The verdict with the symmetry: `asymmetric` when flagged, else `shape`.
@@ -332,7 +337,53 @@ pub struct Aggregate {
 }
 
 /// Averages the runs `rs` (same group, force and variant).
-pub fn aggregate(cfg: &E3Config, group: &Group, variant: Variant, rs: &[&RunResult]) -> Aggregate {
+/// Whether the load of `cfg` is vertical without torque (its responses are expected symmetric).
+fn vertical_load(cfg: &E3Config) -> bool {
+    cfg.load.angle == 0.0 && cfg.load.torque == 0.0
+}
+
+/// A_s of a run.
+fn run_asymmetry(r: &RunResult) -> f64 {
+    r.symmetry.map_or(f64::NAN, |v| v.antisymmetric_fraction)
+}
+
+/// For every run of `plan` (by index), the A_s limit of the asymmetric flag: from the A_s of the
+/// smallest-force run of the same case and variant when that run is linear (nothing opened,
+/// created or started sliding: the small-force value); otherwise the threshold alone (e.g. a
+/// refinement config whose smallest force is already beyond the linear regime).
+pub fn run_asymmetry_limits(cfg: &E3Config, plan: &Plan, runs: &[RunResult]) -> Vec<f64> {
+    plan.runs
+        .iter()
+        .map(|r| {
+            let small = plan
+                .runs
+                .iter()
+                .filter(|q| q.case == r.case && q.variant == r.variant)
+                .min_by(|a, b| a.force.total_cmp(&b.force))
+                .filter(|q| runs[q.index].linear)
+                .map(|q| run_asymmetry(&runs[q.index]));
+            measure::asymmetry_limit(cfg.response.asymmetry_threshold, cfg.response.asymmetry_factor, vertical_load(cfg), small)
+        })
+        .collect()
+}
+
+/// Sets the asymmetric flag and verdict of the ensembles `aggs` of one group: the limit from the
+/// A_s of the group's smallest force (per variant) when every sample of it stayed linear.
+fn flag_asymmetry(cfg: &E3Config, aggs: &mut [Aggregate]) {
+    for v in [Variant::Single, Variant::Left, Variant::Right, Variant::Both] {
+        let small = aggs.iter().filter(|a| a.variant == v).min_by(|a, b| a.force.total_cmp(&b.force)).filter(|a| a.linear == a.samples).map(|a| a.asymmetry);
+        for a in aggs.iter_mut().filter(|a| a.variant == v) {
+            a.asymmetry_limit = measure::asymmetry_limit(cfg.response.asymmetry_threshold, cfg.response.asymmetry_factor, vertical_load(cfg), small);
+            a.asymmetric = a.asymmetry > a.asymmetry_limit;
+            a.verdict = if a.asymmetric { "asymmetric".into() } else { a.shape.name().into() };
+        }
+    }
+}
+
+/// Averages the runs `rs` (same group, force and variant); `limits` are the per-run A_s limits
+/// ([`run_asymmetry_limits`], by run index). The asymmetric flag of the ensemble is set by
+/// [`flag_asymmetry`].
+pub fn aggregate(cfg: &E3Config, group: &Group, variant: Variant, rs: &[&RunResult], limits: &[f64]) -> Aggregate {
     let step = cfg.response.profile_step;
     // common range of grid indices k (x = k step)
     let k_of = |x: f64| (x / step).round() as i64;
@@ -394,13 +445,11 @@ pub fn aggregate(cfg: &E3Config, group: &Group, variant: Variant, rs: &[&RunResu
     let raw = if group.delta == 0.0 { measure::raw_floor_verdict(&mean_floor) } else { None };
     let symmetry = measure::floor_symmetry(&mean_floor.iter().map(|c| (c.x, c.after)).collect::<Vec<_>>());
     let asymmetry = symmetry.map_or(f64::NAN, |s| s.antisymmetric_fraction);
-    let threshold = cfg.response.asymmetry_threshold;
-    let asymmetric = asymmetry > threshold;
     let (shape, dip, verdict_basis) = match &raw {
         Some(v) => (v.shape, v.dip, "raw"),
         None => (classification.shape, classification.dip, "smoothed"),
     };
-    let run_asymmetry: Vec<f64> = rs.iter().map(|r| r.symmetry.map_or(f64::NAN, |s| s.antisymmetric_fraction)).collect();
+    let sample_asymmetry: Vec<f64> = rs.iter().map(|r| run_asymmetry(r)).collect();
     let field = |f: &dyn Fn(&RunResult) -> f64| mean_std(&rs.iter().map(|r| f(r)).collect::<Vec<_>>()).mean;
     let linear: Vec<f64> = rs.iter().filter(|r| r.linear).filter_map(|r| r.first_opening_estimate).collect();
     Aggregate {
@@ -423,10 +472,11 @@ pub fn aggregate(cfg: &E3Config, group: &Group, variant: Variant, rs: &[&RunResu
         cone_width: field(&|r| r.cone.width),
         symmetry,
         asymmetry,
-        asymmetry_of_samples: mean_std(&run_asymmetry).mean,
-        asymmetric_samples: run_asymmetry.iter().filter(|&&a| a > threshold).count(),
-        asymmetric,
-        verdict: if asymmetric { "asymmetric".into() } else { shape.name().into() },
+        asymmetry_of_samples: mean_std(&sample_asymmetry).mean,
+        asymmetric_samples: rs.iter().filter(|r| run_asymmetry(r) > limits.get(r.run).copied().unwrap_or(f64::INFINITY)).count(),
+        asymmetry_limit: f64::NAN,
+        asymmetric: false,
+        verdict: shape.name().into(),
         classification,
         raw,
         shape,
@@ -529,6 +579,9 @@ pub struct GroupReport {
     /// `response.asymmetry_threshold`.
     #[serde(default)]
     pub asymmetry_threshold: f64,
+    /// `response.asymmetry_factor`.
+    #[serde(default)]
+    pub asymmetry_factor: f64,
 }
 
 /// Superposition check of one case and force.
@@ -726,6 +779,7 @@ pub fn write_final(out: &Path, cfg: &E3Config, plan: &Plan) -> Result<E3Summary>
         runs.push(s.result);
     }
     // per-group aggregates
+    let limits = run_asymmetry_limits(cfg, plan, &runs);
     let mut all_aggs: Vec<(usize, Aggregate)> = Vec::new();
     for group in &plan.groups {
         let cases: Vec<CaseReport> = group
@@ -761,9 +815,10 @@ pub fn write_final(out: &Path, cfg: &E3Config, plan: &Plan) -> Result<E3Summary>
                 if rs.is_empty() || cfg.mode == Mode::Pile {
                     continue;
                 }
-                aggs.push(aggregate(cfg, group, variant, &rs));
+                aggs.push(aggregate(cfg, group, variant, &rs, &limits));
             }
         }
+        flag_asymmetry(cfg, &mut aggs);
         for a in &aggs {
             all_aggs.push((group.index, a.clone()));
         }
@@ -800,11 +855,12 @@ pub fn write_final(out: &Path, cfg: &E3Config, plan: &Plan) -> Result<E3Summary>
                 .min_by(|a, b| a.force.total_cmp(&b.force))
                 .map(|a| [a.force, a.asymmetry]),
             asymmetry_threshold: cfg.response.asymmetry_threshold,
+            asymmetry_factor: cfg.response.asymmetry_factor,
             responses: aggs,
         });
     }
     if cfg.mode != Mode::Pile && cfg.mode != Mode::LatticeElasticity {
-        tables(cfg, plan, &runs, &all_aggs, &out, &mut files)?;
+        tables(cfg, plan, &runs, &limits, &all_aggs, &out, &mut files)?;
         if cfg.output.plots {
             plots(cfg, plan, &all_aggs, &out, &mut files)?;
         }
@@ -827,7 +883,7 @@ pub fn write_final(out: &Path, cfg: &E3Config, plan: &Plan) -> Result<E3Summary>
     Ok(summary)
 }
 
-fn tables(cfg: &E3Config, plan: &Plan, runs: &[RunResult], aggs: &[(usize, Aggregate)], out: &Path, files: &mut Vec<String>) -> Result<()> {
+fn tables(cfg: &E3Config, plan: &Plan, runs: &[RunResult], limits: &[f64], aggs: &[(usize, Aggregate)], out: &Path, files: &mut Vec<String>) -> Result<()> {
     let nw = cfg.response.widths.len();
     // one row per run
     let mut t = CsvTable::new();
@@ -853,10 +909,9 @@ fn tables(cfg: &E3Config, plan: &Plan, runs: &[RunResult], aggs: &[(usize, Aggre
     t.push_f64("dip_smoothed", runs.iter().map(|r| r.classification.dip))?;
     t.push_text("shape_raw", runs.iter().map(|r| r.raw.map_or("none", |v| v.shape.name())))?;
     t.push_f64("raw_dip", runs.iter().map(|r| r.raw.map_or(f64::NAN, |v| v.dip)))?;
-    let a_s = |r: &RunResult| r.symmetry.map_or(f64::NAN, |v| v.antisymmetric_fraction);
-    let threshold = cfg.response.asymmetry_threshold;
-    t.push_f64("asymmetry", runs.iter().map(a_s))?;
-    t.push_text("asymmetric", runs.iter().map(|r| if a_s(r) > threshold { "yes" } else { "no" }))?;
+    t.push_f64("asymmetry", runs.iter().map(run_asymmetry))?;
+    t.push_f64("asymmetry_limit", limits.iter().copied())?;
+    t.push_text("asymmetric", runs.iter().zip(limits).map(|(r, l)| if run_asymmetry(r) > *l { "yes" } else { "no" }))?;
     for (name, side) in [("axis_left", 0usize), ("axis_centre", 1), ("axis_right", 2)] {
         let pick = |r: &RunResult| r.symmetry.and_then(|v| [v.left, v.centre, v.right][side]);
         t.push_f64(format!("{name}_x"), runs.iter().map(|r| pick(r).map_or(f64::NAN, |p| p[0])))?;
@@ -908,6 +963,7 @@ fn tables(cfg: &E3Config, plan: &Plan, runs: &[RunResult], aggs: &[(usize, Aggre
     t.push_f64("cone_depth", idx.iter().map(|&i| aggs[i].1.cone_depth))?;
     t.push_f64("cone_width", idx.iter().map(|&i| aggs[i].1.cone_width))?;
     t.push_f64("asymmetry", idx.iter().map(|&i| aggs[i].1.asymmetry))?;
+    t.push_f64("asymmetry_limit", idx.iter().map(|&i| aggs[i].1.asymmetry_limit))?;
     t.push_text("asymmetric", idx.iter().map(|&i| if aggs[i].1.asymmetric { "yes" } else { "no" }))?;
     t.push_text("verdict", idx.iter().map(|&i| aggs[i].1.verdict.clone()))?;
     t.push_text("shape", idx.iter().map(|&i| aggs[i].1.shape.name()))?;
