@@ -454,7 +454,7 @@ fn config_errors_point_at_the_key() {
 }
 
 // ---------------------------------------------------------------------------------------------
-// Physics regressions of the published-comparison protocol (issue 18): the paper's lattice, the
+// Physics regressions of the published-comparison protocol: the paper's lattice, the
 // first opening below the load, the raw-force verdict. An 8 × 20 slab (160 grains) with
 // frictionless walls, as in the published sweeps.
 
