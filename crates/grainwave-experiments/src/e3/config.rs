@@ -315,6 +315,15 @@ pub struct ResponseConfig {
     pub prominence: f64,
     /// Width of the layer along the walls and the free surface left out of the moduli window [R̄].
     pub boundary_layer: f64,
+    /// A response whose antisymmetric fraction A_s (mirror symmetry of the floor response about
+    /// the load, SPEC §7.2.5) exceeds this — and `asymmetry_factor` times its small-force value —
+    /// is reported **asymmetric**, whatever its peak count.
+    pub asymmetry_threshold: f64,
+    /// "Well above its small-force value": under a vertical load without torque, a response is
+    /// asymmetric only when its A_s also exceeds this factor times the A_s of the smallest force
+    /// of its packing (the asymmetry the packing itself has: walls, disorder). Inclined loads and
+    /// torques, asymmetric by construction, are judged on `asymmetry_threshold` alone.
+    pub asymmetry_factor: f64,
 }
 
 impl Default for ResponseConfig {
@@ -328,6 +337,8 @@ impl Default for ResponseConfig {
             classifier_width: None,
             prominence: 0.05,
             boundary_layer: 4.0,
+            asymmetry_threshold: super::measure::ASYMMETRY_THRESHOLD,
+            asymmetry_factor: super::measure::ASYMMETRY_FACTOR,
         }
     }
 }
@@ -394,11 +405,14 @@ pub struct PileConfig {
     pub top_grains: usize,
     /// Polydispersity δ of the pile's grains, in [0, 1).
     pub delta: f64,
+    /// Width w of the Gaussian (1/(w√π)) e^{−(x/w)²} of the coarse-grained floor stress σ_zz(x)
+    /// on which the pile is judged (SPEC §7.2.9) [R̄].
+    pub verdict_width: f64,
 }
 
 impl Default for PileConfig {
     fn default() -> Self {
-        PileConfig { layers: 11, top_grains: 1, delta: 0.0 }
+        PileConfig { layers: 11, top_grains: 1, delta: 0.0, verdict_width: 2.0 }
     }
 }
 

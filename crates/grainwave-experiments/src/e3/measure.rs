@@ -166,6 +166,164 @@ pub fn raw_floor_verdict(floor: &[FloorContact]) -> Option<RawVerdict> {
     Some(RawVerdict { shape, dip, centre_x: pts[c].0, centre: p0, left: [left.0, left.1], right: [right.0, right.1] })
 }
 
+/// Contacts whose mirror images lie within this distance of a floor contact pair with it [R̄]:
+/// a quarter of the floor-contact spacing 2R̄ of the lattice, far above the displacements of a
+/// relaxed ordered slab (≲ 1e-2 R̄) and of δ = 0.01 radii, far below the spacing.
+pub const MIRROR_TOLERANCE: f64 = 0.5;
+
+/// Default threshold of the **asymmetric** flag on the antisymmetric fraction A_s (see
+/// [`Symmetry`]; `response.asymmetry_threshold`).
+pub const ASYMMETRY_THRESHOLD: f64 = 0.05;
+/// Default factor over the small-force A_s of the **asymmetric** flag (`response.asymmetry_factor`).
+pub const ASYMMETRY_FACTOR: f64 = 3.0;
+
+/// The A_s above which a response is reported asymmetric: `threshold`, and under a vertical load
+/// without torque also `factor` times the small-force value `small` (when known and finite).
+pub fn asymmetry_limit(threshold: f64, factor: f64, vertical: bool, small: Option<f64>) -> f64 {
+    match small {
+        Some(s) if vertical && s.is_finite() => threshold.max(factor * s),
+        _ => threshold,
+    }
+}
+
+/// Mirror symmetry of a floor response about the load (SPEC §7.2.5).
+///
+/// The **antisymmetric fraction** A_s = Σ_c |ΔF(x_c) − ΔF(−x_c)| / Σ_c |ΔF(x_c) + ΔF(−x_c)|, the
+/// sums over the floor contacts c that have a mirror partner: the contact nearest −x_c, accepted
+/// when within [`MIRROR_TOLERANCE`] of −x_c (x measured from the loaded grain's reference
+/// position; a contact within MIRROR_TOLERANCE/2 of the axis is its own partner and adds 0 above,
+/// 2|ΔF| below). Contacts without a partner (a floor contact at a side wall whose image lies
+/// beyond the other wall) are counted in `unpaired` and left out of both sums. A_s = 0 for a
+/// mirror-symmetric response, 1 for a response on one side only (every ΔF(−x) = 0 where
+/// ΔF(x) ≠ 0), and unbounded (∞ when the denominator vanishes) for an antisymmetric one
+/// (ΔF(−x) = −ΔF(x)).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Symmetry {
+    /// A_s.
+    pub antisymmetric_fraction: f64,
+    /// Contacts with a mirror partner.
+    pub paired: usize,
+    /// Contacts without one.
+    pub unpaired: usize,
+    /// (x, ΔF_z) of the contact on the axis (|x| ≤ MIRROR_TOLERANCE), if any [R̄, m̄g].
+    pub centre: Option<[f64; 2]>,
+    /// (x, ΔF_z) of the nearest contact left of the axis (x < −MIRROR_TOLERANCE/2 … the first
+    /// beyond the centre) [R̄, m̄g].
+    pub left: Option<[f64; 2]>,
+    /// (x, ΔF_z) of the nearest contact right of the axis [R̄, m̄g].
+    pub right: Option<[f64; 2]>,
+}
+
+/// The mirror symmetry of the floor response `points` = (x, ΔF_z), x from the load (see
+/// [`Symmetry`]); None without any paired contact.
+pub fn floor_symmetry(points: &[(f64, f64)]) -> Option<Symmetry> {
+    let (mut num, mut den, mut paired) = (0.0, 0.0, 0usize);
+    for &(x, f) in points {
+        let partner = points.iter().min_by(|a, b| (a.0 + x).abs().total_cmp(&(b.0 + x).abs()))?;
+        if (partner.0 + x).abs() <= MIRROR_TOLERANCE {
+            num += (f - partner.1).abs();
+            den += (f + partner.1).abs();
+            paired += 1;
+        }
+    }
+    if paired == 0 {
+        return None;
+    }
+    let half = 0.5 * MIRROR_TOLERANCE;
+    let centre = points.iter().filter(|p| p.0.abs() <= half).min_by(|a, b| a.0.abs().total_cmp(&b.0.abs())).map(|p| [p.0, p.1]);
+    let left = points.iter().filter(|p| p.0 < -half).max_by(|a, b| a.0.total_cmp(&b.0)).map(|p| [p.0, p.1]);
+    let right = points.iter().filter(|p| p.0 > half).min_by(|a, b| a.0.total_cmp(&b.0)).map(|p| [p.0, p.1]);
+    let antisymmetric_fraction = if den > 0.0 { num / den } else if num > 0.0 { f64::INFINITY } else { 0.0 };
+    Some(Symmetry { antisymmetric_fraction, paired, unpaired: points.len() - paired, centre, left, right })
+}
+
+/// Half-angle of the first-opening region: the lattice directions through the loaded grain, 30°
+/// from the vertical (SPEC §7.2.5).
+pub const CONE_HALF_ANGLE_DEG: f64 = 30.0;
+/// Margin of the first-opening region beyond those directions, measured horizontally: one grain
+/// (the lattice spacing 2R̄) [R̄].
+pub const CONE_MARGIN: f64 = 2.0;
+/// Rounding allowance of the region's edges [R̄]. On the triangular lattice of spacing 2R̄ the
+/// contact points below a top-row grain lie at |Δx| − Δz tan 30° ∈ {…, 1, 2, 3, …} R̄ and at heights
+/// Δz ∈ (√3/2) ℕ R̄, so an allowance of half a radius puts each edge halfway between two rows of
+/// contact positions: the contacts on the lattice line one grain outside (|Δx| − Δz tan 30° = 2)
+/// and the loaded grain's own horizontal contacts (Δz = 0) count, the next ones (3) do not.
+pub const CONE_ALLOWANCE: f64 = 0.5;
+
+/// Whether a contact point at (Δx, Δz) from the loaded grain's centre (Δz > 0 below it) lies in
+/// the first-opening region of SPEC §7.2.5: Δz ≥ −[`CONE_ALLOWANCE`] and
+/// |Δx| ≤ Δz tan 30° + [`CONE_MARGIN`] + [`CONE_ALLOWANCE`].
+pub fn in_opening_cone(dx: f64, dz: f64) -> bool {
+    dz >= -CONE_ALLOWANCE && dx.abs() <= dz.max(0.0) * CONE_HALF_ANGLE_DEG.to_radians().tan() + CONE_MARGIN + CONE_ALLOWANCE
+}
+
+/// Grain–grain contacts opened in the first-opening region below the load (SPEC §7.2.5), whether
+/// or not connected to the loaded grain: their number, the depth below the load of the deepest and
+/// of the shallowest [R̄], and the horizontal extent of their contact points [R̄].
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ConeOpening {
+    /// Opened grain–grain contacts in the region.
+    pub count: usize,
+    /// Largest depth below the load of one of them (0 when none) [R̄].
+    pub depth: f64,
+    /// Smallest depth below the load of one of them (0 when none) [R̄].
+    pub shallowest: f64,
+    /// Horizontal extent (max − min) of their contact points (0 when fewer than two) [R̄].
+    pub width: f64,
+}
+
+/// The opened grain–grain contacts of `changes` in the first-opening region of the load at
+/// `load` = (x, z) (contact points of the reference state).
+pub fn cone_opening(changes: &NetworkChanges<D2>, load: [f64; 2]) -> ConeOpening {
+    let mut r = ConeOpening::default();
+    let (mut lo, mut hi, mut shallow) = (f64::INFINITY, f64::NEG_INFINITY, f64::INFINITY);
+    for c in changes.contacts.iter().filter(|c| c.opened() && matches!(c.key, ContactKey::Pair(..))) {
+        let p = c.point();
+        let (dx, dz) = (p.x - load[0], load[1] - p.y);
+        if in_opening_cone(dx, dz) {
+            r.count += 1;
+            r.depth = r.depth.max(dz);
+            shallow = shallow.min(dz);
+            lo = lo.min(p.x);
+            hi = hi.max(p.x);
+        }
+    }
+    if r.count > 0 {
+        r.shallowest = shallow;
+    }
+    if r.count >= 2 {
+        r.width = hi - lo;
+    }
+    r
+}
+
+/// The verdict of a smoothed profile on its axis (the pile rule of SPEC §7.2.9): p₀ = `values` at
+/// x = 0 (the grid point nearest it), p_L and p_R the largest values at x < 0 and x > 0 within
+/// `window` = [x_min, x_max] (the profile away from the side walls' support); **double** (a dip
+/// on the axis) when p₀ < min(p_L, p_R), **single** when p₀ ≥ max(p_L, p_R), otherwise
+/// irregular; dip 1 − p₀/min(p_L, p_R), signed as in [`RawVerdict`]. None when a side of the
+/// window holds no grid point.
+pub fn axis_verdict(grid: &[f64], values: &[f64], window: [f64; 2]) -> Option<RawVerdict> {
+    use grainwave_analysis::peaks::PeakShape;
+    let z = zero_index(grid);
+    let best = |pred: &dyn Fn(f64) -> bool| {
+        grid.iter().zip(values).filter(|(x, _)| pred(**x) && **x >= window[0] && **x <= window[1]).map(|(x, v)| (*x, *v)).max_by(|a, b| a.1.total_cmp(&b.1))
+    };
+    let left = best(&|x| x < grid[z])?;
+    let right = best(&|x| x > grid[z])?;
+    let p0 = values[z];
+    let low = left.1.min(right.1);
+    let shape = if p0 < low {
+        PeakShape::Double
+    } else if p0 >= left.1.max(right.1) {
+        PeakShape::Single
+    } else {
+        PeakShape::Irregular
+    };
+    let dip = if low > 0.0 { 1.0 - p0 / low } else { f64::NAN };
+    Some(RawVerdict { shape, dip, centre_x: grid[z], centre: p0, left: [left.0, left.1], right: [right.0, right.1] })
+}
+
 /// The force difference of one contact (superposition comparisons).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ContactDelta {
@@ -204,8 +362,16 @@ pub struct RunResult {
     pub side_wall_change: [f64; 2],
     /// Contact counts.
     pub counts: NetworkCounts,
-    /// Region of opened contacts.
+    /// Region of opened contacts connected to the load (grown from the loaded grain).
     pub region: RegionSize,
+    /// Grain–grain contacts opened in the first-opening region below the load (SPEC §7.2.5; the
+    /// cone of the two lattice directions through the load, one grain of margin), connected to the
+    /// load or not.
+    #[serde(default)]
+    pub cone: ConeOpening,
+    /// Mirror symmetry of the floor response about the origin (SPEC §7.2.5).
+    #[serde(default)]
+    pub symmetry: Option<Symmetry>,
     /// The run stayed linear: no contact opened, none was created, none started sliding.
     pub linear: bool,
     /// Linear estimate of the force at which the first contact opens [m̄g].
@@ -385,6 +551,10 @@ pub fn measure_run(input: RunInputs<'_>, reference: &Snapshot<D2>, after: &Snaps
     // the opened contacts connected to the load: seeded within 3 R̄ (the loaded grain's contacts
     // and its neighbours'), linked within 2.5 R̄ (contacts sharing a grain)
     let region = changes.opened_region(glam::DVec2::new(origin, load_z), 1, 0, REGION_SEED, REGION_LINK);
+    // the opened contacts in the cone below the load, connected or not (a superposition's two
+    // loads: the cone below their midpoint)
+    let cone = cone_opening(&changes, [origin, load_z]);
+    let symmetry = floor_symmetry(&xs.iter().copied().zip(dfz.iter().copied()).collect::<Vec<_>>());
     // linear estimate of the first opening
     let mut estimate: Option<(f64, ContactKey)> = None;
     for c in &changes.contacts {
@@ -428,6 +598,8 @@ pub fn measure_run(input: RunInputs<'_>, reference: &Snapshot<D2>, after: &Snaps
         side_wall_change: [wall_load(after, LEFT) - wall_load(reference, LEFT), wall_load(after, RIGHT) - wall_load(reference, RIGHT)],
         counts,
         region,
+        cone,
+        symmetry,
         linear,
         first_opening_estimate: estimate.map(|e| e.0),
         first_opening_contact: estimate.map(|e| e.1),
@@ -476,5 +648,59 @@ mod tests {
         let v = raw_floor_verdict(&floor(&[(-5.0, 0.3), (-3.0, 1.1), (-1.0, 1.0), (1.0, 0.98), (3.0, 1.05), (5.0, 0.3)])).unwrap();
         assert_eq!(v.shape, PeakShape::Double);
         assert!((v.dip - (1.0 - 1.0 / 1.05)).abs() < 1e-12);
+    }
+
+    #[test]
+    fn antisymmetric_fraction_of_synthetic_floor_profiles() {
+        // floor contacts at x = −8 … 8 (step 2) plus an unpaired one at −10 (its image, +10, is
+        // beyond the right wall); profile g(x) = e^{−x²/16} + 0.1
+        let xs: Vec<f64> = (-4..=4).map(|k| 2.0 * k as f64).collect();
+        let g = |x: f64| (-x * x / 16.0).exp() + 0.1;
+        let with_edge = |pts: Vec<(f64, f64)>| [vec![(-10.0, 0.7)], pts].concat();
+        // exactly mirrored: A_s = 0, 9 contacts paired, the edge one not
+        let s = floor_symmetry(&with_edge(xs.iter().map(|&x| (x, g(x))).collect())).unwrap();
+        assert_eq!((s.antisymmetric_fraction, s.paired, s.unpaired), (0.0, 9, 1));
+        assert_eq!((s.centre, s.left, s.right), (Some([0.0, g(0.0)]), Some([-2.0, g(-2.0)]), Some([2.0, g(2.0)])));
+        // a response on one side only (x > 0): every pair gives |a − 0| / |a + 0|, A_s = 1
+        let s = floor_symmetry(&with_edge(xs.iter().map(|&x| (x, if x > 0.0 { g(x) } else { 0.0 })).collect())).unwrap();
+        assert!((s.antisymmetric_fraction - 1.0).abs() < 1e-15, "{s:?}");
+        // antisymmetric, ΔF(−x) = −ΔF(x): the denominator vanishes, A_s = ∞
+        let s = floor_symmetry(&xs.iter().map(|&x| (x, x * g(x))).collect::<Vec<_>>()).unwrap();
+        assert_eq!(s.antisymmetric_fraction, f64::INFINITY);
+        // a symmetric part S and an antisymmetric part a·A: A_s = Σ|2aA| / Σ|2S| exactly
+        let a = 0.1;
+        let pts: Vec<(f64, f64)> = xs.iter().map(|&x| (x, g(x) + a * x * g(x))).collect();
+        let expected = xs.iter().map(|&x| (2.0 * a * x * g(x)).abs()).sum::<f64>() / xs.iter().map(|&x| 2.0 * g(x)).sum::<f64>();
+        assert!((floor_symmetry(&pts).unwrap().antisymmetric_fraction - expected).abs() < 1e-14);
+        // images within the tolerance pair (a relaxed lattice, small disorder); a load between two
+        // floor contacts (x = ±1, ±3): no centre, the nearest on each side are named
+        let pts = [(-3.0, 0.5), (-1.01, 1.0), (0.99, 1.0), (3.0, 0.5)];
+        let s = floor_symmetry(&pts).unwrap();
+        assert_eq!((s.antisymmetric_fraction, s.paired, s.centre), (0.0, 4, None));
+        assert_eq!((s.left, s.right), (Some([-1.01, 1.0]), Some([0.99, 1.0])));
+        // no mirror partner within the tolerance at all
+        assert!(floor_symmetry(&[(1.0, 1.0), (-1.7, 1.0)]).is_none());
+    }
+
+    #[test]
+    fn first_opening_region_is_the_cone_below_the_load_with_one_grain_of_margin() {
+        let t = (30f64).to_radians().tan();
+        // on the lattice lines through the load and one grain (2R̄) outside them: inside
+        for k in 1..=14 {
+            let dz = k as f64 * 3f64.sqrt();
+            for s in [-1.0, 1.0] {
+                assert!(in_opening_cone(s * dz * t, dz), "on the line, row {k}");
+                assert!(in_opening_cone(s * (dz * t + 2.0), dz), "one grain outside, row {k}");
+                // the horizontal contact just beyond the margin (|Δx| − Δz tan 30° = 3): outside
+                assert!(!in_opening_cone(s * (dz * t + 3.0), dz), "beyond the margin, row {k}");
+            }
+        }
+        // the loaded grain's own horizontal contacts (Δz = 0, Δx = ±1) and its neighbours' (±3)
+        assert!(in_opening_cone(1.0, 0.0) && in_opening_cone(-1.0, 0.0));
+        assert!(!in_opening_cone(3.0, 0.0));
+        // above the load: outside
+        assert!(!in_opening_cone(0.0, -1.0));
+        // a contact straight below at any depth: inside
+        assert!(in_opening_cone(0.0, 40.0));
     }
 }

@@ -236,6 +236,10 @@ pub fn prepare(src: &ConfigSource) -> Result<E3Config, ConfigError> {
         return Err(src.error_at_key("response.prominence", format!("{} (allowed: a fraction in (0, 1))", rc.prominence)));
     }
     non_negative(src, "response.boundary_layer", rc.boundary_layer)?;
+    positive(src, "response.asymmetry_threshold", rc.asymmetry_threshold)?;
+    if !(rc.asymmetry_factor.is_finite() && rc.asymmetry_factor >= 1.0) {
+        return Err(src.error_at_key("response.asymmetry_factor", format!("{} (allowed: a factor ≥ 1)", rc.asymmetry_factor)));
+    }
     // modes
     if cfg.mode == Mode::Superposition {
         positive(src, "superposition.separation", cfg.superposition.separation)?;
@@ -262,6 +266,7 @@ pub fn prepare(src: &ConfigSource) -> Result<E3Config, ConfigError> {
                 format!("{} layers, {} top grains (allowed: at least 2 layers and 1 top grain)", cfg.pile.layers, cfg.pile.top_grains),
             ));
         }
+        positive(src, "pile.verdict_width", cfg.pile.verdict_width)?;
         if !(0.0..1.0).contains(&cfg.pile.delta) {
             return Err(src.error_at_key("pile.delta", format!("{} (allowed: δ in [0, 1))", cfg.pile.delta)));
         }
@@ -421,13 +426,34 @@ pub fn summary_lines(r: &E3Summary, out: &std::path::Path) -> Vec<String> {
         }
         for a in &g.responses {
             lines.push(format!(
-                "response     F = {} ({}): p(0)/F = {:.4e}, {} opened, {} sliding, {} peak",
+                "response     F = {} ({}): p(0)/F = {:.4e}, {} opened ({} in the cone below the load), {} sliding, {} ({} verdict, dip {:.4}; smoothed {}), A_s = {:.3e}",
                 a.force,
                 a.variant.name(),
                 a.response_at_zero.first().copied().unwrap_or(f64::NAN),
                 a.opened,
+                a.opened_cone,
                 a.sliding,
-                a.classification.shape.name()
+                a.verdict,
+                a.verdict_basis,
+                a.dip,
+                a.classification.shape.name(),
+                a.asymmetry
+            ));
+        }
+        for b in &g.first_opening_bisection {
+            let v = |x: Option<f64>| x.map_or("-".to_string(), |x| format!("{x:.4}"));
+            lines.push(format!(
+                "first opening  {}: below the load (cone) {} m̄g [{}, {}], connected to the load {} [{}, {}], anywhere [{}, {}] (linear estimate {})",
+                b.case,
+                v(b.first_opening_below_load),
+                v(b.lower),
+                v(b.upper),
+                v(b.first_opening_connected),
+                v(b.connected_lower),
+                v(b.connected_upper),
+                v(b.anywhere_lower),
+                v(b.anywhere_upper),
+                v(b.anywhere_linear_estimate)
             ));
         }
         if let Some(f) = &g.first_opening {
@@ -440,7 +466,16 @@ pub fn summary_lines(r: &E3Summary, out: &std::path::Path) -> Vec<String> {
         lines.push(format!("superposition F = {}: per-contact deviation {:.2e}, profile {:.2e}", s.force, s.contact_max_deviation, s.profile_max_deviation.first().copied().unwrap_or(f64::NAN)));
     }
     for p in &r.piles {
-        lines.push(format!("pile         {}: floor/weight {:.9}, {} floor profile ({}, dip {:.4})", p.group, p.floor_over_weight, p.shape.name(), p.verdict_basis, p.dip));
+        lines.push(format!(
+            "pile         {}: floor/weight {:.9}, {} floor profile ({}, dip {:.4}); raw without the wall-supported contacts: {} (dip {:.4})",
+            p.group,
+            p.floor_over_weight,
+            p.shape.name(),
+            p.verdict_basis,
+            p.dip,
+            p.shape_raw.map_or("none", |s| s.name()),
+            p.dip_raw
+        ));
     }
     if let Some(l) = &r.lattice {
         lines.push(format!("lattice      a = {:.4}, b = {:.4}, c = {:.4}, d = {:.4}, r = {:.4} ({})", l.moduli.a, l.moduli.b, l.moduli.c, l.moduli.d, l.moduli.r, l.verdict));

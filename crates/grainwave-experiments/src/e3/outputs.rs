@@ -1,7 +1,7 @@
 //! Outputs of the `e3` protocol: per-run files, ensemble aggregates, tables, plots and the summary.
 
 use super::config::{E3Config, Mode};
-use super::measure::{self, FieldData, FloorContact, ModuliReport, RawVerdict, RunResult};
+use super::measure::{self, FieldData, FloorContact, ModuliReport, RawVerdict, RunResult, Symmetry};
 use super::plan::{Group, Plan, RunSpec, Variant};
 use super::slab::{self, Material, Shape, Sites};
 use super::work::{self, ReferenceResult, StoredRun};
@@ -270,6 +270,41 @@ pub struct Aggregate {
     pub opened_depth: f64,
     /// Mean width of the opened region [R̄].
     pub opened_width: f64,
+    /// Mean number of grain–grain contacts opened in the first-opening region below the load
+    /// (the cone of SPEC §7.2.5, connected to the load or not).
+    #[serde(default)]
+    pub opened_cone: f64,
+    /// Mean depth below the load of the deepest of them [R̄].
+    #[serde(default)]
+    pub cone_depth: f64,
+    /// Mean horizontal extent of their contact points [R̄].
+    #[serde(default)]
+    pub cone_width: f64,
+    /// Antisymmetric fraction A_s of the mean floor response (mean ΔF_z per floor grain over the
+    /// samples) about the load, with the contacts next to the axis (SPEC §7.2.5, `measure::Symmetry`).
+    #[serde(default)]
+    pub symmetry: Option<Symmetry>,
+    /// A_s of the mean response (NaN without mirrored contacts).
+    #[serde(default)]
+    pub asymmetry: f64,
+    /// Mean of the samples' own A_s.
+    #[serde(default)]
+    pub asymmetry_of_samples: f64,
+    /// Samples whose own A_s exceeds their limit (`measure::asymmetry_limit` with the A_s of their
+    /// packing's smallest force).
+    #[serde(default)]
+    pub asymmetric_samples: usize,
+    /// The limit on A_s of this ensemble: `response.asymmetry_threshold`, and under a vertical
+    /// load `asymmetry_factor` times the A_s of the group's smallest force.
+    #[serde(default)]
+    pub asymmetry_limit: f64,
+    /// A_s of the mean response exceeds `asymmetry_limit`: reported asymmetric whatever its peak
+    /// count.
+    #[serde(default)]
+    pub asymmetric: bool,
+    /// The verdict with the symmetry: `asymmetric` when flagged, else `shape`.
+    #[serde(default)]
+    pub verdict: String,
     /// Verdict of the classifier on the mean smoothed profile (the verdict of disordered packings).
     pub classification: PeakClassification,
     /// Verdict on the raw per-contact floor forces (ordered lattices; mean ΔF_z per floor grain
@@ -302,7 +337,53 @@ pub struct Aggregate {
 }
 
 /// Averages the runs `rs` (same group, force and variant).
-pub fn aggregate(cfg: &E3Config, group: &Group, variant: Variant, rs: &[&RunResult]) -> Aggregate {
+/// Whether the load of `cfg` is vertical without torque (its responses are expected symmetric).
+fn vertical_load(cfg: &E3Config) -> bool {
+    cfg.load.angle == 0.0 && cfg.load.torque == 0.0
+}
+
+/// A_s of a run.
+fn run_asymmetry(r: &RunResult) -> f64 {
+    r.symmetry.map_or(f64::NAN, |v| v.antisymmetric_fraction)
+}
+
+/// For every run of `plan` (by index), the A_s limit of the asymmetric flag: from the A_s of the
+/// smallest-force run of the same case and variant when that run is linear (nothing opened,
+/// created or started sliding: the small-force value); otherwise the threshold alone (e.g. a
+/// refinement config whose smallest force is already beyond the linear regime).
+pub fn run_asymmetry_limits(cfg: &E3Config, plan: &Plan, runs: &[RunResult]) -> Vec<f64> {
+    plan.runs
+        .iter()
+        .map(|r| {
+            let small = plan
+                .runs
+                .iter()
+                .filter(|q| q.case == r.case && q.variant == r.variant)
+                .min_by(|a, b| a.force.total_cmp(&b.force))
+                .filter(|q| runs[q.index].linear)
+                .map(|q| run_asymmetry(&runs[q.index]));
+            measure::asymmetry_limit(cfg.response.asymmetry_threshold, cfg.response.asymmetry_factor, vertical_load(cfg), small)
+        })
+        .collect()
+}
+
+/// Sets the asymmetric flag and verdict of the ensembles `aggs` of one group: the limit from the
+/// A_s of the group's smallest force (per variant) when every sample of it stayed linear.
+fn flag_asymmetry(cfg: &E3Config, aggs: &mut [Aggregate]) {
+    for v in [Variant::Single, Variant::Left, Variant::Right, Variant::Both] {
+        let small = aggs.iter().filter(|a| a.variant == v).min_by(|a, b| a.force.total_cmp(&b.force)).filter(|a| a.linear == a.samples).map(|a| a.asymmetry);
+        for a in aggs.iter_mut().filter(|a| a.variant == v) {
+            a.asymmetry_limit = measure::asymmetry_limit(cfg.response.asymmetry_threshold, cfg.response.asymmetry_factor, vertical_load(cfg), small);
+            a.asymmetric = a.asymmetry > a.asymmetry_limit;
+            a.verdict = if a.asymmetric { "asymmetric".into() } else { a.shape.name().into() };
+        }
+    }
+}
+
+/// Averages the runs `rs` (same group, force and variant); `limits` are the per-run A_s limits
+/// ([`run_asymmetry_limits`], by run index). The asymmetric flag of the ensemble is set by
+/// [`flag_asymmetry`].
+pub fn aggregate(cfg: &E3Config, group: &Group, variant: Variant, rs: &[&RunResult], limits: &[f64]) -> Aggregate {
     let step = cfg.response.profile_step;
     // common range of grid indices k (x = k step)
     let k_of = |x: f64| (x / step).round() as i64;
@@ -347,7 +428,8 @@ pub fn aggregate(cfg: &E3Config, group: &Group, variant: Variant, rs: &[&RunResu
     };
     let classification = classify_profile(&grid, &classified, &PeakOptions { prominence: cfg.response.prominence, centre: 0.0 });
     // raw verdict on the mean ΔF_z per floor grain (x from the first sample holding the grain)
-    let raw = if group.delta == 0.0 {
+    // mean ΔF_z per floor grain over the samples (x from the first sample holding the grain)
+    let mean_floor: Vec<FloorContact> = {
         let mut per: BTreeMap<u32, (f64, f64, usize)> = BTreeMap::new();
         for r in rs {
             for c in &r.floor {
@@ -356,18 +438,18 @@ pub fn aggregate(cfg: &E3Config, group: &Group, variant: Variant, rs: &[&RunResu
                 e.2 += 1;
             }
         }
-        let mean: Vec<FloorContact> = per
-            .iter()
+        per.iter()
             .map(|(&grain, &(x, sum, _))| FloorContact { grain, x, reference: 0.0, after: sum / rs.len() as f64, horizontal_reference: 0.0, horizontal_after: 0.0 })
-            .collect();
-        measure::raw_floor_verdict(&mean)
-    } else {
-        None
+            .collect()
     };
+    let raw = if group.delta == 0.0 { measure::raw_floor_verdict(&mean_floor) } else { None };
+    let symmetry = measure::floor_symmetry(&mean_floor.iter().map(|c| (c.x, c.after)).collect::<Vec<_>>());
+    let asymmetry = symmetry.map_or(f64::NAN, |s| s.antisymmetric_fraction);
     let (shape, dip, verdict_basis) = match &raw {
         Some(v) => (v.shape, v.dip, "raw"),
         None => (classification.shape, classification.dip, "smoothed"),
     };
+    let sample_asymmetry: Vec<f64> = rs.iter().map(|r| run_asymmetry(r)).collect();
     let field = |f: &dyn Fn(&RunResult) -> f64| mean_std(&rs.iter().map(|r| f(r)).collect::<Vec<_>>()).mean;
     let linear: Vec<f64> = rs.iter().filter(|r| r.linear).filter_map(|r| r.first_opening_estimate).collect();
     Aggregate {
@@ -385,6 +467,16 @@ pub fn aggregate(cfg: &E3Config, group: &Group, variant: Variant, rs: &[&RunResu
         opened_region: field(&|r| r.region.count as f64),
         opened_depth: field(&|r| r.region.depth),
         opened_width: field(&|r| r.region.width),
+        opened_cone: field(&|r| r.cone.count as f64),
+        cone_depth: field(&|r| r.cone.depth),
+        cone_width: field(&|r| r.cone.width),
+        symmetry,
+        asymmetry,
+        asymmetry_of_samples: mean_std(&sample_asymmetry).mean,
+        asymmetric_samples: rs.iter().filter(|r| run_asymmetry(r) > limits.get(r.run).copied().unwrap_or(f64::INFINITY)).count(),
+        asymmetry_limit: f64::NAN,
+        asymmetric: false,
+        verdict: shape.name().into(),
         classification,
         raw,
         shape,
@@ -431,15 +523,24 @@ pub struct CaseReport {
 
 /// Where the first contact opens, for one group, from the runs of `load.forces`. The "anywhere"
 /// values count every contact, including nearly unloaded ones far from the load (walls, floor
-/// row); the "below the load" bracket counts only the opened region connected to the load, which
-/// defines the first-opening force of SPEC §7.2.5 (found precisely by `[first_opening]`
-/// bisection, see `GroupReport::first_opening_bisection`).
+/// row); the "below the load" bracket counts the grain–grain contacts opened in the cone below
+/// the load (SPEC §7.2.5: the first-opening force, found precisely by `[first_opening]`
+/// bisection, see `GroupReport::first_opening_bisection`); the "connected" bracket only the
+/// opened region connected to the loaded grain.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct FirstOpening {
-    /// Largest force of the list without an opened contact below the load (every sample) [m̄g].
+    /// Largest force of the list without an opened contact in the region below the load (the
+    /// cone of SPEC §7.2.5; every sample) [m̄g].
     pub largest_without_opening_below_load: Option<f64>,
-    /// Smallest force of the list with an opened contact below the load (some sample) [m̄g].
+    /// Smallest force of the list with an opened contact in that region (some sample) [m̄g].
     pub smallest_with_opening_below_load: Option<f64>,
+    /// Largest force of the list whose opened region connected to the loaded grain is empty (every
+    /// sample) [m̄g].
+    #[serde(default)]
+    pub largest_without_opening_connected: Option<f64>,
+    /// Smallest force of the list with an opened contact connected to the loaded grain [m̄g].
+    #[serde(default)]
+    pub smallest_with_opening_connected: Option<f64>,
     /// Linear estimate (anywhere) from the smallest force whose runs stayed linear [m̄g].
     pub linear_estimate: Option<f64>,
     /// The force of the run the estimate comes from [m̄g].
@@ -471,6 +572,16 @@ pub struct GroupReport {
     pub first_opening: Option<FirstOpening>,
     /// First opening below the load by bisection, per reference state (`[first_opening]`).
     pub first_opening_bisection: Vec<work::OpeningBisection>,
+    /// The small-force value of the antisymmetric fraction: (F_ext, A_s) of the group's smallest
+    /// force (single load), against which larger forces' A_s are read.
+    #[serde(default)]
+    pub asymmetry_small_force: Option<[f64; 2]>,
+    /// `response.asymmetry_threshold`.
+    #[serde(default)]
+    pub asymmetry_threshold: f64,
+    /// `response.asymmetry_factor`.
+    #[serde(default)]
+    pub asymmetry_factor: f64,
 }
 
 /// Superposition check of one case and force.
@@ -516,18 +627,34 @@ pub struct PileReport {
     pub stress_at_axis: Vec<f64>,
     /// Largest smoothed floor stress, per width [m̄g/R̄].
     pub stress_max: Vec<f64>,
-    /// Whether the floor stress dips under the apex, by the rule of SPEC §7.2.5: for an ordered
-    /// pile (δ = 0) the raw per-contact floor forces (`raw`, a dip of any depth counts), otherwise
-    /// the classifier on the smoothed profile of the first width.
+    /// Whether the floor stress dips under the apex (SPEC §7.2.9): judged on the coarse-grained
+    /// floor stress σ_zz(x) = Σ_c F_z,c (1/(w√π)) e^{−((x − x_c)/w)²}, w = `pile.verdict_width`
+    /// (2R̄), mean over samples: double when its value on the axis is below its maxima on either
+    /// side within `verdict_window` (away from the side walls' support), `measure::axis_verdict`.
     pub shape: PeakShape,
-    /// Depth of the dip of that verdict: raw, the signed 1 − F_z(axis)/min(F_z,L, F_z,R) (< 0: how far
-    /// the contact under the apex stands above the side maxima); smoothed, 1 − p(axis)/min(peaks).
+    /// Signed depth of that dip, 1 − σ_zz(0)/min(max_L, max_R) (< 0: the axis stands above).
     pub dip: f64,
-    /// What `shape` was judged on: `raw` (ordered piles) or `smoothed`.
+    /// What `shape` was judged on.
     pub verdict_basis: String,
+    /// w of the judged profile [R̄].
+    pub verdict_width: f64,
+    /// The judged profile's verdict with its axis value and side maxima (x, σ_zz) [R̄, m̄g/R̄].
+    pub coarse: Option<RawVerdict>,
+    /// [x_min, x_max] searched for the side maxima: 2w inside the innermost wall-supported floor
+    /// contact of each side (x from the axis) [R̄].
+    pub verdict_window: [f64; 2],
+    /// x of the floor contacts of grains touching a side wall (every sample) [R̄].
+    pub wall_supported: Vec<f64>,
     /// Verdict on the raw per-contact floor forces F_z (ordered piles; the forces themselves, the
-    /// pile under gravity having no reference state to subtract).
+    /// pile under gravity having no reference state to subtract), the floor contacts of grains
+    /// touching a side wall left out.
     pub raw: Option<RawVerdict>,
+    /// Its verdict.
+    pub shape_raw: Option<PeakShape>,
+    /// Its signed dip.
+    pub dip_raw: f64,
+    /// The raw verdict with the wall-supported floor contacts included (earlier versions' rule).
+    pub raw_with_edges: Option<RawVerdict>,
     /// Verdict of the classifier on the smoothed profile (first width), always given.
     pub shape_smoothed: PeakShape,
     /// Its dip depth.
@@ -592,10 +719,16 @@ fn first_opening(aggs: &[Aggregate]) -> Option<FirstOpening> {
     Some(FirstOpening {
         largest_without_opening_below_load: by_force
             .iter()
+            .filter(|a| a.opened_cone == 0.0)
+            .map(|a| a.force)
+            .fold(None, |m: Option<f64>, f| Some(m.map_or(f, |m| m.max(f)))),
+        smallest_with_opening_below_load: by_force.iter().find(|a| a.opened_cone > 0.0).map(|a| a.force),
+        largest_without_opening_connected: by_force
+            .iter()
             .filter(|a| a.opened_region == 0.0)
             .map(|a| a.force)
             .fold(None, |m: Option<f64>, f| Some(m.map_or(f, |m| m.max(f)))),
-        smallest_with_opening_below_load: by_force.iter().find(|a| a.opened_region > 0.0).map(|a| a.force),
+        smallest_with_opening_connected: by_force.iter().find(|a| a.opened_region > 0.0).map(|a| a.force),
         linear_estimate: est.and_then(|a| a.first_opening_estimate),
         estimated_from: est.map(|a| a.force),
         largest_without_opening: by_force.iter().filter(|a| a.opened == 0.0).map(|a| a.force).fold(None, |m: Option<f64>, f| Some(m.map_or(f, |m| m.max(f)))),
@@ -646,6 +779,7 @@ pub fn write_final(out: &Path, cfg: &E3Config, plan: &Plan) -> Result<E3Summary>
         runs.push(s.result);
     }
     // per-group aggregates
+    let limits = run_asymmetry_limits(cfg, plan, &runs);
     let mut all_aggs: Vec<(usize, Aggregate)> = Vec::new();
     for group in &plan.groups {
         let cases: Vec<CaseReport> = group
@@ -681,9 +815,10 @@ pub fn write_final(out: &Path, cfg: &E3Config, plan: &Plan) -> Result<E3Summary>
                 if rs.is_empty() || cfg.mode == Mode::Pile {
                     continue;
                 }
-                aggs.push(aggregate(cfg, group, variant, &rs));
+                aggs.push(aggregate(cfg, group, variant, &rs, &limits));
             }
         }
+        flag_asymmetry(cfg, &mut aggs);
         for a in &aggs {
             all_aggs.push((group.index, a.clone()));
         }
@@ -714,11 +849,18 @@ pub fn write_final(out: &Path, cfg: &E3Config, plan: &Plan) -> Result<E3Summary>
             cases,
             first_opening: first_opening(&aggs),
             first_opening_bisection: bisections,
+            asymmetry_small_force: aggs
+                .iter()
+                .filter(|a| a.variant == Variant::Single)
+                .min_by(|a, b| a.force.total_cmp(&b.force))
+                .map(|a| [a.force, a.asymmetry]),
+            asymmetry_threshold: cfg.response.asymmetry_threshold,
+            asymmetry_factor: cfg.response.asymmetry_factor,
             responses: aggs,
         });
     }
     if cfg.mode != Mode::Pile && cfg.mode != Mode::LatticeElasticity {
-        tables(cfg, plan, &runs, &all_aggs, &out, &mut files)?;
+        tables(cfg, plan, &runs, &limits, &all_aggs, &out, &mut files)?;
         if cfg.output.plots {
             plots(cfg, plan, &all_aggs, &out, &mut files)?;
         }
@@ -741,7 +883,7 @@ pub fn write_final(out: &Path, cfg: &E3Config, plan: &Plan) -> Result<E3Summary>
     Ok(summary)
 }
 
-fn tables(cfg: &E3Config, plan: &Plan, runs: &[RunResult], aggs: &[(usize, Aggregate)], out: &Path, files: &mut Vec<String>) -> Result<()> {
+fn tables(cfg: &E3Config, plan: &Plan, runs: &[RunResult], limits: &[f64], aggs: &[(usize, Aggregate)], out: &Path, files: &mut Vec<String>) -> Result<()> {
     let nw = cfg.response.widths.len();
     // one row per run
     let mut t = CsvTable::new();
@@ -759,9 +901,22 @@ fn tables(cfg: &E3Config, plan: &Plan, runs: &[RunResult], aggs: &[(usize, Aggre
     t.push_u64("opened_region", runs.iter().map(|r| r.region.count as u64))?;
     t.push_f64("opened_depth", runs.iter().map(|r| r.region.depth))?;
     t.push_f64("opened_width", runs.iter().map(|r| r.region.width))?;
+    t.push_u64("opened_cone", runs.iter().map(|r| r.cone.count as u64))?;
+    t.push_f64("cone_depth", runs.iter().map(|r| r.cone.depth))?;
+    t.push_f64("cone_shallowest", runs.iter().map(|r| r.cone.shallowest))?;
+    t.push_f64("cone_width", runs.iter().map(|r| r.cone.width))?;
     t.push_text("shape_smoothed", runs.iter().map(|r| r.classification.shape.name()))?;
+    t.push_f64("dip_smoothed", runs.iter().map(|r| r.classification.dip))?;
     t.push_text("shape_raw", runs.iter().map(|r| r.raw.map_or("none", |v| v.shape.name())))?;
     t.push_f64("raw_dip", runs.iter().map(|r| r.raw.map_or(f64::NAN, |v| v.dip)))?;
+    t.push_f64("asymmetry", runs.iter().map(run_asymmetry))?;
+    t.push_f64("asymmetry_limit", limits.iter().copied())?;
+    t.push_text("asymmetric", runs.iter().zip(limits).map(|(r, l)| if run_asymmetry(r) > *l { "yes" } else { "no" }))?;
+    for (name, side) in [("axis_left", 0usize), ("axis_centre", 1), ("axis_right", 2)] {
+        let pick = |r: &RunResult| r.symmetry.and_then(|v| [v.left, v.centre, v.right][side]);
+        t.push_f64(format!("{name}_x"), runs.iter().map(|r| pick(r).map_or(f64::NAN, |p| p[0])))?;
+        t.push_f64(format!("{name}_dfz"), runs.iter().map(|r| pick(r).map_or(f64::NAN, |p| p[1])))?;
+    }
     t.push_f64("first_opening_estimate", runs.iter().map(|r| if r.linear { r.first_opening_estimate.unwrap_or(f64::NAN) } else { f64::NAN }))?;
     t.push_f64("r_bulk", runs.iter().map(|r| r.moduli_bulk.r))?;
     t.push_f64("r_load", runs.iter().map(|r| r.moduli_load.r))?;
@@ -804,6 +959,13 @@ fn tables(cfg: &E3Config, plan: &Plan, runs: &[RunResult], aggs: &[(usize, Aggre
     t.push_f64("opened_region", idx.iter().map(|&i| aggs[i].1.opened_region))?;
     t.push_f64("opened_depth", idx.iter().map(|&i| aggs[i].1.opened_depth))?;
     t.push_f64("opened_width", idx.iter().map(|&i| aggs[i].1.opened_width))?;
+    t.push_f64("opened_cone", idx.iter().map(|&i| aggs[i].1.opened_cone))?;
+    t.push_f64("cone_depth", idx.iter().map(|&i| aggs[i].1.cone_depth))?;
+    t.push_f64("cone_width", idx.iter().map(|&i| aggs[i].1.cone_width))?;
+    t.push_f64("asymmetry", idx.iter().map(|&i| aggs[i].1.asymmetry))?;
+    t.push_f64("asymmetry_limit", idx.iter().map(|&i| aggs[i].1.asymmetry_limit))?;
+    t.push_text("asymmetric", idx.iter().map(|&i| if aggs[i].1.asymmetric { "yes" } else { "no" }))?;
+    t.push_text("verdict", idx.iter().map(|&i| aggs[i].1.verdict.clone()))?;
     t.push_text("shape", idx.iter().map(|&i| aggs[i].1.shape.name()))?;
     t.push_f64("dip", idx.iter().map(|&i| aggs[i].1.dip))?;
     t.push_text("verdict_basis", idx.iter().map(|&i| aggs[i].1.verdict_basis.clone()))?;
@@ -1071,6 +1233,12 @@ fn pile_outputs(cfg: &E3Config, plan: &Plan, references: &[ReferenceResult], out
         let mut contacts = CsvTable::new();
         let (mut seeds, mut xs_all, mut fz_all, mut fx_all) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
         let mut floor_contacts: Vec<FloorContact> = Vec::new();
+        // the coarse-grained floor stress of the verdict (SPEC §7.2.9), mean over samples
+        let vw = cfg.pile.verdict_width;
+        let mut judged = vec![0.0; grid.len()];
+        // floor contacts of grains held by a side wall (x relative to the axis)
+        let mut supported: Vec<f64> = Vec::new();
+        let mut supported_ids: Vec<u32> = Vec::new();
         for &c in &group.cases {
             let r = &references[c];
             let snap = r.sim.snapshot();
@@ -1079,6 +1247,19 @@ fn pile_outputs(cfg: &E3Config, plan: &Plan, references: &[ReferenceResult], out
             let xs: Vec<f64> = floor.iter().map(|k| snap.pos[index[&k.i]].x + k.normal.x * k.lever_i - axis).collect();
             let fz: Vec<f64> = floor.iter().map(|k| -k.force_on_i().dot(glam::DVec2::new(0.0, -1.0))).collect();
             let fx: Vec<f64> = floor.iter().map(|k| -k.force_on_i().x).collect();
+            let at_side_wall: std::collections::BTreeSet<u32> =
+                snap.contacts.iter().filter(|k| matches!(k.j, Counterpart::Wall(w) if w == slab::LEFT || w == slab::RIGHT)).map(|k| k.i).collect();
+            for (k, x) in floor.iter().zip(&xs) {
+                if at_side_wall.contains(&k.i) {
+                    supported.push(*x);
+                    if group.delta == 0.0 {
+                        supported_ids.push(k.i);
+                    }
+                }
+            }
+            for (m, v) in judged.iter_mut().zip(measure::profiles(&xs, &fz, &[vw], &grid).remove(0)) {
+                *m += v / group.cases.len() as f64;
+            }
             for (w, p) in measure::profiles(&xs, &fz, &cfg.response.widths, &grid).into_iter().enumerate() {
                 for (m, v) in mean[w].iter_mut().zip(p) {
                     *m += v / group.cases.len() as f64;
@@ -1141,11 +1322,24 @@ fn pile_outputs(cfg: &E3Config, plan: &Plan, references: &[ReferenceResult], out
             plot.save(out, &stem).map_err(plot_err)?;
             files.extend([format!("{stem}.png"), format!("{stem}.svg")]);
         }
-        let raw = if group.delta == 0.0 { measure::raw_floor_verdict(&floor_contacts) } else { None };
-        let (shape, dip, verdict_basis) = match &raw {
-            Some(v) => (v.shape, v.dip, "raw"),
-            None => (cl.shape, cl.dip, "smoothed"),
-        };
+        // the side walls' support: the floor contacts of grains touching a side wall, and the
+        // coarse-grained profile within 2w of them (where they contribute more than e^{−4} ≈ 1.8 %
+        // of their own peak); the maximum is looked for between
+        let half = 0.5 * sites.width;
+        let inner_left = supported.iter().copied().filter(|&x| x < 0.0).fold(-half, f64::max);
+        let inner_right = supported.iter().copied().filter(|&x| x > 0.0).fold(half, f64::min);
+        let window = [inner_left + 2.0 * vw, inner_right - 2.0 * vw];
+        let coarse = measure::axis_verdict(&grid, &judged, window);
+        // raw per-contact verdict (ordered piles) without the wall-supported floor contacts, and
+        // with them (as earlier versions judged)
+        let interior: Vec<FloorContact> = floor_contacts.iter().copied().filter(|c| !supported_ids.contains(&c.grain)).collect();
+        let raw = if group.delta == 0.0 { measure::raw_floor_verdict(&interior) } else { None };
+        let raw_with_edges = if group.delta == 0.0 { measure::raw_floor_verdict(&floor_contacts) } else { None };
+        let (shape, dip) = coarse.map_or((PeakShape::Irregular, f64::NAN), |v| (v.shape, v.dip));
+        let mut cols = vec![("x".to_string(), grid.clone()), (format!("sigma_zz_w{vw}"), judged.clone())];
+        cols.push(("in_window".to_string(), grid.iter().map(|&x| if x >= window[0] && x <= window[1] { 1.0 } else { 0.0 }).collect()));
+        Series::from_columns(cols)?.write(out, &format!("{stem}_verdict"))?;
+        files.extend([format!("{stem}_verdict.csv"), format!("{stem}_verdict.npz")]);
         reports.push(PileReport {
             group: group.label.clone(),
             floor_over_weight: balance,
@@ -1153,8 +1347,15 @@ fn pile_outputs(cfg: &E3Config, plan: &Plan, references: &[ReferenceResult], out
             stress_max: (0..nw).map(|w| mean[w].iter().cloned().fold(f64::NEG_INFINITY, f64::max)).collect(),
             shape,
             dip,
-            verdict_basis: verdict_basis.into(),
+            verdict_basis: format!("coarse-grained floor stress, w = {vw}"),
+            verdict_width: vw,
+            coarse,
+            verdict_window: window,
+            wall_supported: supported,
             raw,
+            shape_raw: raw.map(|v| v.shape),
+            dip_raw: raw.map_or(f64::NAN, |v| v.dip),
+            raw_with_edges,
             shape_smoothed: cl.shape,
             dip_smoothed: cl.dip,
         });

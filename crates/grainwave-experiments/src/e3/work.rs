@@ -458,8 +458,9 @@ impl<'a> E3Work<'a> {
     }
 
     /// The first-opening bisection (SPEC §7.2.5) of case `c`, sequential: F_low and F_high of the
-    /// bracket are run first (no opening below the load at F_low, one at F_high), then the
-    /// geometric midpoint of the current bracket until F_high/F_low − 1 ≤ the tolerance. Each run
+    /// bracket are run first (no opening in the cone below the load at F_low, one at F_high), then
+    /// the geometric midpoint of the current bracket until F_high/F_low − 1 ≤ the tolerance, then
+    /// likewise for the opening connected to the loaded grain ([`next_force`]). Each run
     /// is persisted as it completes (`units/<case>/opening_<k>.gwck`; resumable like the other
     /// units): the k-th force depends only on the runs before it, so a resumed bisection reads
     /// them back and continues.
@@ -478,11 +479,14 @@ impl<'a> E3Work<'a> {
             store(&path, RUN_TAG, &stored, Some(&partial_file(&path)))?;
             let p = probe_of(&stored);
             env.log(&format!(
-                "first opening {}: F = {:.6} m̄g, {} opened below the load (depth {:.2} R̄), {} anywhere{}, {:.1} s",
+                "first opening {}: F = {:.6} m̄g, {} opened in the cone below the load (depth {:.2}–{:.2} R̄), {} connected to the load (depth {:.2} R̄), {} anywhere{}, {:.1} s",
                 case.label,
                 p.force,
-                p.opened_below_load,
-                p.region_depth,
+                p.opened_in_cone,
+                p.cone_shallowest,
+                p.cone_depth,
+                p.opened_connected,
+                p.connected_depth,
                 p.opened_anywhere,
                 if p.converged { "" } else { " (NOT converged)" },
                 p.wall_clock
@@ -566,14 +570,26 @@ impl Work for E3Work<'_> {
                 let run = &plan.runs[ri];
                 let r = &stored.result;
                 ctx.log(&format!(
-                    "run {}/{}: F = {}, p(0)/F = {:.4e}, {} opened, {} sliding, raw verdict {}, {} steps{}, {:.1} s",
+                    "run {}/{}: F = {}, p(0)/F = {:.4e}, {} opened ({} in the cone below the load, {} connected to it), {} sliding, raw verdict {} (dip {:.4}), A_s = {:.3e}{}, {} steps{}, {:.1} s",
                     plan.cases[run.case].label,
                     run.label,
                     run.force,
                     r.response_at_zero.first().copied().unwrap_or(f64::NAN),
                     r.counts.opened,
+                    r.cone.count,
+                    r.region.count,
                     r.counts.sliding,
                     r.raw.map_or(r.classification.shape, |v| v.shape).name(),
+                    r.raw.map_or(f64::NAN, |v| v.dip),
+                    r.symmetry.map_or(f64::NAN, |v| v.antisymmetric_fraction),
+                    r.symmetry
+                        .map(|v| format!(
+                            " (axis contacts {} | {} | {})",
+                            v.left.map_or("-".into(), |p| format!("x {:.2}: {:.5}", p[0], p[1])),
+                            v.centre.map_or("-".into(), |p| format!("x {:.2}: {:.5}", p[0], p[1])),
+                            v.right.map_or("-".into(), |p| format!("x {:.2}: {:.5}", p[0], p[1]))
+                        ))
+                        .unwrap_or_default(),
                     r.outcome.steps,
                     if r.outcome.converged { "" } else { " (NOT converged)" },
                     stored.wall_clock
@@ -591,10 +607,18 @@ impl Work for E3Work<'_> {
 pub struct OpeningProbe {
     /// F_ext [m̄g].
     pub force: f64,
-    /// Opened contacts connected to the load (the region below the load).
-    pub opened_below_load: usize,
+    /// Grain–grain contacts opened in the region below the load of SPEC §7.2.5 (the cone of the
+    /// lattice directions through the load with one grain of margin, `measure::in_opening_cone`),
+    /// connected to the loaded grain or not.
+    pub opened_in_cone: usize,
+    /// Depth below the load of the deepest and of the shallowest of them [R̄].
+    pub cone_depth: f64,
+    /// Depth below the load of the shallowest of them [R̄].
+    pub cone_shallowest: f64,
+    /// Opened contacts connected to the loaded grain (the region grown from it, docs/e3.md).
+    pub opened_connected: usize,
     /// Depth of that region below the load [R̄].
-    pub region_depth: f64,
+    pub connected_depth: f64,
     /// Contacts opened anywhere.
     pub opened_anywhere: usize,
     /// No contact opened, formed or started sliding.
@@ -609,17 +633,25 @@ pub struct OpeningProbe {
     pub wall_clock: f64,
 }
 
-/// The bisection of one reference state.
+/// The bisection of one reference state: three first-opening forces from the same runs.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct OpeningBisection {
     /// Case label.
     pub case: String,
-    /// Largest force run without an opening below the load [m̄g].
+    /// Largest force run without an opening in the region below the load (SPEC §7.2.5) [m̄g].
     pub lower: Option<f64>,
-    /// Smallest force run with an opening below the load [m̄g].
+    /// Smallest force run with an opening in that region [m̄g].
     pub upper: Option<f64>,
-    /// The first-opening force below the load: √(lower · upper) when both are known [m̄g].
+    /// **The first-opening force** of SPEC §7.2.5: a grain–grain contact opens in the cone below
+    /// the load (connected to the loaded grain or not); √(lower · upper) [m̄g].
     pub first_opening_below_load: Option<f64>,
+    /// Largest force run whose opened region connected to the loaded grain is empty [m̄g].
+    pub connected_lower: Option<f64>,
+    /// Smallest force run with an opened contact connected to the loaded grain [m̄g].
+    pub connected_upper: Option<f64>,
+    /// The force at which the opened region first links to the loaded grain: √(connected_lower ·
+    /// connected_upper) once that bracket is within the tolerance [m̄g].
+    pub first_opening_connected: Option<f64>,
     /// Largest force run without any opened contact, anywhere [m̄g].
     pub anywhere_lower: Option<f64>,
     /// Smallest force run with an opened contact somewhere [m̄g].
@@ -642,37 +674,50 @@ fn opening_spec(plan: &Plan, case: &Case, k: usize, force: f64) -> RunSpec {
     RunSpec { index: plan.runs.len() + k, case: case.index, force_index: 0, force, variant: Variant::Single, label: format!("opening_{k}") }
 }
 
-/// Forces of the bisection given the probes so far: None when done.
+/// The bracket (largest force without, smallest force with) of `opened` over `probes`.
+fn bracket_of(probes: &[OpeningProbe], opened: impl Fn(&OpeningProbe) -> bool) -> (Option<f64>, Option<f64>) {
+    let lower = probes.iter().filter(|p| !opened(p)).map(|p| p.force).fold(None, |m: Option<f64>, f| Some(m.map_or(f, |m| m.max(f))));
+    let upper = probes.iter().filter(|p| opened(p)).map(|p| p.force).fold(None, |m: Option<f64>, f| Some(m.map_or(f, |m| m.min(f))));
+    (lower, upper)
+}
+
+/// Forces of the bisection given the probes so far: None when done. First the two ends of the
+/// bracket, then the geometric midpoint of the bracket of the opening in the cone below the load
+/// (SPEC §7.2.5) until within the tolerance, then that of the opening connected to the loaded
+/// grain (often already bracketed by the same runs: no run is added then).
 fn next_force(cfg: &E3Config, probes: &[OpeningProbe]) -> Option<f64> {
     let [lo, hi] = cfg.first_opening.bracket;
     match probes.len() {
         0 => return Some(lo),
-        1 => return (probes[0].opened_below_load == 0).then_some(hi),
+        1 => return (probes[0].opened_in_cone == 0).then_some(hi),
         _ => {}
     }
-    if probes[1].opened_below_load == 0 {
+    if probes[1].opened_in_cone == 0 {
         return None;
     }
-    let lower = probes.iter().filter(|p| p.opened_below_load == 0).map(|p| p.force).fold(f64::NEG_INFINITY, f64::max);
-    let upper = probes.iter().filter(|p| p.opened_below_load > 0).map(|p| p.force).fold(f64::INFINITY, f64::min);
-    (upper / lower - 1.0 > cfg.first_opening.relative_tolerance).then(|| (lower * upper).sqrt())
+    let tol = cfg.first_opening.relative_tolerance;
+    let midpoint = |b: (Option<f64>, Option<f64>)| match b {
+        (Some(l), Some(u)) if u / l - 1.0 > tol => Some((l * u).sqrt()),
+        _ => None,
+    };
+    midpoint(bracket_of(probes, |p| p.opened_in_cone > 0)).or_else(|| midpoint(bracket_of(probes, |p| p.opened_connected > 0)))
 }
 
 /// Summarizes the probes of one case.
 pub fn summarize_bisection(cfg: &E3Config, case: &Case, probes: Vec<OpeningProbe>) -> OpeningBisection {
     let [lo, hi] = cfg.first_opening.bracket;
-    let max_of = |it: &mut dyn Iterator<Item = f64>| it.fold(None, |m: Option<f64>, f| Some(m.map_or(f, |m| m.max(f))));
-    let min_of = |it: &mut dyn Iterator<Item = f64>| it.fold(None, |m: Option<f64>, f| Some(m.map_or(f, |m| m.min(f))));
-    let lower = max_of(&mut probes.iter().filter(|p| p.opened_below_load == 0).map(|p| p.force));
-    let upper = min_of(&mut probes.iter().filter(|p| p.opened_below_load > 0).map(|p| p.force));
-    let note = if probes.first().is_some_and(|p| p.opened_below_load > 0) {
-        Some(format!("a contact below the load opens already at the lower end of the bracket, {lo} m̄g"))
-    } else if probes.len() >= 2 && probes[1].opened_below_load == 0 {
-        Some(format!("no contact below the load opens up to the upper end of the bracket, {hi} m̄g"))
+    let tol = cfg.first_opening.relative_tolerance;
+    let (lower, upper) = bracket_of(&probes, |p| p.opened_in_cone > 0);
+    let (connected_lower, connected_upper) = bracket_of(&probes, |p| p.opened_connected > 0);
+    let note = if probes.first().is_some_and(|p| p.opened_in_cone > 0) {
+        Some(format!("a contact in the region below the load opens already at the lower end of the bracket, {lo} m̄g"))
+    } else if probes.len() >= 2 && probes[1].opened_in_cone == 0 {
+        Some(format!("no contact in the region below the load opens up to the upper end of the bracket, {hi} m̄g"))
     } else {
         None
     };
     let anywhere_linear_estimate = probes.iter().filter(|p| p.linear).min_by(|a, b| a.force.total_cmp(&b.force)).and_then(|p| p.linear_estimate_anywhere);
+    let (anywhere_lower, anywhere_upper) = bracket_of(&probes, |p| p.opened_anywhere > 0);
     OpeningBisection {
         case: case.label.clone(),
         lower,
@@ -681,8 +726,15 @@ pub fn summarize_bisection(cfg: &E3Config, case: &Case, probes: Vec<OpeningProbe
             (Some(l), Some(u)) if note.is_none() => Some((l * u).sqrt()),
             _ => None,
         },
-        anywhere_lower: max_of(&mut probes.iter().filter(|p| p.opened_anywhere == 0).map(|p| p.force)),
-        anywhere_upper: min_of(&mut probes.iter().filter(|p| p.opened_anywhere > 0).map(|p| p.force)),
+        connected_lower,
+        connected_upper,
+        first_opening_connected: match (connected_lower, connected_upper) {
+            // bracketed to the tolerance (a loose bracket is given by its ends only)
+            (Some(l), Some(u)) if u / l - 1.0 <= tol * (1.0 + 1e-9) => Some((l * u).sqrt()),
+            _ => None,
+        },
+        anywhere_lower,
+        anywhere_upper,
         anywhere_linear_estimate,
         probes,
         note,
@@ -693,8 +745,11 @@ fn probe_of(stored: &StoredRun) -> OpeningProbe {
     let r = &stored.result;
     OpeningProbe {
         force: r.force,
-        opened_below_load: r.region.count,
-        region_depth: r.region.depth,
+        opened_in_cone: r.cone.count,
+        cone_depth: r.cone.depth,
+        cone_shallowest: r.cone.shallowest,
+        opened_connected: r.region.count,
+        connected_depth: r.region.depth,
         opened_anywhere: r.counts.opened,
         linear: r.linear,
         linear_estimate_anywhere: r.first_opening_estimate,
