@@ -765,6 +765,15 @@ def render():
     lines.append(f"**{len(ROWS)} published numbers and statements:** " + ", ".join(
         f"{counts.get(k, 0)} {k}" for k in order) + ".")
     lines.append("")
+    per = []
+    for study in ("E1", "E2", "E3"):
+        c = {}
+        for r in ROWS:
+            if r.study == study:
+                c[r.verdict] = c.get(r.verdict, 0) + 1
+        per.append(f"{study}: " + " · ".join(f"{c.get(k, 0)} {k}" for k in order if c.get(k, 0)))
+    lines.append("By study — " + "; ".join(per) + ".")
+    lines.append("")
     lines.append("| # | study | published result | published | ours | z | verdict | config | data | note |")
     lines.append("|---|---|---|---|---|---|---|---|---|---|")
     for i, r in enumerate(ROWS, 1):
@@ -803,15 +812,30 @@ def page_block(text):
     return text[a:b + len(END)]
 
 
-CITED = re.compile(r"(?<![\w/.-])((?:examples|docs|crates)/[\w./-]*[\w/])")
+CITED = re.compile(r"(?<![\w/.-])((?:examples|docs|crates)/[^\s`()\[\]|,;:'\"]+)")
+# a path with a placeholder in it names a family of files, not one: `e1-c33-<p>-<variant>.toml`,
+# `e3-mu1-sweep-ramp{5,10,20}.toml`, `docs/data/e3-mu1-sweep-*`, `undeformed-seedN`
+PLACEHOLDER = re.compile(r"[*<>{}]|[a-z]N\b|\bDIR\b|…")
+
+
+LINK = re.compile(r"\]\(([^)\s]+)\)")
 
 
 def missing_citations(text):
-    """Repository paths cited on the page (examples/…, docs/…, crates/…) that do not exist."""
+    """Repository paths cited on the page that do not exist: Markdown link targets (relative to
+    docs/, where the page is) and paths written out from the repository root (examples/…, docs/…,
+    crates/…)."""
     out = []
+    for m in LINK.finditer(text):
+        target = m.group(1).split("#")[0]
+        if not target or "://" in target or target.startswith("mailto:"):
+            continue
+        rel = os.path.normpath(os.path.join("docs", target))
+        if not exists(rel):
+            out.append(target)
     for m in CITED.finditer(text):
-        rel = m.group(1)
-        if "*" in rel or "<" in rel or "{" in rel:
+        rel = m.group(1).rstrip(".")
+        if PLACEHOLDER.search(rel):
             continue
         if not exists(rel):
             out.append(rel)
@@ -841,6 +865,11 @@ def self_test():
     add_statement("T", "|x|", "a", "b", "not", "", "")
     assert "\\|x\\|" in render()
     ROWS.clear()
+    # the citation check: an existing file passes, a missing one is reported, a family is skipped
+    page = ("see `examples/papers/scorecard.py`, [data](data/no-such-run/), [e2](e2.md#outputs), "
+            "[config](../examples/papers/e2-table2.py), `docs/data/nothing-here.csv` and "
+            "`examples/papers/e1-c33-<p>-<variant>.toml`, `docs/data/e2-64/undeformed-seedN`.")
+    assert missing_citations(page) == ["data/no-such-run/", "docs/data/nothing-here.csv"], missing_citations(page)
     print("scorecard self-test: ok")
     return 0
 
