@@ -351,7 +351,9 @@ def e1_exponents():
                          f"rounding rule, {100 * (1 - e['estimate'] / c):.0f} % below {fmt(c, 2)}")
             if "1e-5" in got:
                 e5 = got["1e-5"][key]
-                note += f"; at p = 1e-5: {fmt(e5['estimate'])} [{fmt(e5['low'])}, {fmt(e5['high'])}]"
+                n5 = min(got["1e-5"]["samples"])
+                note += (f"; at p = 1e-5: {fmt(e5['estimate'])} [{fmt(e5['low'])}, {fmt(e5['high'])}] "
+                         f"({n5}–{max(got['1e-5']['samples'])} per height)")
             add_numeric("E1", what + ", p = 1e-4, L = 8 … 50", ptxt, e["estimate"], e["std"],
                         f"{fmt(e['estimate'])} ± {fmt(e['std'], 2)} (95 %: [{fmt(e['low'])}, {fmt(e['high'])}], 30 per height)",
                         runs[0][1] + (";" + runs[1][1] if "1e-5" in got else ""),
