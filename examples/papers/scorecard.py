@@ -471,27 +471,21 @@ E2_TABLE2 = {
 }
 E2_PROCESS = {"contact_loss": "loss of contacts", "sliding": "sliding contacts",
               "strain_rate": "non-zero strain rate", "total": "total"}
-E2_RUNS = {
-    "compression": ["compression", "compression-seed2", "compression-seed3", "compression-seed4"],
-    "extension": ["extension", "extension-seed2", "extension-seed3"],
-}
 
 
-def e2_speeds(summary, key):
-    """Speeds [v_a] of the four states at each amplitude, by one arrival definition."""
-    out = {}
-    for r in summary["replays"]:
-        if r["name"] in ("undeformed", "nonsliding", "static", "deforming"):
-            for p in r["pairs"]:
-                out[(r["name"], p["amplitude"])] = p[key]
-    return out
+def _load_script(name):
+    """A sibling script of examples/papers/ as a module (its file name has hyphens)."""
+    import importlib.util
+    spec = importlib.util.spec_from_file_location(name.replace("-", "_"), os.path.join(os.path.dirname(os.path.abspath(__file__)), name + ".py"))
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
 
 
-def e2_losses(sp, amp):
-    c0 = sp[("undeformed", amp)]
-    cns, cs, cd = sp[("nonsliding", amp)], sp[("static", amp)], sp[("deforming", amp)]
-    return {"contact_loss": (c0 - cns) / c0, "sliding": (cns - cs) / c0,
-            "strain_rate": (cs - cd) / c0, "total": (c0 - cd) / c0}
+# the speeds of the four states and the Δc/c₀ decomposition, as examples/papers/e2-table2.py prints them
+_TABLE2 = _load_script("e2-table2")
+e2_speeds, e2_losses = _TABLE2.speeds, _TABLE2.losses
+E2_RUNS = _TABLE2.CANONICAL  # the canonical 64² packings per direction
 
 
 def e2_packings(direction):
@@ -529,6 +523,19 @@ def e2_table2():
                             single_packing_sd=s_, note=note, packing_range=(min(xs), max(xs)))
 
 
+def sign_difference(packs, state, amp):
+    """(c(+amp) − c(−amp))/c₀ of `state` over the packings, by each arrival definition:
+    {key: (mean, SE, n)}."""
+    res = {}
+    for key in ("speed_maximum", "speed_first_lobe"):
+        diffs = []
+        for _, summary in packs:
+            sp = e2_speeds(summary, key)
+            diffs.append((sp[(state, amp)] - sp[(state, -amp)]) / sp[("undeformed", amp)])
+        res[key] = (mean(diffs), se(diffs), len(diffs))
+    return res
+
+
 def e2_statements():
     # Sign dependence of the static state at |p_a| = 1e-9, in the published direction:
     # compression, the rarefaction is slower (sliding loss 0.260 > 0.179); extension, the
@@ -538,13 +545,7 @@ def e2_statements():
         packs = e2_packings(direction)
         data = ";".join(f"docs/data/e2-64/{d}/" for d, _ in packs)
         cfg = f"examples/papers/e2-{direction}-64.toml"
-        res = {}
-        for key in ("speed_maximum", "speed_first_lobe"):
-            diffs = []
-            for _, s in packs:
-                sp = e2_speeds(s, key)
-                diffs.append((sp[("static", 1e-9)] - sp[("static", -1e-9)]) / sp[("undeformed", 1e-9)])
-            res[key] = (mean(diffs), se(diffs), len(diffs))
+        res = sign_difference(packs, "static", 1e-9)
         m, e, n = res["speed_maximum"]
         m2, e2, _ = res["speed_first_lobe"]
         ok = sign * m > 2 * e
@@ -562,13 +563,7 @@ def e2_statements():
         packs = e2_packings(direction)
         data = ";".join(f"docs/data/e2-64/{d}/" for d, _ in packs)
         cfg = f"examples/papers/e2-{direction}-64.toml"
-        res = {}
-        for key in ("speed_maximum", "speed_first_lobe"):
-            diffs = []
-            for _, s in packs:
-                sp = e2_speeds(s, key)
-                diffs.append((sp[("deforming", 1e-10)] - sp[("deforming", -1e-10)]) / sp[("undeformed", 1e-10)])
-            res[key] = (mean(diffs), se(diffs), len(diffs))
+        res = sign_difference(packs, "deforming", 1e-10)
         m, e, n = res["speed_maximum"]
         m2, e2, _ = res["speed_first_lobe"]
         ok = abs(m) <= 2 * e or abs(m) < 0.01

@@ -134,18 +134,24 @@ fn static_solver_handles_rigid_modes_and_rattlers() {
     }
 }
 
-/// One frictional grain resting on a wall: the normal load is carried (u = f/k_n), a tangential
-/// load excites the rolling mode (a floppy mode with non-zero rows) and is refused with an error —
-/// or, with a Tikhonov regularization, answered with a large finite displacement.
-#[test]
-fn floppy_modes_give_errors_not_panics() {
+/// One disk (R = 0.5, centre 0.49 above the floor) resting on a frictional floor of a box periodic
+/// along x: Hooke contacts k_n = 100, k_t/k_n = 0.5, μ = 0.5.
+fn grain_on_frictional_floor() -> Snapshot<D2> {
     let params = hooke_params(100.0, 0.5, 0.5);
     let law = params.build(Partner::Grain, "contact").unwrap();
     let wall = params.build(Partner::Wall, "contact.wall").unwrap();
     let mut g = Grains::<D2>::new(GrainKind::Disk { thickness: 1.0 });
     g.push(DVec2::new(5.0, 0.49), 0.5, 1.0, DVec2::ZERO);
     let domain = Domain::new(DVec2::ZERO, DVec2::new(10.0, 5.0), [true, false, false]).with_wall(Wall::axis_aligned("floor", 1, 0.0, true, wall));
-    let snap = SimulationBuilder::new(g, domain, law).max_initial_overlap(0.1).build().unwrap().snapshot();
+    SimulationBuilder::new(g, domain, law).max_initial_overlap(0.1).build().unwrap().snapshot()
+}
+
+/// One frictional grain resting on a wall: the normal load is carried (u = f/k_n), a tangential
+/// load excites the rolling mode (a floppy mode with non-zero rows) and is refused with an error —
+/// or, with a Tikhonov regularization, answered with a large finite displacement.
+#[test]
+fn floppy_modes_give_errors_not_panics() {
+    let snap = grain_on_frictional_floor();
     let dm = DynamicalMatrix::assemble(&snap, &AssemblyOptions::default()).unwrap();
     let system = dm.free_system(&Constraints::new(), ZeroRows::Keep).unwrap();
     let sol = solve_static(&system, &[0.0, 1.0, 0.0], &StaticOptions::default()).unwrap();
@@ -275,13 +281,7 @@ fn zero_space_splits_into_rattler_and_backbone_motions() {
 /// grain's; the normal and tangential springs hold the other two dofs.
 #[test]
 fn a_grain_on_one_frictional_contact_has_one_rolling_zero_mode() {
-    let params = hooke_params(100.0, 0.5, 0.5);
-    let law = params.build(Partner::Grain, "contact").unwrap();
-    let wall = params.build(Partner::Wall, "contact.wall").unwrap();
-    let mut g = Grains::<D2>::new(GrainKind::Disk { thickness: 1.0 });
-    g.push(DVec2::new(5.0, 0.49), 0.5, 1.0, DVec2::ZERO);
-    let domain = Domain::new(DVec2::ZERO, DVec2::new(10.0, 5.0), [true, false, false]).with_wall(Wall::axis_aligned("floor", 1, 0.0, true, wall));
-    let snap = SimulationBuilder::new(g, domain, law).max_initial_overlap(0.1).build().unwrap().snapshot();
+    let snap = grain_on_frictional_floor();
     assert_eq!(grainwave_linear::rattlers::find_rattlers(&snap, 2), vec![true]);
     let s = split("one grain on a frictional floor", &snap, &[0]);
     assert_eq!((s.zero_modes, s.localized), (1, 1));

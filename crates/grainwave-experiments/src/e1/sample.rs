@@ -340,9 +340,7 @@ fn linear_pulse<D: Dim>(
             out.participation = modes.participation().to_vec();
             let tolerance = grainwave_linear::pulse::ZERO_MODE_TOLERANCE;
             out.zero_modes = modes.zero_modes(tolerance);
-            let w2 = modes.omega_squared();
-            let scale = w2.iter().fold(0.0_f64, |a, &b| a.max(b.abs()));
-            out.zero_mode_gap = w2.iter().map(|w| w.abs()).filter(|&w| w > tolerance * scale).fold(f64::INFINITY, f64::min) / scale;
+            out.zero_mode_gap = modes.zero_mode_gap(tolerance);
             // (with rattlers removed from the system there is nothing of theirs to count)
             if let (Some(flags), false) = (rattlers, dm.removed().iter().any(|&r| r)) {
                 let selected: Vec<bool> = modes.free_dofs().iter().map(|&f| flags[layout.grain_of(f)]).collect();

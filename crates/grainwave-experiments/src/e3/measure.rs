@@ -144,7 +144,6 @@ pub struct RawVerdict {
 /// both contacts within 0.5 R̄ of that distance, p₀ being the larger of them; "left" and "right"
 /// are the contacts beyond the central ones.
 pub fn raw_floor_verdict(floor: &[FloorContact]) -> Option<RawVerdict> {
-    use grainwave_analysis::peaks::PeakShape;
     let mut pts: Vec<(f64, f64)> = floor.iter().map(|c| (c.x, c.after - c.reference)).collect();
     pts.sort_by(|a, b| a.0.total_cmp(&b.0));
     let nearest = pts.iter().map(|p| p.0.abs()).fold(f64::INFINITY, f64::min);
@@ -153,7 +152,16 @@ pub fn raw_floor_verdict(floor: &[FloorContact]) -> Option<RawVerdict> {
     let c = central.iter().copied().max_by(|&a, &b| pts[a].1.total_cmp(&pts[b].1))?;
     let best = |r: &[(f64, f64)]| r.iter().copied().max_by(|a, b| a.1.total_cmp(&b.1));
     let (left, right) = (best(&pts[..first])?, best(&pts[last + 1..])?);
-    let p0 = pts[c].1;
+    Some(verdict_on_axis(pts[c], left, right))
+}
+
+/// The verdict from the value on the axis `centre` = (x, p₀) and the largest values `left` and
+/// `right` on either side, each (x, value): **double** when p₀ < min(p_L, p_R), **single** when
+/// p₀ ≥ max(p_L, p_R), otherwise irregular; dip 1 − p₀/min(p_L, p_R) (NaN when that minimum is
+/// not positive).
+fn verdict_on_axis(centre: (f64, f64), left: (f64, f64), right: (f64, f64)) -> RawVerdict {
+    use grainwave_analysis::peaks::PeakShape;
+    let p0 = centre.1;
     let low = left.1.min(right.1);
     let shape = if p0 < low {
         PeakShape::Double
@@ -163,7 +171,7 @@ pub fn raw_floor_verdict(floor: &[FloorContact]) -> Option<RawVerdict> {
         PeakShape::Irregular
     };
     let dip = if low > 0.0 { 1.0 - p0 / low } else { f64::NAN };
-    Some(RawVerdict { shape, dip, centre_x: pts[c].0, centre: p0, left: [left.0, left.1], right: [right.0, right.1] })
+    RawVerdict { shape, dip, centre_x: centre.0, centre: p0, left: [left.0, left.1], right: [right.0, right.1] }
 }
 
 /// Contacts whose mirror images lie within this distance of a floor contact pair with it [R̄]:
@@ -304,24 +312,13 @@ pub fn cone_opening(changes: &NetworkChanges<D2>, load: [f64; 2]) -> ConeOpening
 /// irregular; dip 1 − p₀/min(p_L, p_R), signed as in [`RawVerdict`]. None when a side of the
 /// window holds no grid point.
 pub fn axis_verdict(grid: &[f64], values: &[f64], window: [f64; 2]) -> Option<RawVerdict> {
-    use grainwave_analysis::peaks::PeakShape;
     let z = zero_index(grid);
     let best = |pred: &dyn Fn(f64) -> bool| {
         grid.iter().zip(values).filter(|(x, _)| pred(**x) && **x >= window[0] && **x <= window[1]).map(|(x, v)| (*x, *v)).max_by(|a, b| a.1.total_cmp(&b.1))
     };
     let left = best(&|x| x < grid[z])?;
     let right = best(&|x| x > grid[z])?;
-    let p0 = values[z];
-    let low = left.1.min(right.1);
-    let shape = if p0 < low {
-        PeakShape::Double
-    } else if p0 >= left.1.max(right.1) {
-        PeakShape::Single
-    } else {
-        PeakShape::Irregular
-    };
-    let dip = if low > 0.0 { 1.0 - p0 / low } else { f64::NAN };
-    Some(RawVerdict { shape, dip, centre_x: grid[z], centre: p0, left: [left.0, left.1], right: [right.0, right.1] })
+    Some(verdict_on_axis((grid[z], values[z]), left, right))
 }
 
 /// The force difference of one contact (superposition comparisons).

@@ -161,10 +161,23 @@ impl Modes {
         &self.free
     }
 
+    /// The largest |ω²| of a zero mode: `tolerance` × max |ω²|.
+    fn zero_threshold(&self, tolerance: f64) -> f64 {
+        tolerance * self.omega_squared.iter().fold(0.0_f64, |a, &b| a.max(b.abs()))
+    }
+
     /// Number of modes with |ω²| ≤ `tolerance` × max |ω²| (the zero modes).
     pub fn zero_modes(&self, tolerance: f64) -> usize {
-        let scale = self.omega_squared.iter().fold(0.0_f64, |a, &b| a.max(b.abs()));
-        self.omega_squared.iter().filter(|&&w| w.abs() <= tolerance * scale).count()
+        let threshold = self.zero_threshold(tolerance);
+        self.omega_squared.iter().filter(|&&w| w.abs() <= threshold).count()
+    }
+
+    /// The gap above the zero modes: the smallest |ω²| that is not a zero mode (see
+    /// [`Modes::zero_modes`]) over max |ω²|; ∞ when every mode is a zero mode.
+    pub fn zero_mode_gap(&self, tolerance: f64) -> f64 {
+        let scale = self.zero_threshold(1.0);
+        let threshold = tolerance * scale;
+        self.omega_squared.iter().map(|w| w.abs()).filter(|&w| w > threshold).fold(f64::INFINITY, f64::min) / scale
     }
 
     /// Splits the zero space (the modes with |ω²| ≤ `tolerance` × max |ω²|) by where it lives: the
@@ -186,8 +199,8 @@ impl Modes {
     /// least 99 % of the kinetic energy on the selected dofs).
     pub fn zero_space_split(&self, tolerance: f64, selected: &[bool], weight: f64) -> Result<ZeroSpaceSplit> {
         LinearError::check_len("selected", self.len(), selected.len())?;
-        let scale = self.omega_squared.iter().fold(0.0_f64, |a, &b| a.max(b.abs()));
-        let zero: Vec<usize> = (0..self.len()).filter(|&n| self.omega_squared[n].abs() <= tolerance * scale).collect();
+        let threshold = self.zero_threshold(tolerance);
+        let zero: Vec<usize> = (0..self.len()).filter(|&n| self.omega_squared[n].abs() <= threshold).collect();
         let k = zero.len();
         let rows: Vec<usize> = (0..self.len()).filter(|&r| selected[r]).collect();
         let mut p = Mat::<f64>::zeros(k, k);
