@@ -1,6 +1,6 @@
 //! Where the contacts at the Coulomb limit of an E2 state sit, and which way a homogeneous strain
-//! increment would push them (SPEC §6.2, §6.6; issue: why compressive pulses release so little
-//! sliding in compression).
+//! increment would push them (SPEC §6.2, §6.6): why compressive pulses release so little sliding
+//! in compression, and where in the packing the pulses disturb the sliding contacts.
 //!
 //! For a state file (a replay's `final.gwck`, e.g. `replays/stop500_g3/final.gwck`, the static
 //! state before its pulses; or a strain checkpoint `checkpoints/ck-*.gwck` holding a full state) it
@@ -27,6 +27,13 @@
 //! `E2_ARRIVALS` = the replay's `aK_arrivals.csv` files (comma-separated, one per amplitude), the
 //! contacts that slid are split into those whose first sliding step comes no later than the
 //! pulse's arrival at grain i (they can slow the front) and those after it (the pulse's tail).
+//!
+//! With `E2_SPLIT_CSV` = a file name, the same counts are written split by distance from the
+//! pulsing wall (fifths of the box, 0 = next to the wall) and by the orientation of the contact
+//! normal (|θ| from the pulse's axis in six 15° bins, 0° = along the pulse): per bin the
+//! grain–grain contacts, the mobilised ones, those pushed on by p_a > 0 and by p_a < 0, and, per
+//! replayed amplitude, the contacts (mobilised or not) the pulse made slide (`slid_<p_a>`) — where
+//! in the packing the sliding that slows a pulse sits, comparable between packing sizes.
 //!
 //! ```text
 //! cargo run --release -p grainwave-experiments --example e2_contact_state -- STATE.gwck [p_a ...]
@@ -138,6 +145,37 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let all: Vec<_> = records.iter().collect();
     println!("mean |n_x|: mobilised {:.3}, all contacts {:.3}", mean_cos(&mobilised), mean_cos(&all));
 
+    // the split by distance from the pulsing wall and by orientation against the pulse's axis
+    let along_pulse = ck.drive.pulse_wall == grainwave_experiments::e2::model::RIGHT;
+    let distance_bin = |c: &ContactRecord<D2>| {
+        let (x, y) = at(c);
+        let d = if along_pulse { (x1 - x) / (x1 - x0) } else { (y1 - y) / (y1 - y0) };
+        ((d * bins as f64) as usize).min(bins - 1)
+    };
+    let angles = 6;
+    let angle_bin = |c: &ContactRecord<D2>| {
+        let (a, b) = if along_pulse { (c.normal.x.abs(), c.normal.y.abs()) } else { (c.normal.y.abs(), c.normal.x.abs()) };
+        ((b.atan2(a).to_degrees() / 15.0) as usize).min(angles - 1)
+    };
+    // rows: (kind, bin, from, to, [contacts, mobilised, pushed on by p_a > 0, by p_a < 0], slid per amplitude)
+    let mut split: Vec<(&str, usize, f64, f64, [usize; 4], Vec<usize>)> = (0..bins)
+        .map(|b| ("distance", b, b as f64 / bins as f64, (b + 1) as f64 / bins as f64, [0; 4], Vec::new()))
+        .chain((0..angles).map(|b| ("orientation", b, 15.0 * b as f64, 15.0 * (b + 1) as f64, [0; 4], Vec::new())))
+        .collect();
+    let (e_plus, e_minus) = (pulse_strain(ck.drive.pulse_wall, 1.0), pulse_strain(ck.drive.pulse_wall, -1.0));
+    for c in &records {
+        let mob = is_mobilised(c, mu);
+        for s in [distance_bin(c), bins + angle_bin(c)] {
+            let n = &mut split[s].4;
+            n[0] += 1;
+            if mob {
+                n[1] += 1;
+                n[2] += usize::from(drive(c, e_plus) > 0.0);
+                n[3] += usize::from(drive(c, e_minus) > 0.0);
+            }
+        }
+    }
+
     let amplitudes: Vec<f64> = std::env::args().skip(2).map(|a| a.parse::<f64>()).collect::<Result<_, _>>()?;
     let span: f64 = std::env::var("E2_PULSE_TA").ok().map(|v| v.parse()).transpose()?.unwrap_or(2.0);
     let steps = (span * ck.units.acoustic_time / sim.dt).ceil() as u64;
@@ -188,6 +226,17 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             n
         };
         let (s_on, s_off) = (slid(&on), slid(&off));
+        for row in split.iter_mut() {
+            row.5.push(0);
+        }
+        for c in &records {
+            let Counterpart::Grain(j) = c.j else { continue };
+            if with.contains_key(&(c.i, j)) && !reference.contains_key(&(c.i, j)) {
+                for s in [distance_bin(c), bins + angle_bin(c)] {
+                    *split[s].5.last_mut().expect("pushed above") += 1;
+                }
+            }
+        }
         let others = with.keys().filter(|q| !reference.contains_key(q)).count() - s_on[0] - s_off[0];
         println!(
             "pulse p_a = {a:e} t* over {span} t_a ({steps} steps): slid (cap flag in the pulsed copy only) {} of the {} pushed on, {} of the {} released, and {} contacts that were not mobilised",
@@ -208,6 +257,22 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
                 s_off[2] - s_off[1]
             );
         }
+    }
+    if let Ok(file) = std::env::var("E2_SPLIT_CSV") {
+        let mut text = String::from("split,bin,from,to,contacts,mobilised,pushed_on_compression,pushed_on_rarefaction");
+        for a in std::env::args().skip(2) {
+            text.push_str(&format!(",slid_{a}"));
+        }
+        text.push('\n');
+        for (kind, b, lo, hi, n, slid) in &split {
+            text.push_str(&format!("{kind},{b},{lo},{hi},{},{},{},{}", n[0], n[1], n[2], n[3]));
+            for s in slid {
+                text.push_str(&format!(",{s}"));
+            }
+            text.push('\n');
+        }
+        std::fs::write(&file, text)?;
+        println!("split by distance from the pulsing wall and by orientation: {file}");
     }
     Ok(())
 }

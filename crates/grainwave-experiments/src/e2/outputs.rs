@@ -516,6 +516,64 @@ pub fn pulse_rows(replays: &[ReplayReport]) -> Vec<PulseRow> {
         .collect()
 }
 
+/// The fraction of the contacts mobilised before a pulse that the pulse released,
+/// R = (M_s(end without) − M_s(end with)) / M_s(start), by mobilisation (|F_t| ≥ (1 − 1e−6) μ F_n):
+/// negative when the pulse set more contacts at the limit than it released. `None` without
+/// mobilised contacts at the start.
+pub fn released_fraction(row: &PulseRow) -> Option<f64> {
+    let [start, with, without] = row.mobilised;
+    (start > 0).then(|| (without as f64 - with as f64) / start as f64)
+}
+
+/// `pulses_released.png`: [`released_fraction`] against |p_a| (compression solid, rarefaction
+/// dashed), one curve per start state — the wall-pulse replays that start from the same
+/// checkpoint or the same earlier replay are one curve (e.g. `deforming` with 1e−10 … 1e−7 and a
+/// second replay of the same checkpoint with 1e−6 … 1e−4) — for the start states with at least
+/// four amplitudes of a sign: how much of the sliding a pulse of each amplitude disturbs.
+fn write_released_plot(dir: &Path, cfg: &E2Config, rows: &[PulseRow]) -> Result<()> {
+    let start_of = |name: &str| -> (String, String) {
+        cfg.replays
+            .iter()
+            .enumerate()
+            .find(|(k, q)| q.name.clone().unwrap_or(format!("r{k}")) == name && q.modification == super::config::Modification::WallPulse)
+            .map(|(_, q)| match &q.from {
+                Some(from) => (format!("from {from}"), name.to_string()),
+                None => (format!("checkpoint {}", q.checkpoint), name.to_string()),
+            })
+            .unwrap_or_else(|| (name.to_string(), name.to_string()))
+    };
+    // start states in the order of the config, each labelled by its first replay's name
+    let mut groups: Vec<(String, String, Vec<&PulseRow>)> = Vec::new();
+    for r in rows {
+        let (key, label) = start_of(&r.replay);
+        match groups.iter_mut().find(|g| g.0 == key) {
+            Some(g) => g.2.push(r),
+            None => groups.push((key, label, vec![r])),
+        }
+    }
+    let mut plot = LinePlot::new("Mobilised contacts released by a pulse").x_label("|p_a| [t*]").y_label("released fraction of M_s").log_x();
+    let mut any = false;
+    for (_, label, members) in &groups {
+        for (sign, kind) in [(1.0, "compression"), (-1.0, "rarefaction")] {
+            let mut pts: Vec<(f64, f64)> =
+                members.iter().filter(|r| r.amplitude * sign > 0.0).filter_map(|r| released_fraction(r).map(|f| (r.amplitude.abs(), f))).collect();
+            if pts.len() < 4 {
+                continue;
+            }
+            pts.sort_by(|a, b| a.0.total_cmp(&b.0));
+            any = true;
+            let x: Vec<f64> = pts.iter().map(|p| p.0).collect();
+            let y: Vec<f64> = pts.iter().map(|p| p.1).collect();
+            let name = format!("{label}, {kind}");
+            plot = if sign > 0.0 { plot.series(&name, &x, &y) } else { plot.dashed(&name, &x, &y) };
+        }
+    }
+    if any {
+        plot.save(dir, "pulses_released")?;
+    }
+    Ok(())
+}
+
 /// The Δc/c₀ table of the replays named in `[static_limit]` (empty when not configured).
 pub fn static_limit_rows(cfg: &E2Config, replays: &[ReplayReport]) -> Vec<StaticLimitRow> {
     let sl = &cfg.static_limit;
@@ -730,6 +788,9 @@ pub fn write_summary(dir: &Path, state: &E2State, wall_seconds: f64) -> Result<E
             }),
         )?;
     }
+    if state.config.output.plots {
+        write_released_plot(dir, &state.config, &pulses)?;
+    }
     let mut files = Vec::new();
     walk(dir, dir, &mut files);
     files.retain(|f| !f.ends_with(".gwck") && f != "summary.json" && f != crate::protocol::LOG_FILE);
@@ -758,4 +819,32 @@ pub fn write_summary(dir: &Path, state: &E2State, wall_seconds: f64) -> Result<E
     crate::outputs::write_summary(dir, &s)?;
     let _ = Stage::Finished;
     Ok(s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn row(mobilised: [u64; 3]) -> PulseRow {
+        PulseRow {
+            replay: "static".into(),
+            checkpoint: 0,
+            strain_yy: 0.01,
+            amplitude: 1e-6,
+            speed: None,
+            mobilised,
+            pushed_on: 0,
+            flagged: [0; 3],
+            max_sliding_difference: 0,
+        }
+    }
+
+    #[test]
+    fn the_released_fraction_is_measured_against_the_unpulsed_copy() {
+        // 100 mobilised before; without the pulse 90 stay, with it 60: the pulse released 30 of 100
+        assert_eq!(released_fraction(&row([100, 60, 90])), Some(0.3));
+        // a pulse that sets contacts at the limit releases a negative fraction
+        assert_eq!(released_fraction(&row([100, 95, 90])), Some(-0.05));
+        assert_eq!(released_fraction(&row([0, 0, 0])), None);
+    }
 }
