@@ -17,10 +17,22 @@ import os
 import sys
 
 ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
-CANONICAL = {
-    "compression": ["compression", "compression-seed2", "compression-seed3", "compression-seed4"],
-    "extension": ["extension", "extension-seed2", "extension-seed3"],
-}
+
+
+def _canonical(direction):
+    """The canonical packings of a direction in docs/data/e2-64: `<direction>` (seed 1) and
+    `<direction>-seedN` (the same config with `seed = N`), not the variants (`-no-gravity`, …)."""
+    base = os.path.join(ROOT, "docs", "data", "e2-64")
+    names = [direction] if os.path.isdir(os.path.join(base, direction)) else []
+    seeds = []
+    for d in os.listdir(base) if os.path.isdir(base) else []:
+        rest = d[len(direction) + len("-seed"):]
+        if d.startswith(direction + "-seed") and rest.isdigit() and os.path.exists(os.path.join(base, d, "summary.json")):
+            seeds.append((int(rest), d))
+    return names + [d for _, d in sorted(seeds)]
+
+
+CANONICAL = {direction: _canonical(direction) for direction in ("compression", "extension")}
 PUBLISHED = {  # (p_a > 0, p_a < 0), magnitudes
     "compression": {"contact_loss": (0.236, 0.233), "sliding": (0.179, 0.260),
                     "strain_rate": (0.115, 0.034), "total": (0.530, 0.527)},
