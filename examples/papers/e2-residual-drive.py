@@ -192,7 +192,7 @@ def print_drive(direction, rows, amp):
             m = stats([r.get(f"{kind}|{-amp:g}|{label}") for r in sel])
             cells.append(f"{fmt(p[0], p[1])} / {fmt(m[0], m[1])}")
         rate = sel[0]["wall_rate"]
-        print(f"| {st} | {'—' if rate is None else f'{rate:g}'} | {'—' if ke is None else f'{ke:.1e}'} | {fl:.0f} / {mo:.0f} | {sy:.5f} | " + " | ".join(cells) + " |")
+        print(f"| {st} | {'—' if rate is None else f'{rate:g}'} | {'—' if ke is None else f'{ke:.1e}'} | {fl:.0f} / {mo:.0f} | {sy:.7f} | " + " | ".join(cells) + " |")
     print()
 
 
