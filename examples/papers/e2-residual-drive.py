@@ -8,6 +8,7 @@ examples/papers/e2-{compression,extension}-64.toml (the replays `slow4`, `slow5`
     python3 examples/papers/e2-residual-drive.py DIR [DIR ...]    # any run directories (summary.json)
     python3 examples/papers/e2-residual-drive.py --csv OUTDIR     # also residual_drive.csv, amplitude_series.csv
     python3 examples/papers/e2-residual-drive.py --plot FILE.png  # the figure (needs matplotlib)
+    python3 examples/papers/e2-residual-drive.py --split A.csv B.csv …  # sums e2_contact_state splits
 
 Residual drive: states stopped to different degrees — the deforming state (the loading at
 2e-5/t*), the γ = 0.001 slow-down `slow3` (still loaded at 2e-8/t*) and its continuations to 2e-9
@@ -277,7 +278,36 @@ def plot(path, drive, amplitude):
     fig.savefig(path, dpi=110)
 
 
+def print_split(paths):
+    """Sums the per-bin counts of `e2_contact_state` split files (E2_SPLIT_CSV) over packings."""
+    total, slid_cols = {}, None
+    for path in paths:
+        with open(path) as f:
+            for r in csv.DictReader(f):
+                cols = [c for c in r if c.startswith("slid_")]
+                slid_cols = slid_cols or cols
+                key = (r["split"], int(r["bin"]), r["from"], r["to"])
+                t = total.setdefault(key, [0] * (4 + len(cols)))
+                for i, c in enumerate(["contacts", "mobilised", "pushed_on_compression", "pushed_on_rarefaction"] + cols):
+                    t[i] += int(r[c])
+    print(f"Sum over {len(paths)} state(s). Shares: mobilised of the contacts; pushed on of the mobilised; slid of the contacts.\n")
+    head = "| split | bin | contacts | mobilised | pushed on, p_a > 0 / < 0 | " + " | ".join(f"slid, p_a = {c[5:]}" for c in slid_cols or []) + " |"
+    print(head)
+    print("|---" * (5 + len(slid_cols or [])) + "|")
+    for (kind, b, lo, hi), v in sorted(total.items()):
+        unit = "" if kind == "distance" else "°"
+        span = f"{float(lo):g}–{float(hi):g}{unit}" + (" of the box from the pulsing wall" if kind == "distance" and b == 0 else "")
+        mob = v[1] or 1
+        cells = [f"{v[4 + i]} ({100 * v[4 + i] / max(v[0], 1):.1f} %)" for i in range(len(slid_cols or []))]
+        print(f"| {kind} | {span} | {v[0]} | {v[1]} ({100 * v[1] / max(v[0], 1):.1f} %) | "
+              f"{100 * v[2] / mob:.0f} % / {100 * v[3] / mob:.0f} % | " + " | ".join(cells) + " |")
+    print()
+
+
 def main(argv):
+    if argv and argv[0] == "--split":
+        print_split(argv[1:])
+        return
     csv_dir = plot_path = None
     dirs = []
     it = iter(argv)
