@@ -9,9 +9,10 @@
 //! 1 and −1), `stick` and `free` — and of the non-sliding state (`incremental`, 1 and −1), and
 //! writes `OUT/speeds.csv`:
 //!
-//! `state,replay,rule,amplitude,speed_maximum,speed_first_lobe,at_limit,slipped,stuck_again,seconds`
+//! `state,replay,rule,amplitude,speed_maximum,speed_first_lobe,at_limit,at_rolling_cap,slipped,stuck_again,seconds`
 //!
-//! with the engine's rows (`rule = dem`, |p_a| = 1e−10 … 1e−8 of `static` and `nonsliding`) beside
+//! (`slipped`: contacts that slipped at some time, tangentially or at the rolling cap;
+//! `stuck_again`: of those, the ones that switched more than once) with the engine's rows (`rule = dem`, |p_a| = 1e−10 … 1e−8 of `static` and `nonsliding`) beside
 //! the incremental ones; speeds in v_a, seconds the wall-clock of the replay (per amplitude for the
 //! incremental ones). The replays' own `strips`, `fit_range` and `arrival` are read from the run's
 //! `config.resolved.toml` (replay `static`), so both use the same strip fit.
@@ -58,7 +59,7 @@ fn main() {
     }
     let out = PathBuf::from(&args[0]);
     std::fs::create_dir_all(&out).unwrap_or_else(|e| fail(format!("{}: {e}", out.display())));
-    let mut csv = String::from("state,replay,rule,amplitude,speed_maximum,speed_first_lobe,at_limit,slipped,stuck_again,seconds\n");
+    let mut csv = String::from("state,replay,rule,amplitude,speed_maximum,speed_first_lobe,at_limit,at_rolling_cap,slipped,stuck_again,seconds\n");
     let f = |x: &serde_json::Value| x.as_f64().map(|v| format!("{v:.6}")).unwrap_or_default();
     for arg in &args[1..] {
         let (label, run) = arg.split_once('=').unwrap_or_else(|| fail(format!("`{arg}` (allowed: label=RUN_DIR)")));
@@ -90,12 +91,13 @@ fn main() {
             for (p, i) in r["pairs"].as_array().into_iter().flatten().zip(info.as_array().into_iter().flatten()) {
                 let _ = writeln!(
                     csv,
-                    "{label},{name},{},{},{},{},{},{},{},{:.3}",
+                    "{label},{name},{},{},{},{},{},{},{},{},{:.3}",
                     i["branches"].as_str().unwrap_or(""),
                     p["amplitude"],
                     f(&p["speed_maximum"]),
                     f(&p["speed_first_lobe"]),
                     i["counts"]["at_limit"],
+                    i["counts"]["at_rolling_cap"],
                     i["slipped"],
                     i["slipped_and_stuck_again"],
                     i["seconds"].as_f64().unwrap_or(0.0)
@@ -115,7 +117,7 @@ fn main() {
                 if !(a.abs() <= 1.01e-8) {
                     continue;
                 }
-                let _ = writeln!(csv, "{label},{name},dem,{a:e},{},{},{},,,{seconds:.3}", f(&p["speed_maximum"]), f(&p["speed_first_lobe"]), p["mobilised"][0]);
+                let _ = writeln!(csv, "{label},{name},dem,{a:e},{},{},{},,,,{seconds:.3}", f(&p["speed_maximum"]), f(&p["speed_first_lobe"]), p["mobilised"][0]);
             }
         }
     }

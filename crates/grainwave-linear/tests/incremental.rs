@@ -255,7 +255,8 @@ fn bilateral_limits_are_the_stick_and_free_propagations() {
 /// floating-point operation exactly) twice the response to 1, amplitude 3 three times it to
 /// rounding (1e-12 relative: a few hundred steps of sums, and branch tests d < 0 whose sign is
 /// never decided by rounding here), with the same branch histories; amplitude −1 is not −1 × the
-/// response to 1 (differs by more than 1 % of max |u|) and slips on other contacts.
+/// response to 1 (differs by more than 1 % of max |u|), and at least a quarter of the contacts at
+/// the limit first slip at other times (more than one step apart) for the two signs.
 #[test]
 fn response_is_positively_homogeneous_of_degree_one() {
     let t = 6.0;
@@ -273,11 +274,17 @@ fn response_is_positively_homogeneous_of_degree_one() {
     }
     assert_eq!(p1.history(), p2.history());
     assert_eq!(p1.history(), p3.history());
-    let slipped = |p: &IncrementalPropagator<D2>| p.history().iter().filter(|h| h.first_slip.is_some()).map(|h| h.contact).collect::<Vec<_>>();
-    let (s1, sm) = (slipped(&p1), slipped(&pm));
-    eprintln!("slipped at +1: {} of {}, at −1: {}", s1.len(), p1.counts().at_limit, sm.len());
-    assert!(!s1.is_empty() && !sm.is_empty());
-    assert_ne!(s1, sm, "the two signs slip the same contacts");
+    // over 6 time units the reverberating waves make every contact at the limit slip at some
+    // time for both signs; the signs differ in which contacts slip first and when
+    let first = |p: &IncrementalPropagator<D2>| p.history().iter().map(|h| h.first_slip).collect::<Vec<_>>();
+    let (f1, fm) = (first(&p1), first(&pm));
+    let differ = f1.iter().zip(&fm).filter(|(a, b)| match (a, b) {
+        (Some(a), Some(b)) => (a - b).abs() > 1.5 * p1.max_step(),
+        (a, b) => a.is_some() != b.is_some(),
+    });
+    let differ = differ.count();
+    eprintln!("{} contacts at the limit; first slip at a different time for ±1: {differ}", p1.counts().at_limit);
+    assert!(differ >= p1.counts().at_limit / 4, "the two signs slip the same contacts at the same times ({differ} differ)");
     let mirror: Vec<f64> = u1.iter().map(|x| -x).collect();
     assert!(max_diff(&um, &mirror) > 1e-2 * scale, "−1 gives −(response to +1)");
 }
