@@ -1190,7 +1190,9 @@ sample_every = 5
 /// frictionless, undamped lattice (no contact at the Coulomb limit, so the network is linear)
 /// between a fixed wall and the piston, kicked by a δ pulse of p_a = 1e−7 in the engine and of
 /// p_a = 1 in the incremental network. The strip-fit speeds by both arrival definitions agree to
-/// 1 %, and δv/p_a of the two agree to 40 % in relative L2 over all samples (measured 29 %): a δ
+/// 3 % (measured 1.5 % by the maximum, whose time follows the high frequencies, whose phase
+/// velocity differs between the two steps by the ≈ 1.6 % below), and δv/p_a of the two agree to
+/// 40 % in relative L2 over all samples (measured 29 %): a δ
 /// pulse excites every frequency up to ω_max, where the engine's step (ω_max h ≈ 0.6, one
 /// twentieth of the contact period) has a Verlet phase error (ωh)²/24 ≈ 1.6 % per period, tens of
 /// periods of phase by the end of the record, against 0.06 % for the network's step (50 steps per
@@ -1227,7 +1229,7 @@ fn incremental_replay_is_the_engines_small_pulse_limit() {
     for (what, d, i) in [("maximum", &arr_dem.fit_maximum, &arr_inc.fit_maximum), ("first lobe", &arr_dem.fit_first_lobe, &arr_inc.fit_first_lobe)] {
         let (d, i) = (d.as_ref().expect("engine fit").speed, i.as_ref().expect("incremental fit").speed);
         eprintln!("{what}: engine {:.5} v_a, incremental {:.5} v_a", d / v_a, i / v_a);
-        assert!((d - i).abs() < 0.01 * d, "{what}: engine {d}, incremental {i}");
+        assert!((d - i).abs() < 0.03 * d, "{what}: engine {d}, incremental {i}");
     }
     assert!(den > 0.0 && rel < 0.4, "relative L2 difference {rel}");
 }
