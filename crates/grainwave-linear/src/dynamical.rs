@@ -515,7 +515,7 @@ fn resistance(rolling: &Rolling, twisting: &Twisting, include: bool) -> (f64, f6
 }
 
 /// Per grain, the contacts touching it (entry = 2·contact + side, side 1 for j), in contact order.
-fn contact_adjacency<D: Dim>(n: usize, contacts: &[LinearContact<D>]) -> (Vec<u32>, Vec<u32>) {
+pub(crate) fn contact_adjacency<D: Dim>(n: usize, contacts: &[LinearContact<D>]) -> (Vec<u32>, Vec<u32>) {
     let mut count = vec![0u32; n + 1];
     for c in contacts {
         count[c.i + 1] += 1;

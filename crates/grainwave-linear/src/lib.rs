@@ -72,6 +72,7 @@ pub mod dofs;
 pub mod dynamical;
 pub mod error;
 pub mod frictionless_equilibrium;
+pub mod incremental;
 pub mod lattice;
 pub mod linalg;
 pub mod measured_network;

@@ -284,6 +284,30 @@ pub enum Modification {
     /// The top wall becomes a piston of mass `preparation.wall_mass` M* under its current load, so
     /// that later replays can pulse it (`pulse_wall = "top"`) (single replay).
     TopPiston,
+    /// The exact small-amplitude limit of a δ wall pulse (`shape = "delta"`) on a static state:
+    /// the linearized contact network with the two-branch rule of contacts at the Coulomb limit
+    /// (`branches`), integrated instead of the engine; outputs as a wall-pulse replay. The
+    /// response is positively homogeneous in p_a, so `amplitudes = [1, -1]` gives the limits
+    /// p_a → 0⁺ and 0⁻ (δv per unit p_a) (paired-replay outputs, no engine run).
+    Incremental,
+}
+
+/// Branch rule of an `incremental` replay for the contacts at the Coulomb limit
+/// (|F_t| ≥ (1 − 1e−6) μ F_n, and rolling torques at μ_r R* F_n).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize, JsonSchema)]
+#[serde(rename_all = "snake_case")]
+pub enum IncrementalBranches {
+    /// Slip while the increment pushes the contact on (ΔF_t along the sliding direction follows
+    /// μ ΔF_n), stick (k_t) once it unloads, switching as the pulse passes: the exact limit.
+    #[default]
+    Incremental,
+    /// Every contact sticks (k_t): the upper bound, the linear network of `SlidingContacts::Stick`.
+    Stick,
+    /// Contacts at the limit have no tangential (nor, at the rolling cap, rolling) stiffness:
+    /// the lower bound, the linear network of `SlidingContacts::Free`.
+    Free,
+    /// Contacts at the limit follow the slip branch in both directions (bilateral).
+    Slip,
 }
 
 impl Modification {
@@ -296,13 +320,14 @@ impl Modification {
             Modification::Friction => "friction",
             Modification::WallStop => "wall_stop",
             Modification::TopPiston => "top_piston",
+            Modification::Incremental => "incremental",
         }
     }
 
     /// True for the perturbations replayed in pairs (with and without), whose difference is the
     /// perturbed velocity field.
     pub fn paired(self) -> bool {
-        matches!(self, Modification::WallPulse | Modification::Radius)
+        matches!(self, Modification::WallPulse | Modification::Radius | Modification::Incremental)
     }
 }
 
@@ -316,9 +341,12 @@ pub struct ReplayConfig {
     /// written at |ε_yy| ≈ k × `checkpoint_strain`; −1 the last one).
     pub checkpoint: i64,
     /// Start from the final state of this earlier single replay of the same config instead of a
-    /// checkpoint (chains such as velocities × γ → wall stop → pulses, SPEC §6.6).
+    /// checkpoint (chains such as velocities × γ → wall stop → pulses, SPEC §6.6). With
+    /// `source.dir`, it may also name a single replay of that earlier run (its
+    /// `replays/<from>/final.gwck`).
     pub from: Option<String>,
-    /// The modification: `wall_pulse`, `radius`, `velocity_scale`, `friction` or `wall_stop`.
+    /// The modification: `wall_pulse`, `radius`, `velocity_scale`, `friction`, `wall_stop`,
+    /// `top_piston` or `incremental`.
     pub modification: Modification,
     /// `wall_pulse`: `delta` or `wavelet`.
     pub shape: PulseShape,
@@ -364,6 +392,13 @@ pub struct ReplayConfig {
     /// `first_lobe`: a lobe counts from this fraction of the incident amplitude (the largest
     /// |δv_x| next to the pulsing wall as the pulse enters), in (0, 1].
     pub lobe_threshold: f64,
+    /// `incremental`: the branch rule of the contacts at the Coulomb limit, `incremental` (the
+    /// exact limit), or the bounds `stick` (all k_t), `free` (no tangential stiffness at the
+    /// limit) and `slip` (slip branch both ways).
+    pub branches: IncrementalBranches,
+    /// `incremental`: velocity Verlet steps per shortest period 2π/ω_max of the all-stick network
+    /// (ω_max from the Gershgorin bound), > π [steps].
+    pub steps_per_period: f64,
 }
 
 impl Default for ReplayConfig {
@@ -390,6 +425,8 @@ impl Default for ReplayConfig {
             bands: 4.0,
             arrival: ArrivalDefinition::Maximum,
             lobe_threshold: 0.01,
+            branches: IncrementalBranches::Incremental,
+            steps_per_period: 50.0,
         }
     }
 }

@@ -17,6 +17,7 @@
 pub mod arrival;
 pub mod biaxial;
 pub mod config;
+pub mod incremental;
 pub mod model;
 pub mod outputs;
 pub mod replay;
@@ -210,7 +211,14 @@ pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
         }
         if let Some(from) = &r.from {
             match cfg.replays[..k].iter().enumerate().find(|(j, q)| q.name.clone().unwrap_or(format!("r{j}")) == *from) {
-                None => return Err(src.error_at_key(&key("from"), format!("`{from}` (allowed: the name of an earlier replay of this file)"))),
+                // with `source.dir`, a single replay of that run (its final.gwck is read at run time)
+                None if cfg.source.dir.is_some() => {}
+                None => {
+                    return Err(src.error_at_key(
+                        &key("from"),
+                        format!("`{from}` (allowed: the name of an earlier replay of this file, or with `source.dir` a single replay of that run)"),
+                    ))
+                }
                 Some((_, q)) if q.modification.paired() => {
                     return Err(src.error_at_key(
                         &key("from"),
@@ -270,6 +278,25 @@ pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
             config::Modification::Friction => non_negative(src, &key("friction"), r.friction)?,
             config::Modification::WallStop => positive(src, &key("stop_time"), r.stop_time)?,
             config::Modification::TopPiston => {}
+            config::Modification::Incremental => {
+                if r.amplitudes.is_empty() {
+                    return Err(src.error_at_key(&key("amplitudes"), "empty (allowed: one or more finite, non-zero amplitudes, e.g. [1, -1])"));
+                }
+                for a in &r.amplitudes {
+                    if !a.is_finite() || *a == 0.0 {
+                        return Err(src.error_at_key(&key("amplitudes"), format!("{a} (allowed: finite, non-zero amplitudes: the response is homogeneous in p_a)")));
+                    }
+                }
+                if r.shape != config::PulseShape::Delta {
+                    return Err(src.error_at_key(&key("shape"), "\"wavelet\" (allowed: \"delta\" for an incremental replay)"));
+                }
+                if !(r.steps_per_period.is_finite() && r.steps_per_period > std::f64::consts::PI) {
+                    return Err(src.error_at_key(&key("steps_per_period"), format!("{} (allowed: a number > π)", r.steps_per_period)));
+                }
+                if let Some(d) = r.delay {
+                    non_negative(src, &key("delay"), d)?;
+                }
+            }
         }
     }
     let sl = &cfg.static_limit;

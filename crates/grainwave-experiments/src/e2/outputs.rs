@@ -230,6 +230,45 @@ pub(super) fn write_csv(path: &Path, header: &str, rows: impl Iterator<Item = St
     Ok(())
 }
 
+/// Writes `a<ai>_branches.csv` of an incremental replay: one row per contact at the Coulomb
+/// limit (or the rolling cap) — grain ids i, j (j < 0: wall −1 − j), steps on the slip branch,
+/// branch switches, time of the first slip and of the last switch [t_a] (empty: never), and
+/// whether it slips at the end.
+pub fn write_branches(dir: &Path, ai: usize, info: &super::incremental::IncrementalInfo, u: &Units) -> Result<()> {
+    let t = |x: Option<f64>| x.map(|x| format!("{:.6e}", x / u.acoustic_time)).unwrap_or_default();
+    write_csv(
+        &dir.join(format!("a{ai}_branches.csv")),
+        "i,j,slip_steps,switches,first_slip,last_switch,slipping_at_end",
+        info.history.iter().zip(&info.pairs).map(|(h, (i, j))| format!("{i},{j},{},{},{},{},{}", h.slip_steps, h.switches, t(h.first_slip), t(h.last_switch), h.slipping as u8)),
+    )
+}
+
+/// Writes `incremental.json` of an incremental replay: per amplitude the branch rule, the
+/// contact counts of the state (at the limit, at the rolling cap, nearly open), how many contacts
+/// slipped and how many slipped and stuck again, the steps, step length [engine time], impulse
+/// and the wall-clock seconds.
+pub fn write_incremental_summary(dir: &Path, infos: &[(f64, f64, super::incremental::IncrementalInfo)]) -> Result<()> {
+    let rows: Vec<serde_json::Value> = infos
+        .iter()
+        .map(|(a, seconds, i)| {
+            serde_json::json!({
+                "amplitude": a,
+                "branches": i.branches,
+                "counts": i.counts,
+                "slipped": i.history.iter().filter(|h| h.first_slip.is_some()).count(),
+                "slipped_and_stuck_again": i.history.iter().filter(|h| h.switches > 1).count(),
+                "steps": i.steps,
+                "dt": i.dt,
+                "impulse": i.impulse,
+                "seconds": seconds,
+            })
+        })
+        .collect();
+    let text = serde_json::to_string_pretty(&rows).expect("json of plain values");
+    grainwave_core::checkpoint::atomic_write(&dir.join("incremental.json"), text.as_bytes())?;
+    Ok(())
+}
+
 /// Writes the files of amplitude `ai` (value `a`) of a paired replay into `dir` (=
 /// `replays/<name>/`, under the output directory `out`): the field, the sample times, the
 /// arrivals, the sliding series, the strip fit and the plots; returns its report and its curve

@@ -315,6 +315,6 @@ pub fn apply_single(rc: &ReplayConfig, sim: &mut Simulation<D2>, drive: &mut Dri
             drive.pistons.push((TOP, model::PistonLoad::Force(load)));
             sim.refresh_forces()
         }
-        Modification::WallPulse | Modification::Radius => Ok(()),
+        Modification::WallPulse | Modification::Radius | Modification::Incremental => Ok(()),
     }
 }

@@ -290,7 +290,13 @@ pub fn run_replay(cfg: &E2Config, k: usize, out_root: &Path, source: &Path, env:
     let dir = out_root.join("replays").join(&name);
     std::fs::create_dir_all(&dir).map_err(|e| CoreError::Io { action: "cannot create".into(), path: dir.display().to_string(), error: e })?;
     let ck = match &rc.from {
-        Some(from) => biaxial::read_full_checkpoint(&out_root.join("replays").join(from).join("final.gwck"))?,
+        Some(from) => {
+            // an earlier replay of this run, or (with `source.dir`) a single replay of that run
+            let own = out_root.join("replays").join(from).join("final.gwck");
+            let theirs = source.join("replays").join(from).join("final.gwck");
+            let in_file = cfg.replays[..k].iter().enumerate().any(|(j, q)| q.name.clone().unwrap_or(format!("r{j}")) == *from);
+            biaxial::read_full_checkpoint(if in_file || !theirs.exists() { &own } else { &theirs })?
+        }
         None => {
             let mut log = |m: &str| env.log(&format!("replay {name}: {m}"));
             match biaxial::load_checkpoint_with(source, rc.checkpoint, &mut log, &mut || env.interrupted())? {
@@ -348,7 +354,42 @@ pub fn run_replay(cfg: &E2Config, k: usize, out_root: &Path, source: &Path, env:
         }
         ck.drive.pulse_wall = model::TOP;
     }
-    if let Some(pert) = replay::perturbation_of(rc, &ck.sim, &u) {
+    if rc.modification == Modification::Incremental {
+        let snapshot = ck.sim.snapshot();
+        let mut curves = Vec::new();
+        let samples = (steps / sample_every + 1) as usize;
+        let sample_dt = sample_every as f64 * ck.sim.dt;
+        let delay = rc.delay.map(|d| d * u.acoustic_time).unwrap_or(ck.sim.dt);
+        let pert = replay::Perturbation::WallPulse { shape: rc.shape, time_unit: u.time, delay, width: rc.width * u.acoustic_time };
+        let mut infos = Vec::new();
+        for (ai, &a) in rc.amplitudes.iter().enumerate() {
+            let t = std::time::Instant::now();
+            let (r, info) = super::incremental::incremental_replay(&ck.sim, &ck.drive, rc, &u, a, samples, sample_dt, delay)?;
+            let arr = replay::arrivals(&r, &ck.sim, &ck.drive, &pert, a, rc, &u);
+            let (pair, curve) = outputs::write_pair(out_root, &dir, cfg, rc, &u, &snapshot, ai, a, &r, &arr)?;
+            outputs::write_branches(&dir, ai, &info, &u)?;
+            curves.push(curve);
+            let show = |s: Option<f64>| s.map(|s| format!("{s:.4}")).unwrap_or("—".into());
+            let slipped = info.history.iter().filter(|h| h.first_slip.is_some()).count();
+            let switched = info.history.iter().filter(|h| h.switches > 1).count();
+            env.log(&format!(
+                "replay {name} ({}) a = {a:e}: speed maximum {} v_a, first lobe {} v_a; {} contacts at the limit ({} at the rolling cap), {} slipped, {} slipped and stuck again; {} steps, {:.1} s",
+                info.branches,
+                show(pair.speed_maximum),
+                show(pair.speed_first_lobe),
+                info.counts.at_limit,
+                info.counts.at_rolling_cap,
+                slipped,
+                switched,
+                info.steps,
+                t.elapsed().as_secs_f64()
+            ));
+            report.pairs.push(pair);
+            infos.push((a, t.elapsed().as_secs_f64(), info));
+        }
+        outputs::write_incremental_summary(&dir, &infos)?;
+        outputs::write_pair_plots(out_root, &dir, cfg, &name, &mut report, &curves)?;
+    } else if let Some(pert) = replay::perturbation_of(rc, &ck.sim, &u) {
         let snapshot = ck.sim.snapshot();
         let mut curves = Vec::new();
         for (ai, &a) in rc.amplitudes.iter().enumerate() {
