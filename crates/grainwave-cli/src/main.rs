@@ -265,9 +265,12 @@ fn report_error(err: &anyhow::Error) -> ExitCode {
         }
     }
     tell!("{}", error_chain(err));
+    // a checkpoint refused by the engine itself (damaged, crafted, inconsistent: `inspect`
+    // decodes without the experiments' error type) is bad input too, as in `resume`
+    let refused_checkpoint = |e: &(dyn std::error::Error + 'static)| matches!(e.downcast_ref::<grainwave_experiments::engine::core::CoreError>(), Some(grainwave_experiments::engine::core::CoreError::Checkpoint { .. }));
     let input = err
         .chain()
-        .any(|e| e.is::<BadInput>() || e.downcast_ref::<ExperimentError>().is_some_and(ExperimentError::is_input_error));
+        .any(|e| e.is::<BadInput>() || refused_checkpoint(e) || e.downcast_ref::<ExperimentError>().is_some_and(ExperimentError::is_input_error));
     ExitCode::from(if input { 2 } else { 1 })
 }
 

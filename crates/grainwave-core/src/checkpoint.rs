@@ -132,6 +132,11 @@ pub fn verify<'a>(bytes: &'a [u8], path: &str) -> Result<(String, &'a [u8])> {
 }
 
 /// Decodes checkpoint bytes whose content tag must be `tag`.
+///
+/// A [`Simulation`] anywhere in the payload (a simulation checkpoint, a study state holding one)
+/// is checked for every invariant the engine relies on as it is decoded (`sim::validate`): a
+/// crafted payload with a recomputed checksum is refused with "inconsistent: …" naming what is
+/// wrong, never handed to the force passes.
 pub fn decode<T: DeserializeOwned>(bytes: &[u8], tag: &str, path: &str) -> Result<T> {
     let (found, body) = verify(bytes, path)?;
     if found != tag {
@@ -146,7 +151,15 @@ pub fn decode<T: DeserializeOwned>(bytes: &[u8], tag: &str, path: &str) -> Resul
         .allow_trailing_bytes()
         .with_limit(body.len() as u64)
         .deserialize(body)
-        .map_err(|e| CoreError::Checkpoint { path: path.into(), reason: format!("cannot decode state: {e}") })
+        .map_err(|e| {
+            // a decoded simulation that fails its consistency checks (`sim::validate`) says so
+            // in its own words: "inconsistent: …"
+            let reason = match &*e {
+                bincode::ErrorKind::Custom(m) if m.starts_with(crate::sim::INCONSISTENT) => m.clone(),
+                _ => format!("cannot decode state: {e}"),
+            };
+            CoreError::Checkpoint { path: path.into(), reason }
+        })
 }
 
 /// Writes any serializable state atomically as a checkpoint with content tag `tag`.

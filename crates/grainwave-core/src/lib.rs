@@ -34,6 +34,7 @@ pub mod contact;
 pub mod dim;
 pub mod domain;
 pub mod error;
+pub mod files;
 pub mod grains;
 pub mod neighbor;
 pub mod placement;

@@ -178,6 +178,8 @@ impl<'a> RunContext<'a> {
         let lock = lock_directory(out)?;
         prepare_directory(out, mode)?;
         let log_path = out.join(LOG_FILE);
+        // a FIFO (or a device) named run.log would block the open for ever: refused
+        grainwave_core::files::refuse_special(&log_path, "the run's log").map_err(|e| ExperimentError::UsedDirectory { dir: out.to_path_buf(), reason: e.to_string() })?;
         let log = std::fs::OpenOptions::new().create(true).append(true).open(&log_path).ok();
         Ok(RunContext {
             out: out.to_path_buf(),

@@ -240,8 +240,15 @@ pub fn serve(link: &dyn WorkerLink, interrupt: Arc<AtomicBool>) -> Result<()> {
 /// naming the first key that differs.
 pub fn belongs_to<C: serde::Serialize>(dir: &Path, config: &C) -> Result<()> {
     let path = dir.join(crate::outputs::RESOLVED_CONFIG_FILE);
-    let Ok(text) = std::fs::read_to_string(&path) else { return Ok(()) }; // written at the start of a run; absent before
     let refuse = |reason: String| ExperimentError::Resume { path: dir.to_path_buf(), reason };
+    // written at the start of a run; absent before (then there is nothing to compare)
+    if std::fs::symlink_metadata(&path).is_err() {
+        return Ok(());
+    }
+    // a regular file of at most MAX_CONFIG_BYTES: a FIFO would block for ever, `/dev/zero` fill
+    // the memory
+    let bytes = grainwave_core::files::read_bounded(&path, crate::config::MAX_CONFIG_BYTES, "the run's config.resolved.toml").map_err(|e| refuse(e.to_string()))?;
+    let text = String::from_utf8(bytes).map_err(|_| refuse("its config.resolved.toml is not UTF-8 text (allowed: the file grainwave wrote)".into()))?;
     let on_disk: toml::Table = toml::from_str(&text).map_err(|e| refuse(format!("its config.resolved.toml cannot be read: {}", crate::config::clip(e.message(), 200))))?;
     let carried = toml::Value::try_from(config).map_err(|e| refuse(format!("the checkpoint's config cannot be compared: {e}")))?;
     if let Some((key, a, b)) = first_difference(&carried, &toml::Value::Table(on_disk), "") {

@@ -177,34 +177,71 @@ pub fn clip(text: &str) -> String {
     }
 }
 
+/// Decompressed text allowed per atom the header announces [bytes]: an `Atoms` line (under 300
+/// bytes at full precision) and a `Velocities` line, with room to spare.
+pub const MAX_BYTES_PER_ATOM: u64 = 1024;
+
+/// Decompressed text allowed besides the atoms' lines [bytes]: header, comments, blank lines,
+/// `Masses` and other short sections.
+pub const TEXT_SLACK_BYTES: u64 = 1 << 20;
+
 /// The text of a file, decompressed when it is gzip-compressed (recognised by its first bytes).
 ///
-/// Memory is bounded by the file's size: the decompressed text may be at most
-/// [`MAX_GZIP_RATIO`] times the compressed size, and reading stops at the first line longer
-/// than [`MAX_LINE_BYTES`].
+/// Only a regular file is read (a FIFO would block for ever, a device never end). Memory is
+/// bounded: a gzip file's text may be at most [`MAX_GZIP_RATIO`] times the compressed size, and
+/// at most [`MAX_BYTES_PER_ATOM`] per atom its header announces plus [`TEXT_SLACK_BYTES`]
+/// (checked as the text arrives, once the `atoms` count line has been read, and before it ends);
+/// reading stops at the first line longer than [`MAX_LINE_BYTES`].
 pub fn read_text(path: &Path) -> Result<String> {
     let io = |error| LammpsDataError::Io { path: path.display().to_string(), error };
+    let meta = std::fs::metadata(path).map_err(io)?;
+    if !meta.is_file() {
+        let what = if meta.is_dir() { "a directory" } else { "not a regular file (a FIFO, a device or a socket)" };
+        return Err(io(std::io::Error::new(
+            std::io::ErrorKind::InvalidInput,
+            format!("{what}; allowed: a LAMMPS data file, plain or gzip-compressed"),
+        )));
+    }
     let mut file = std::fs::File::open(path).map_err(io)?;
     let mut magic = [0u8; 2];
     let got = file.read(&mut magic).map_err(io)?;
     let len = file.metadata().map_err(io)?.len();
     let head = std::io::Cursor::new(magic[..got].to_vec());
     let gz = got == 2 && magic == [0x1f, 0x8b];
-    let reader: Box<dyn Read> = if gz {
-        Box::new(flate2::read::MultiGzDecoder::new(head.chain(file)).take(len.saturating_mul(MAX_GZIP_RATIO)))
+    if gz {
+        let reader = flate2::read::MultiGzDecoder::new(head.chain(file)).take(len.saturating_mul(MAX_GZIP_RATIO));
+        read_checked(reader, &path.display().to_string(), true)
     } else {
-        Box::new(head.chain(file))
-    };
-    bounded_text(reader, &path.display().to_string())
+        // a regular file: its size bounds the text
+        read_checked(head.chain(file), &path.display().to_string(), false)
+    }
 }
 
 /// Reads `reader` to its end as UTF-8, refusing a line longer than [`MAX_LINE_BYTES`] as soon
 /// as it is seen (so a huge line is never held in memory).
-pub fn bounded_text(mut reader: impl Read, source: &str) -> Result<String> {
+pub fn bounded_text(reader: impl Read, source: &str) -> Result<String> {
+    read_checked(reader, source, false)
+}
+
+/// The atom count of a header line `N atoms`, if `line` is one.
+fn atoms_line(line: &[u8]) -> Option<u64> {
+    let line = std::str::from_utf8(line).ok()?;
+    let line = line.split('#').next()?;
+    let mut words = line.split_whitespace();
+    let (count, keyword) = (words.next()?, words.next()?);
+    (keyword == "atoms" && words.next().is_none()).then(|| count.parse().ok()).flatten()
+}
+
+/// [`bounded_text`]; with `per_atom`, also refuses text beyond [`MAX_BYTES_PER_ATOM`] per atom
+/// of the header's `atoms` line plus [`TEXT_SLACK_BYTES`] as soon as it is exceeded (a
+/// decompressed file holds no more than its atoms need).
+fn read_checked(mut reader: impl Read, source: &str, per_atom: bool) -> Result<String> {
     let io = |error| LammpsDataError::Io { path: source.to_string(), error };
     let mut bytes = Vec::new();
     let mut chunk = vec![0u8; 1 << 16];
-    let (mut line, mut line_len) = (1usize, 0usize);
+    let (mut line, mut line_len, mut line_start) = (1usize, 0usize, 0usize);
+    // the budget once the atom count is known (the header comes before any section)
+    let mut budget: Option<u64> = None;
     loop {
         let n = match reader.read(&mut chunk) {
             Ok(0) => break,
@@ -212,10 +249,18 @@ pub fn bounded_text(mut reader: impl Read, source: &str) -> Result<String> {
             Err(e) if e.kind() == std::io::ErrorKind::Interrupted => continue,
             Err(e) => return Err(io(e)),
         };
-        for &b in &chunk[..n] {
-            if b == b'\n' {
+        let base = bytes.len();
+        bytes.extend_from_slice(&chunk[..n]);
+        for k in base..base + n {
+            if bytes[k] == b'\n' {
+                if per_atom && budget.is_none() {
+                    if let Some(atoms) = atoms_line(&bytes[line_start..k]) {
+                        budget = Some(atoms.saturating_mul(MAX_BYTES_PER_ATOM).saturating_add(TEXT_SLACK_BYTES));
+                    }
+                }
                 line += 1;
                 line_len = 0;
+                line_start = k + 1;
             } else {
                 line_len += 1;
                 if line_len > MAX_LINE_BYTES {
@@ -227,7 +272,20 @@ pub fn bounded_text(mut reader: impl Read, source: &str) -> Result<String> {
                 }
             }
         }
-        bytes.extend_from_slice(&chunk[..n]);
+        // before the count is known, the header alone may take the slack
+        let allowed = budget.unwrap_or(TEXT_SLACK_BYTES);
+        if per_atom && bytes.len() as u64 > allowed {
+            return Err(LammpsDataError::Parse {
+                path: source.to_string(),
+                line,
+                message: match budget {
+                    Some(b) => format!(
+                        "the decompressed text exceeds {b} bytes, more than the atoms the header announces need ({MAX_BYTES_PER_ATOM} bytes per atom + {TEXT_SLACK_BYTES}): not a data file"
+                    ),
+                    None => format!("no `N atoms` line in the first {TEXT_SLACK_BYTES} bytes of decompressed text: not a data file"),
+                },
+            });
+        }
     }
     String::from_utf8(bytes).map_err(|e| io(std::io::Error::new(std::io::ErrorKind::InvalidData, e)))
 }

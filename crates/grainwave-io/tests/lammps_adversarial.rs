@@ -64,3 +64,55 @@ fn long_values_are_echoed_at_most_200_characters() {
         assert!(msg.len() < MAX_ECHO_CHARS + 200, "{} bytes of message", msg.len());
     }
 }
+
+#[test]
+fn decompressed_text_is_bounded_by_the_atoms_the_header_announces() {
+    use grainwave_io::lammps::{MAX_BYTES_PER_ATOM, TEXT_SLACK_BYTES};
+    // before (issue 41, reproducer 09): a valid 27-atom file followed by 1000 MiB of newlines in
+    // a 1 MB gzip file took 1 GB of memory and was accepted. Here 2 atoms and 24 MiB of
+    // newlines: refused once the text passes 2 × MAX_BYTES_PER_ATOM + TEXT_SLACK_BYTES.
+    let path = temp("padded.data.gz");
+    {
+        let f = std::fs::File::create(&path).unwrap();
+        let mut gz = flate2::write::GzEncoder::new(f, flate2::Compression::fast());
+        gz.write_all(HEADER.replace("1000000000000 atoms", "2 atoms").as_bytes()).unwrap();
+        gz.write_all(b"1 1 1 1 1 1 1\n2 1 1 1 2 2 2\n").unwrap();
+        let chunk = vec![b'\n'; 1 << 20];
+        for _ in 0..24 {
+            gz.write_all(&chunk).unwrap();
+        }
+        gz.finish().unwrap();
+    }
+    let msg = read_data(&path).unwrap_err().to_string();
+    let _ = std::fs::remove_file(&path);
+    let limit = 2 * MAX_BYTES_PER_ATOM + TEXT_SLACK_BYTES;
+    assert!(msg.contains(&format!("exceeds {limit} bytes")) && msg.contains("padded.data.gz"), "{msg}");
+    // the same file without the padding reads
+    let path = temp("plain2.data.gz");
+    {
+        let f = std::fs::File::create(&path).unwrap();
+        let mut gz = flate2::write::GzEncoder::new(f, flate2::Compression::fast());
+        gz.write_all(HEADER.replace("1000000000000 atoms", "2 atoms").as_bytes()).unwrap();
+        gz.write_all(b"1 1 1 1 1 1 1\n2 1 1 1 2 2 2\n").unwrap();
+        gz.finish().unwrap();
+    }
+    let text = grainwave_io::lammps::read_text(&path);
+    let _ = std::fs::remove_file(&path);
+    assert!(text.unwrap().contains("2 1 1 1 2 2 2"));
+}
+
+#[cfg(unix)]
+#[test]
+fn a_fifo_or_a_device_is_refused_not_read() {
+    // before (issue 41, reproducer 08): a FIFO named like a data file blocked `bench` for ever
+    let path = temp("fifo.data.gz");
+    let _ = std::fs::remove_file(&path);
+    let made = std::process::Command::new("mkfifo").arg(&path).status().map(|s| s.success()).unwrap_or(false);
+    if made {
+        let msg = read_data(&path).unwrap_err().to_string();
+        let _ = std::fs::remove_file(&path);
+        assert!(msg.contains("not a regular file") && msg.contains("fifo.data.gz"), "{msg}");
+    }
+    let msg = read_data(std::path::Path::new("/dev/zero")).unwrap_err().to_string();
+    assert!(msg.contains("not a regular file") && msg.contains("/dev/zero"), "{msg}");
+}

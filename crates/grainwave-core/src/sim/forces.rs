@@ -900,11 +900,21 @@ impl<D: Dim> Simulation<D> {
     /// Rebuilds the neighbor list if needed (`max_displacement2`: the largest squared
     /// displacement since the last build, when already known), and the derived buffers.
     pub(crate) fn prepare_neighbors(&mut self, max_displacement2: Option<f64>) -> Result<()> {
+        // The force passes index the per-grain arrays and the histories with the list's indices
+        // without checking them (raw pointers on the vector paths): checked here, in safe code,
+        // every time (the lengths; O(1)) and whenever the index of the passes is rebuilt (the
+        // list's structure; O(pairs), once per list build). A decoded simulation was checked
+        // already (`sim::validate`); this guards states changed by hand through the public fields.
+        let n = self.grains.len();
+        let g = &self.grains;
+        let lens = [g.radius.len(), g.mass.len(), g.inertia.len(), g.pos.len(), g.vel.len(), g.omega.len(), g.orientation.len(), g.image.len(), g.force.len(), g.torque.len()];
+        if lens.iter().any(|&l| l != n) {
+            return Err(CoreError::Inconsistent(format!("per-grain arrays of different lengths ({lens:?} for {n} grain ids)")));
+        }
         if self.nlist.needs_rebuild(&self.grains.pos, &self.domain, max_displacement2) {
             self.check_confinement()?;
             self.nlist.rebuild(&self.grains.pos, &self.grains.radius, &self.grains.id, &self.domain);
         }
-        let n = self.grains.len();
         if self.work.wall_index_builds != self.nlist.builds || self.work.wall_force.len() != self.nlist.wall_pairs.len() {
             self.work.wall_index = self.nlist.wall_index(n);
             self.work.wall_force = vec![WallForce::default(); self.nlist.wall_pairs.len()];
@@ -912,6 +922,7 @@ impl<D: Dim> Simulation<D> {
         }
         let len = self.work.block_len.unwrap_or_else(|| block_len(n, rayon::current_num_threads()));
         if self.work.cross.builds != self.nlist.builds || self.work.cross.block_len != len || self.work.cross.n != n {
+            self.nlist.list.check_structure(n, true).map_err(|e| CoreError::Inconsistent(format!("neighbor list: {e}")))?;
             self.work.cross.rebuild(&self.nlist.list, n, len, self.nlist.builds);
         }
         Ok(())

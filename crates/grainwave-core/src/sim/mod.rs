@@ -6,6 +6,7 @@ mod integrate;
 mod lanes;
 mod run;
 mod sort;
+mod validate;
 
 pub use builder::{ExternalLoad, SimulationBuilder};
 pub use run::{Control, Progress, RunHooks, RunOutcome, StopCriteria, StopReason};
@@ -77,8 +78,12 @@ pub struct Counters {
 ///
 /// Everything that influences the future is a serialized field, so a checkpoint of this struct
 /// continues bit for bit; the `work` buffers are derived and rebuilt on demand.
+///
+/// Deserializing goes through [`Decoded`] (the same fields in the same order, so the encoding is
+/// unchanged) and checks every invariant the engine relies on (`sim::validate`): a crafted or
+/// corrupted state is refused with "inconsistent: …", it never reaches the force passes.
 #[derive(Clone, Debug, Serialize, Deserialize)]
-#[serde(bound = "")]
+#[serde(bound = "", try_from = "Decoded<D>")]
 pub struct Simulation<D: Dim> {
     /// Grains (structure of arrays).
     pub grains: Grains<D>,
@@ -123,6 +128,73 @@ pub struct Simulation<D: Dim> {
     #[serde(skip)]
     work: Workspace<D>,
 }
+
+/// The serialized fields of a [`Simulation`], in its order, as decoded, before the checks of
+/// `sim::validate`. Keep it in step with [`Simulation`]: a field added there must be added here
+/// at the same place (the conversion below names every field, so a missing one does not compile;
+/// the checkpoint round-trip tests catch a different order).
+#[derive(Deserialize)]
+#[serde(bound = "")]
+struct Decoded<D: Dim> {
+    grains: Grains<D>,
+    domain: Domain<D>,
+    law: ContactLaw,
+    gravity: D::Vector,
+    loads: Vec<ExternalLoad<D>>,
+    integrator: Integrator,
+    dt: f64,
+    suggested_dt: f64,
+    dt_fraction: f64,
+    expected_overlap: f64,
+    time: f64,
+    step: u64,
+    safety: Safety,
+    nlist: NeighborList<D>,
+    prev_acc: Vec<D::Vector>,
+    prev_ang_acc: Vec<D::AngVector>,
+    counters: Counters,
+    seed: u64,
+    rng: ChaCha8Rng,
+    warnings: Vec<String>,
+}
+
+impl<D: Dim> TryFrom<Decoded<D>> for Simulation<D> {
+    type Error = String;
+
+    /// The simulation, when it passes every check of `sim::validate`; otherwise
+    /// "inconsistent: " and what is wrong (the decoders report it as a checkpoint error).
+    fn try_from(d: Decoded<D>) -> Result<Self, String> {
+        let Decoded { grains, domain, law, gravity, loads, integrator, dt, suggested_dt, dt_fraction, expected_overlap, time, step, safety, nlist, prev_acc, prev_ang_acc, counters, seed, rng, warnings } = d;
+        let sim = Simulation {
+            grains,
+            domain,
+            law,
+            gravity,
+            loads,
+            integrator,
+            dt,
+            suggested_dt,
+            dt_fraction,
+            expected_overlap,
+            time,
+            step,
+            safety,
+            nlist,
+            prev_acc,
+            prev_ang_acc,
+            counters,
+            seed,
+            rng,
+            warnings,
+            work: Workspace::default(),
+        };
+        sim.check_decoded().map_err(|e| format!("{INCONSISTENT}{e}"))?;
+        Ok(sim)
+    }
+}
+
+/// Prefix of the message of a decoded simulation that fails the checks of `sim::validate`.
+pub(crate) const INCONSISTENT: &str = "inconsistent: ";
 
 /// Derived buffers, rebuilt when needed (allocated once, not per step).
 #[derive(Clone, Debug)]
