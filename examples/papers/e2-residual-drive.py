@@ -8,6 +8,7 @@ examples/papers/e2-{compression,extension}-64.toml (the replays `slow4`, `slow5`
     python3 examples/papers/e2-residual-drive.py DIR [DIR ...]    # any run directories (summary.json)
     python3 examples/papers/e2-residual-drive.py --csv OUTDIR     # also residual_drive.csv, amplitude_series.csv
     python3 examples/papers/e2-residual-drive.py --plot FILE.png  # the figure (needs matplotlib)
+    python3 examples/papers/e2-residual-drive.py --brief          # one table per direction (the page's)
     python3 examples/papers/e2-residual-drive.py --split A.csv B.csv …  # sums e2_contact_state splits
 
 Residual drive: states stopped to different degrees — the deforming state (the loading at
@@ -197,6 +198,29 @@ def print_drive(direction, rows, amp):
     print()
 
 
+def print_brief(direction, rows):
+    """One row per state: KE, M_s, and the sliding loss at |p_a| = 1e-10, 1e-9, 1e-8 by SPEC's arrival."""
+    n = len({r["packing"] for r in rows})
+    print(f"### {direction}: sliding loss (c_ns − c)/c₀ by SPEC's arrival (maximum of |δv_x|), p_a > 0 / p_a < 0, mean ± SE over {n} packing(s)\n")
+    print("| state | wall rate [1/t*] | KE [p* L*²] | M_s flagged / mobilised | \\|p_a\\| = 1e-10 | 1e-9 | 1e-8 |")
+    print("|---|---|---|---|---|---|---|")
+    for st in [s[0] for s in STATES]:
+        sel = [r for r in rows if r["state"] == st]
+        if not sel:
+            continue
+        ke = stats([r.get("kinetic_energy") for r in sel])[0]
+        fl = stats([r.get("flagged") for r in sel])[0]
+        mo = stats([r.get("mobilised") for r in sel])[0]
+        cells = []
+        for amp in DRIVE_AMPS:
+            p = stats([r.get(f"sliding|{amp:g}|maximum") for r in sel])
+            m = stats([r.get(f"sliding|{-amp:g}|maximum") for r in sel])
+            cells.append(f"{fmt(p[0], p[1])} / {fmt(m[0], m[1])}")
+        rate = sel[0]["wall_rate"]
+        print(f"| {st} | {'—' if rate is None else f'{rate:g}'} | {'—' if ke is None else f'{ke:.1e}'} | {fl:.0f} / {mo:.0f} | " + " | ".join(cells) + " |")
+    print()
+
+
 def print_amplitudes(direction, rows):
     print(f"### {direction}: released fraction R of M_s (mobilised) by pulse amplitude, p_a > 0 / p_a < 0\n")
     amps = sorted({abs(r["amplitude"]) for r in rows})
@@ -309,10 +333,13 @@ def main(argv):
         print_split(argv[1:])
         return
     csv_dir = plot_path = None
+    brief = False
     dirs = []
     it = iter(argv)
     for a in it:
-        if a == "--csv":
+        if a == "--brief":
+            brief = True
+        elif a == "--csv":
             csv_dir = next(it)
         elif a == "--plot":
             plot_path = next(it)
@@ -335,6 +362,10 @@ def main(argv):
         if not names:
             continue
         print(f"## {direction}: {', '.join(names)}\n")
+        if brief:
+            print_brief(direction, [r for r in drive if r["direction"] == direction])
+            print_amplitudes(direction, [r for r in amplitude if r["direction"] == direction])
+            continue
         for amp in DRIVE_AMPS:
             print_drive(direction, [r for r in drive if r["direction"] == direction], amp)
         print_amplitudes(direction, [r for r in amplitude if r["direction"] == direction])
