@@ -51,6 +51,8 @@ STATES = [
     ("from γ = 0.1 (2e-6/t*), t_s = 500", "stop500_g1", ["static_g1"], 0.0),
 ]
 DRIVE_AMPS = [1e-10, 1e-9, 1e-8]
+# the published sliding losses at |p_a| = 1e-9 (VALIDATION.md, E2), p_a > 0 and p_a < 0
+PUBLISHED_SLIDING = {"compression": (0.179, 0.260), "extension": (0.107, 0.090)}
 KEYS = {"maximum": "speed_maximum", "first lobe": "speed_first_lobe"}
 
 
@@ -274,6 +276,10 @@ def plot(path, drive, amplitude):
                 if xs:
                     ax.errorbar(xs, ys, yerr=es, fmt="o" + style, color=colour, capsize=3,
                                 label=f"p_a = {sign * amp:g}")
+        for value, colour, sign in zip(PUBLISHED_SLIDING[direction], ("tab:red", "tab:blue"), ("+", "−")):
+            ax.axhline(value, color=colour, lw=0.8, ls="--", alpha=0.6)
+            ax.annotate(f"published (128², static), p_a {sign}", (len(order) - 1, value), fontsize=7, color=colour,
+                        ha="right", va="bottom")
         ax.set_xticks(range(len(order)))
         ax.set_xticklabels([o.split(",")[0].replace(" (static)", "\n(static)") for o in order], rotation=35, ha="right", fontsize=8)
         ax.set_ylabel("sliding loss (c_ns − c)/c₀ (arrival: maximum)")
