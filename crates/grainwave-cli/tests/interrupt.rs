@@ -152,7 +152,8 @@ fn inspect_describes_checkpoints_and_directories() {
     bytes[k] ^= 1;
     std::fs::write(dir.join("checkpoint.gwck"), bytes).unwrap();
     let o = Command::new(BIN).args(["inspect"]).arg(dir.join("checkpoint.gwck")).output().unwrap();
-    assert_eq!(o.status.code(), Some(1));
+    // bad input, as `resume` of the same file: exit 2 (docs/hardening.md)
+    assert_eq!(o.status.code(), Some(2));
     assert!(String::from_utf8_lossy(&o.stderr).contains("checksum mismatch"));
     // a summary.json and a failure marker that are FIFOs (no writer: reading them would block
     // for ever) are reported, not read
