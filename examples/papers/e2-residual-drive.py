@@ -175,6 +175,22 @@ def amplitude_rows(name, s):
     return rows
 
 
+def state_cells(sel):
+    """The wall rate, KE and M_s (flagged / mobilised) cells of one state's rows (means over packings)."""
+    ke = stats([r.get("kinetic_energy") for r in sel])[0]
+    fl = stats([r.get("flagged") for r in sel])[0]
+    mo = stats([r.get("mobilised") for r in sel])[0]
+    rate = sel[0]["wall_rate"]
+    return f"{'—' if rate is None else f'{rate:g}'} | {'—' if ke is None else f'{ke:.1e}'} | {fl:.0f} / {mo:.0f}"
+
+
+def loss_cell(sel, kind, amp, label):
+    """Mean ± SE of a loss over the packings, p_a > 0 / p_a < 0."""
+    p = stats([r.get(f"{kind}|{amp:g}|{label}") for r in sel])
+    m = stats([r.get(f"{kind}|{-amp:g}|{label}") for r in sel])
+    return f"{fmt(p[0], p[1])} / {fmt(m[0], m[1])}"
+
+
 def print_drive(direction, rows, amp):
     states = [st[0] for st in STATES]
     print(f"### {direction}: residual drive, sliding loss (c_ns − c)/c₀ at |p_a| = {amp:g} t*, p_a > 0 / p_a < 0\n")
@@ -186,17 +202,9 @@ def print_drive(direction, rows, amp):
         sel = [r for r in rows if r["state"] == st]
         if not sel:
             continue
-        ke = stats([r.get("kinetic_energy") for r in sel])[0]
-        fl = stats([r.get("flagged") for r in sel])[0]
-        mo = stats([r.get("mobilised") for r in sel])[0]
         sy = stats([r.get("stress_yy") for r in sel])[0]
-        cells = []
-        for kind, label in (("sliding", "maximum"), ("sliding", "first lobe"), ("rate", "maximum")):
-            p = stats([r.get(f"{kind}|{amp:g}|{label}") for r in sel])
-            m = stats([r.get(f"{kind}|{-amp:g}|{label}") for r in sel])
-            cells.append(f"{fmt(p[0], p[1])} / {fmt(m[0], m[1])}")
-        rate = sel[0]["wall_rate"]
-        print(f"| {st} | {'—' if rate is None else f'{rate:g}'} | {'—' if ke is None else f'{ke:.1e}'} | {fl:.0f} / {mo:.0f} | {sy:.7f} | " + " | ".join(cells) + " |")
+        cells = [loss_cell(sel, kind, amp, label) for kind, label in (("sliding", "maximum"), ("sliding", "first lobe"), ("rate", "maximum"))]
+        print(f"| {st} | {state_cells(sel)} | {sy:.7f} | " + " | ".join(cells) + " |")
     print()
 
 
@@ -210,16 +218,8 @@ def print_brief(direction, rows):
         sel = [r for r in rows if r["state"] == st]
         if not sel:
             continue
-        ke = stats([r.get("kinetic_energy") for r in sel])[0]
-        fl = stats([r.get("flagged") for r in sel])[0]
-        mo = stats([r.get("mobilised") for r in sel])[0]
-        cells = []
-        for amp in DRIVE_AMPS:
-            p = stats([r.get(f"sliding|{amp:g}|maximum") for r in sel])
-            m = stats([r.get(f"sliding|{-amp:g}|maximum") for r in sel])
-            cells.append(f"{fmt(p[0], p[1])} / {fmt(m[0], m[1])}")
-        rate = sel[0]["wall_rate"]
-        print(f"| {st} | {'—' if rate is None else f'{rate:g}'} | {'—' if ke is None else f'{ke:.1e}'} | {fl:.0f} / {mo:.0f} | " + " | ".join(cells) + " |")
+        cells = [loss_cell(sel, "sliding", amp, "maximum") for amp in DRIVE_AMPS]
+        print(f"| {st} | {state_cells(sel)} | " + " | ".join(cells) + " |")
     print()
 
 
