@@ -3,7 +3,8 @@
 
 use anyhow::{Context, Result};
 use grainwave_experiments::engine::{decode, verify, Dim, Simulation, D2, D3};
-use grainwave_experiments::simulation::{AnySim, SimulationState, TAG as SIMULATION_TAG};
+use grainwave_experiments::engine::AnySimulation;
+use grainwave_experiments::simulation::{SimulationState, TAG as SIMULATION_TAG};
 use std::path::Path;
 
 /// Describes `path`.
@@ -83,8 +84,8 @@ fn describe_checkpoint(path: &Path, bytes: &[u8]) -> Result<Vec<String>> {
             ));
             v.push(format!("  recorded      {} series rows, {} snapshots", state.series.len(), state.snapshots.len()));
             match &state.sim {
-                AnySim::D2(s) => describe_sim(s, &mut v),
-                AnySim::D3(s) => describe_sim(s, &mut v),
+                AnySimulation::D2(s) => describe_sim(s, &mut v),
+                AnySimulation::D3(s) => describe_sim(s, &mut v),
             }
         }
         grainwave_experiments::e3::TAG => {
@@ -150,8 +151,8 @@ fn describe_checkpoint(path: &Path, bytes: &[u8]) -> Result<Vec<String>> {
                 f.info.piston_acceleration
             ));
             match &f.sim {
-                AnySim::D2(s) => describe_sim(s, &mut v),
-                AnySim::D3(s) => describe_sim(s, &mut v),
+                AnySimulation::D2(s) => describe_sim(s, &mut v),
+                AnySimulation::D3(s) => describe_sim(s, &mut v),
             }
         }
         grainwave_experiments::e1::ensemble::RESULT_TAG => {

@@ -194,8 +194,31 @@ pub fn simulation_tag<D: Dim>() -> String {
     format!("simulation-{}", D::NAME)
 }
 
-/// A simulation of either dimension, as read from a checkpoint.
-#[derive(Clone, Debug)]
+/// Recomputes the CRC-32 of tag + payload where [`encode`] writes it
+/// (header: 8-byte magic, u32 version, u32 tag length, tag, u64 payload length, u32 CRC);
+/// false when the header is too short to hold one. For tests and fuzz targets that craft
+/// checkpoints: a mutated file with its checksum refreshed reaches the decoder and its checks
+/// (the checksum guards against accidents, not against a crafted file).
+pub fn refresh_crc(bytes: &mut [u8]) -> bool {
+    if bytes.len() < 16 {
+        return false;
+    }
+    let tag_len = u32::from_le_bytes([bytes[12], bytes[13], bytes[14], bytes[15]]) as usize;
+    let head = 16usize.saturating_add(tag_len).saturating_add(12);
+    if tag_len > 256 || bytes.len() < head {
+        return false;
+    }
+    let mut h = crc32fast::Hasher::new();
+    h.update(&bytes[16..16 + tag_len]);
+    h.update(&bytes[head..]);
+    let crc = h.finalize().to_le_bytes();
+    bytes[24 + tag_len..28 + tag_len].copy_from_slice(&crc);
+    true
+}
+
+/// A simulation of either dimension, as read from a checkpoint or built from a config. Its
+/// serialized form (a study state holds one) is the variant index followed by the simulation.
+#[derive(Clone, Debug, Serialize, serde::Deserialize)]
 pub enum AnySimulation {
     /// Two dimensions.
     D2(Simulation<D2>),

@@ -170,6 +170,19 @@ pub trait Dim: Copy + Clone + Debug + Default + Send + Sync + PartialEq + 'stati
         v.set(k, 1.0);
         v
     }
+
+    /// One time step of `sim` ([`crate::sim::Simulation::step`]). With
+    /// [`Dim::engine_refresh_forces`], the entry points of the engine's heavy code — the force
+    /// pass and its vector kernels, the neighbor list, the integration passes — are functions of
+    /// the implementations for [`D2`] and [`D3`], which are not generic: they are compiled once,
+    /// in this crate, instead of again in every crate that steps a simulation (a generic
+    /// function is compiled in each crate that instantiates it). Call `Simulation::step`.
+    #[doc(hidden)]
+    fn engine_step(sim: &mut crate::sim::Simulation<Self>) -> crate::Result<()>;
+    /// The force evaluation of [`crate::sim::Simulation::refresh_forces`]
+    /// ([`Dim::engine_step`] says why it is here). Call `Simulation::refresh_forces`.
+    #[doc(hidden)]
+    fn engine_refresh_forces(sim: &mut crate::sim::Simulation<Self>) -> crate::Result<()>;
 }
 
 /// Two dimensions: grains move in the x–y plane and rotate about ẑ.
@@ -217,6 +230,14 @@ impl Dim for D2 {
     }
     fn orientation_rotation_vector(o: f64) -> [f64; 3] {
         [0.0, 0.0, o]
+    }
+    #[inline(never)]
+    fn engine_step(sim: &mut crate::sim::Simulation<Self>) -> crate::Result<()> {
+        sim.step_here()
+    }
+    #[inline(never)]
+    fn engine_refresh_forces(sim: &mut crate::sim::Simulation<Self>) -> crate::Result<()> {
+        sim.refresh_forces_here()
     }
 }
 
@@ -296,6 +317,14 @@ impl Dim for D3 {
             }
         }
         rotate_lanes(o, w, dt);
+    }
+    #[inline(never)]
+    fn engine_step(sim: &mut crate::sim::Simulation<Self>) -> crate::Result<()> {
+        sim.step_here()
+    }
+    #[inline(never)]
+    fn engine_refresh_forces(sim: &mut crate::sim::Simulation<Self>) -> crate::Result<()> {
+        sim.refresh_forces_here()
     }
 }
 

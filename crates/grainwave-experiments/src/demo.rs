@@ -3,7 +3,7 @@
 //! computed, and the pulse emitted by the bottom wall is followed to the top wall (docs/demo.md).
 
 use crate::config::ConfigSource;
-use crate::error::Result;
+use crate::Result;
 use crate::protocol::RunContext;
 use crate::registry::{self, RunSummary};
 

@@ -73,25 +73,9 @@ fn decode_all(bytes: &[u8]) -> Result<(), String> {
     Ok(())
 }
 
-/// Recomputes the CRC-32 of tag + payload where `grainwave_core::checkpoint::encode` writes it
-/// (header: 8-byte magic, u32 version, u32 tag length, tag, u64 payload length, u32 CRC);
-/// false when the header is too short to hold one.
-pub fn refresh_crc(bytes: &mut [u8]) -> bool {
-    if bytes.len() < 16 {
-        return false;
-    }
-    let tag_len = u32::from_le_bytes([bytes[12], bytes[13], bytes[14], bytes[15]]) as usize;
-    let head = 16usize.saturating_add(tag_len).saturating_add(12);
-    if tag_len > 256 || bytes.len() < head {
-        return false;
-    }
-    let mut h = crc32fast::Hasher::new();
-    h.update(&bytes[16..16 + tag_len]);
-    h.update(&bytes[head..]);
-    let crc = h.finalize().to_le_bytes();
-    bytes[24 + tag_len..28 + tag_len].copy_from_slice(&crc);
-    true
-}
+/// Recomputes the checksum of a mutated checkpoint (the engine's function, re-exported here
+/// for the fuzz targets).
+pub use grainwave_core::checkpoint::refresh_crc;
 
 /// LAMMPS data file bytes → grains, by both the 3D and the 2D import. Bytes that are not UTF-8
 /// are refused by the file reader first ([`grainwave_io::lammps::bounded_text`]).

@@ -22,7 +22,7 @@
 //!
 //! Prepared packings are cached as grainwave-core checkpoints in `target/linear-bench/`.
 
-#[path = "../tests/common/mod.rs"]
+#[path = "../tests/integration/common.rs"]
 mod common;
 
 use common::*;

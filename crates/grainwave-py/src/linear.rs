@@ -8,7 +8,7 @@ use crate::errors::RunError;
 use crate::sim::Simulation;
 use grainwave_experiments::engine::linear as gl;
 use grainwave_experiments::engine::Dim;
-use grainwave_experiments::simulation::AnySim;
+use grainwave_experiments::engine::AnySimulation;
 use gl::dynamical::{AssemblyOptions, DynamicalMatrix, PreStress, Rattlers, SlidingContacts, ZeroRows};
 use gl::linalg::eigen::{EigenOptions, Modes};
 use gl::moduli::{elastic_moduli, ModuliOptions};
@@ -83,11 +83,11 @@ fn matrix_dict<'py, D: Dim>(py: Python<'py>, dm: &DynamicalMatrix<D>, ids: Vec<i
 pub fn dynamical_matrix<'py>(py: Python<'py>, sim: PyRef<'py, Simulation>, prestress: &str, rattlers: &str, sliding: &str, rolling: bool) -> PyResult<Bound<'py, PyDict>> {
     let o = options(prestress, rattlers, sliding, rolling)?;
     match sim.engine() {
-        AnySim::D2(s) => {
+        AnySimulation::D2(s) => {
             let (dm, ids) = py.detach(|| assemble(s, &o))?;
             matrix_dict(py, &dm, ids)
         }
-        AnySim::D3(s) => {
+        AnySimulation::D3(s) => {
             let (dm, ids) = py.detach(|| assemble(s, &o))?;
             matrix_dict(py, &dm, ids)
         }
@@ -107,8 +107,8 @@ fn modes_of<D: Dim>(s: &grainwave_experiments::engine::Simulation<D>, o: &Assemb
 pub fn modes<'py>(py: Python<'py>, sim: PyRef<'py, Simulation>, prestress: &str, rattlers: &str, sliding: &str, rolling: bool, threads: Option<usize>) -> PyResult<Bound<'py, PyDict>> {
     let o = options(prestress, rattlers, sliding, rolling)?;
     let (modes, ids, per) = match sim.engine() {
-        AnySim::D2(s) => py.detach(|| modes_of(s, &o, threads))?,
-        AnySim::D3(s) => py.detach(|| modes_of(s, &o, threads))?,
+        AnySimulation::D2(s) => py.detach(|| modes_of(s, &o, threads))?,
+        AnySimulation::D3(s) => py.detach(|| modes_of(s, &o, threads))?,
     };
     let v = modes.vectors();
     let (rows, cols) = (v.nrows(), v.ncols());
@@ -137,8 +137,8 @@ pub fn modes<'py>(py: Python<'py>, sim: PyRef<'py, Simulation>, prestress: &str,
 pub fn moduli<'py>(py: Python<'py>, sim: PyRef<'py, Simulation>, prestress: &str, rattlers: &str, sliding: &str, rolling: bool) -> PyResult<Bound<'py, PyDict>> {
     let o = options(prestress, rattlers, sliding, rolling)?;
     let m = match sim.engine() {
-        AnySim::D2(s) => py.detach(|| assemble(s, &o).and_then(|(dm, _)| elastic_moduli(&dm, &ModuliOptions::default()).map_err(linear_error)))?,
-        AnySim::D3(s) => py.detach(|| assemble(s, &o).and_then(|(dm, _)| elastic_moduli(&dm, &ModuliOptions::default()).map_err(linear_error)))?,
+        AnySimulation::D2(s) => py.detach(|| assemble(s, &o).and_then(|(dm, _)| elastic_moduli(&dm, &ModuliOptions::default()).map_err(linear_error)))?,
+        AnySimulation::D3(s) => py.detach(|| assemble(s, &o).and_then(|(dm, _)| elastic_moduli(&dm, &ModuliOptions::default()).map_err(linear_error)))?,
     };
     let d = PyDict::new(py);
     d.set_item("voigt", m.voigt.clone())?;
@@ -200,8 +200,8 @@ pub fn modal_pulse<'py>(
     let t = read_times(py, times)?;
     let eigen = EigenOptions { threads, ..EigenOptions::default() };
     let p = match sim.engine() {
-        AnySim::D2(s) => py.detach(|| gl::pulse::modal_pulse(&s.snapshot(), &o, &eigen, &setup, &t)),
-        AnySim::D3(s) => py.detach(|| gl::pulse::modal_pulse(&s.snapshot(), &o, &eigen, &setup, &t)),
+        AnySimulation::D2(s) => py.detach(|| gl::pulse::modal_pulse(&s.snapshot(), &o, &eigen, &setup, &t)),
+        AnySimulation::D3(s) => py.detach(|| gl::pulse::modal_pulse(&s.snapshot(), &o, &eigen, &setup, &t)),
     }
     .map_err(linear_error)?;
     let d = PyDict::new(py);
@@ -238,8 +238,8 @@ pub fn direct_pulse<'py>(
     let t = read_times(py, times)?;
     let prop = gl::propagation::PropagationOptions { steps_per_period, ..Default::default() };
     let p = match sim.engine() {
-        AnySim::D2(s) => py.detach(|| gl::pulse::direct_pulse(&s.snapshot(), &o, &prop, &setup, &t)),
-        AnySim::D3(s) => py.detach(|| gl::pulse::direct_pulse(&s.snapshot(), &o, &prop, &setup, &t)),
+        AnySimulation::D2(s) => py.detach(|| gl::pulse::direct_pulse(&s.snapshot(), &o, &prop, &setup, &t)),
+        AnySimulation::D3(s) => py.detach(|| gl::pulse::direct_pulse(&s.snapshot(), &o, &prop, &setup, &t)),
     }
     .map_err(linear_error)?;
     let d = PyDict::new(py);

@@ -9,7 +9,8 @@ use grainwave_experiments::engine::core as gc;
 use grainwave_experiments::engine::{Dim, Simulation as Engine};
 use grainwave_experiments::registry;
 use grainwave_experiments::study::Protocol;
-use grainwave_experiments::simulation::{self, AnySim, SimulationState};
+use grainwave_experiments::engine::AnySimulation;
+use grainwave_experiments::simulation::{self, SimulationState};
 use gc::dim::VectorOps;
 use gc::sim::{ExternalLoad, RunHooks, StopCriteria};
 use gc::snapshot::Counterpart;
@@ -28,8 +29,8 @@ const STEP_CHUNK: u64 = 1000;
 macro_rules! on {
     ($sim:expr, $s:ident => $body:expr) => {
         match $sim {
-            AnySim::D2($s) => $body,
-            AnySim::D3($s) => $body,
+            AnySimulation::D2($s) => $body,
+            AnySimulation::D3($s) => $body,
         }
     };
 }
@@ -102,18 +103,18 @@ fn read_array(py: Python<'_>, value: &Bound<'_, PyAny>, what: &str, rows: usize,
 /// One discrete-element simulation (2D or 3D).
 #[pyclass(module = "grainwave._native")]
 pub struct Simulation {
-    sim: AnySim,
+    sim: AnySimulation,
     /// The stop criteria of the config it was built from (`run_until()` without criteria).
     stop: Option<StopCriteria>,
 }
 
 impl Simulation {
-    fn from_any(sim: AnySim, stop: Option<StopCriteria>) -> Self {
+    fn from_any(sim: AnySimulation, stop: Option<StopCriteria>) -> Self {
         Simulation { sim, stop }
     }
 
     /// The engine simulation.
-    pub(crate) fn engine(&self) -> &AnySim {
+    pub(crate) fn engine(&self) -> &AnySimulation {
         &self.sim
     }
 }
@@ -204,15 +205,15 @@ impl<'py> ReshapeOr<'py> for Bound<'py, PyAny> {
 
 /// Loads the engine state of a checkpoint: a simulation saved by `Simulation.save`, the
 /// `checkpoint.gwck` of a `simulation` run, or that run's output directory.
-fn load_any(path: &std::path::Path) -> grainwave_experiments::Result<AnySim> {
+fn load_any(path: &std::path::Path) -> grainwave_experiments::Result<AnySimulation> {
     let (file, tag) = grainwave_experiments::protocol::checkpoint_tag(path)?;
     if tag == simulation::TAG {
         let state: SimulationState = grainwave_experiments::protocol::load_state(&file, &tag)?;
         return Ok(state.sim);
     }
     Ok(match gc::checkpoint::load_simulation(&file)? {
-        gc::checkpoint::AnySimulation::D2(s) => AnySim::D2(s),
-        gc::checkpoint::AnySimulation::D3(s) => AnySim::D3(s),
+        gc::checkpoint::AnySimulation::D2(s) => AnySimulation::D2(s),
+        gc::checkpoint::AnySimulation::D3(s) => AnySimulation::D3(s),
     })
 }
 

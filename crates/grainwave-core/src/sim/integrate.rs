@@ -13,6 +13,11 @@ pub(crate) const MIN_LEN: usize = 1024;
 impl<D: Dim> Simulation<D> {
     /// Advances the simulation by one time step.
     pub fn step(&mut self) -> Result<()> {
+        D::engine_step(self)
+    }
+
+    /// [`Simulation::step`], compiled here for D2 and D3 ([`Dim::engine_step`]).
+    pub(crate) fn step_here(&mut self) -> Result<()> {
         match self.integrator {
             Integrator::VelocityVerlet => self.step_verlet()?,
             Integrator::Beeman => self.step_beeman()?,

@@ -512,6 +512,11 @@ impl<D: Dim> Simulation<D> {
     /// (use after changing parameters, masses, velocities or loads by hand: the close list,
     /// which keeps radii and reduced masses of its pairs, is rebuilt).
     pub fn refresh_forces(&mut self) -> crate::Result<()> {
+        D::engine_refresh_forces(self)
+    }
+
+    /// [`Simulation::refresh_forces`], compiled here for D2 and D3 ([`Dim::engine_step`]).
+    pub(crate) fn refresh_forces_here(&mut self) -> crate::Result<()> {
         self.work.cross.close_ok = false;
         self.prepare_neighbors(None)?;
         self.compute_forces(0.0, false, None)?;

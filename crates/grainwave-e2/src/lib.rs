@@ -1,0 +1,519 @@
+//! The `e2` protocol (SPEC §6): acoustics of a 2D packing under biaxial loading, with frictional
+//! sliding. See docs/e2.md.
+//!
+//! Config → [`E2Spec`] (the validated config and its plan) → [`E2State`] → run → [`E2Summary`].
+//! The plan ([`work::plan`]) has two kinds of units of work, run by the scheduler
+//! ([`grainwave_study::work::Scheduler`]): the `loading` — preparation by two pistons
+//! ([`biaxial::prepare`]) and biaxial test with checkpoints every Δε ([`biaxial::load`]) — and one
+//! unit per `[[replays]]` entry ([`work::run_replay`]), which reads the loading's checkpoints or
+//! the final state of the replay named in `from`: paired replays with a pressure pulse or a
+//! central radius change, whose difference gives the perturbed velocity field, the arrival times
+//! and the pulse speed ([`replay`], [`arrival`]); or single replays with the velocities scaled, the
+//! friction changed or the top wall stopped. The loading's progress is saved in `checkpoint.gwck`,
+//! each replay's report in `replays/<name>/report.gwck`, so `grainwave resume` continues an
+//! interrupted run bit for bit; the tables are aggregated from the reports in the order of the
+//! config ([`outputs`]).
+#![warn(missing_docs)]
+
+mod limits;
+
+pub mod arrival;
+pub mod biaxial;
+pub mod config;
+pub mod incremental;
+pub mod model;
+pub mod outputs;
+pub mod replay;
+pub mod strain;
+pub mod work;
+
+pub use config::E2Config;
+pub use outputs::E2Summary;
+
+use grainwave_study::config::{non_negative, positive, ConfigError, ConfigSource};
+use grainwave_study::{ExperimentError, Result};
+use grainwave_study::protocol::RunContext;
+use grainwave_study::study::Protocol;
+use grainwave_study::work::{Finished, Scheduler, Unit};
+use biaxial::{Loading, PreparationInfo};
+use grainwave_core::prelude::*;
+use model::Units;
+use serde::{Deserialize, Serialize};
+use std::path::Path;
+
+/// Content tag of this protocol's checkpoints.
+pub const TAG: &str = "experiment-e2";
+
+/// Where a run is.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Stage {
+    /// Relaxing the gas under the pistons.
+    Preparing,
+    /// The biaxial test.
+    Loading,
+    /// Replaying checkpoints.
+    Replays,
+    /// Everything is written.
+    Finished,
+}
+
+/// The state of an `e2` run (what `checkpoint.gwck` holds).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct E2State {
+    /// The config (stored as its TOML text).
+    #[serde(with = "grainwave_study::config::toml_text")]
+    pub config: E2Config,
+    /// Current stage.
+    pub stage: Stage,
+    /// Engine state during preparation and loading.
+    pub sim: Option<Simulation<D2>>,
+    /// How the preparation went.
+    pub preparation: PreparationInfo,
+    /// Units (known after the preparation, or from the source run).
+    pub units: Option<Units>,
+    /// The loading.
+    pub loading: Option<Loading>,
+    /// Reports of the finished replays, in the order of the config (gathered from their unit
+    /// results, `replays/<name>/report.gwck`, when the run is interrupted and at its end).
+    pub replays: Vec<outputs::ReplayReport>,
+}
+
+
+/// A validated `e2` config and its plan.
+#[derive(Clone, Debug)]
+pub struct E2Spec {
+    /// The config, every key checked ([`prepare`]).
+    pub config: E2Config,
+    /// The units of work ([`work::plan`]): the loading (unless `source.dir` is given) and one
+    /// unit per replay, each with the unit it starts from as its input.
+    pub units: Vec<Unit>,
+}
+
+impl E2Spec {
+    /// Validates a config file into a spec.
+    pub fn validate(src: &ConfigSource) -> Result<E2Spec, ConfigError> {
+        let config = prepare(src)?;
+        Ok(E2Spec { units: work::plan(&config), config })
+    }
+}
+
+/// The `e2` protocol.
+pub struct E2Protocol;
+
+impl Protocol for E2Protocol {
+    const NAME: &'static str = "e2";
+    const TAG: &'static str = TAG;
+    const REFERENCE: &'static str = "Acoustics of a 2D packing under biaxial loading, with frictional sliding (SPEC §6; see docs/e2.md). Units:\n\
+         pressure p* (force/length), total grain mass M*, L* = √(M*/ρ*), t* = √(M*/p*), v_a = d̄√(K_n/m̄), t_a = L*/v_a;\n\
+         grain sizes in mean diameters d̄.";
+    type Config = E2Config;
+    type Spec = E2Spec;
+    type State = E2State;
+    type Report = E2Summary;
+
+    fn validate(src: &ConfigSource) -> Result<E2Spec, ConfigError> {
+        E2Spec::validate(src)
+    }
+    fn describe(spec: &E2Spec) -> Vec<String> {
+        describe(&spec.config)
+    }
+    fn plan(spec: &E2Spec) -> Vec<Unit> {
+        spec.units.clone()
+    }
+    fn start(spec: E2Spec) -> E2State {
+        E2State::new(spec.config)
+    }
+    fn config(state: &E2State) -> &E2Config {
+        &state.config
+    }
+    fn run(state: &mut E2State, ctx: &mut RunContext<'_>) -> Result<E2Summary> {
+        state.run(ctx)
+    }
+    fn serve(state: &mut E2State, out: &Path, link: &dyn grainwave_study::work::WorkerLink, interrupt: std::sync::Arc<std::sync::atomic::AtomicBool>) -> Result<()> {
+        // the replays (the loading runs on rank 0: it writes the protocol checkpoint)
+        let cfg = state.config.clone();
+        let work = work::E2Work::new(&cfg, out, state);
+        grainwave_study::work::serve(&work, link, out, interrupt)
+    }
+    fn summary_lines(report: &E2Summary, out: &Path) -> Vec<String> {
+        summary_lines(report, out)
+    }
+    fn replot(dir: &Path, state: &E2State) -> Result<Vec<String>> {
+        replot(dir, state)
+    }
+}
+
+/// Parses and validates an `e2` config.
+pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
+    let cfg: E2Config = src.parse()?;
+    limits::check_sizes(src, &cfg)?;
+    if cfg.experiment != "e2" {
+        return Err(src.error_at_key("experiment", format!("this protocol is `e2`, not `{}`", cfg.experiment)));
+    }
+    let p = &cfg.packing;
+    if p.columns < 2 || p.rows < 2 {
+        return Err(src.error_at_key("packing.columns", format!("{} × {} (allowed: at least 2 columns and 2 rows)", p.columns, p.rows)));
+    }
+    if !(0.0..1.0).contains(&p.polydispersity) {
+        return Err(src.error_at_key("packing.polydispersity", format!("{} (allowed: a in [0, 1))", p.polydispersity)));
+    }
+    if !(p.gas_fraction > 0.0 && p.gas_fraction <= 0.5) {
+        return Err(src.error_at_key("packing.gas_fraction", format!("{} (allowed: a solid fraction in (0, 0.5])", p.gas_fraction)));
+    }
+    let m = &cfg.material;
+    positive(src, "material.normal_stiffness", m.normal_stiffness)?;
+    if grainwave_core::contact::critical_fraction_for_restitution(m.restitution).is_none() {
+        return Err(src.error_at_key("material.restitution", format!("{} (allowed: a restitution in [e⁻² ≈ 0.1353, 1])", m.restitution)));
+    }
+    positive(src, "material.tangential_stiffness_ratio", m.tangential_stiffness_ratio)?;
+    non_negative(src, "material.tangential_damping_ratio", m.tangential_damping_ratio)?;
+    non_negative(src, "material.friction", m.friction)?;
+    non_negative(src, "material.rolling_stiffness", m.rolling_stiffness)?;
+    non_negative(src, "material.rolling_friction", m.rolling_friction)?;
+    positive(src, "material.absorbing_damping", m.absorbing_damping)?;
+    let pc = &cfg.preparation;
+    positive(src, "preparation.wall_mass", pc.wall_mass)?;
+    non_negative(src, "preparation.gravity", pc.gravity)?;
+    positive(src, "preparation.max_force", pc.max_force)?;
+    positive(src, "preparation.max_time", pc.max_time)?;
+    if pc.check_every == 0 {
+        return Err(src.error_at_key("preparation.check_every", "0 (allowed: at least 1 step)"));
+    }
+    if !(pc.dt_fraction > 0.0 && pc.dt_fraction <= 0.2) {
+        return Err(src.error_at_key("preparation.dt_fraction", format!("{} (allowed: a fraction in (0, 0.2] of the contact period)", pc.dt_fraction)));
+    }
+    let l = &cfg.loading;
+    positive(src, "loading.strain_rate", l.strain_rate)?;
+    positive(src, "loading.final_strain", l.final_strain)?;
+    if l.final_strain >= 0.5 {
+        return Err(src.error_at_key("loading.final_strain", format!("{} (allowed: a strain in (0, 0.5))", l.final_strain)));
+    }
+    non_negative(src, "loading.checkpoint_strain", l.checkpoint_strain)?;
+    positive(src, "loading.reference_strain", l.reference_strain)?;
+    if l.full_checkpoint_every == 0 {
+        return Err(src.error_at_key("loading.full_checkpoint_every", "0 (allowed: at least 1; 1 keeps every checkpoint's state)"));
+    }
+    if l.sample_every == 0 {
+        return Err(src.error_at_key("loading.sample_every", "0 (allowed: at least 1 step)"));
+    }
+    if cfg.source.dir.as_deref().is_some_and(str::is_empty) {
+        return Err(src.error_at_key("source.dir", "\"\" (allowed: the output directory of an earlier e2 run)"));
+    }
+    if !cfg.replays.is_empty() && cfg.source.dir.is_none() && l.checkpoint_strain == 0.0 {
+        return Err(src.error_at_key("loading.checkpoint_strain", "0 writes no checkpoint, but `[[replays]]` need them (allowed: a strain > 0)"));
+    }
+    let mut names = std::collections::BTreeSet::new();
+    for (k, r) in cfg.replays.iter().enumerate() {
+        let key = |s: &str| format!("replays[{k}].{s}");
+        let name = r.name.clone().unwrap_or(format!("r{k}"));
+        if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_') {
+            return Err(src.error_at_key(&key("name"), format!("`{name}` (allowed: letters, digits, `-`, `_`)")));
+        }
+        if !names.insert(name.clone()) {
+            return Err(src.error_at_key(&key("name"), format!("`{name}` is used twice (each replay writes replays/<name>/)")));
+        }
+        if let Some(from) = &r.from {
+            match cfg.replays[..k].iter().enumerate().find(|(j, q)| q.name.clone().unwrap_or(format!("r{j}")) == *from) {
+                // with `source.dir`, a single replay of that run (its final.gwck is read at run time)
+                None if cfg.source.dir.is_some() => {}
+                None => {
+                    return Err(src.error_at_key(
+                        &key("from"),
+                        format!("`{from}` (allowed: the name of an earlier replay of this file, or with `source.dir` a single replay of that run)"),
+                    ))
+                }
+                Some((_, q)) if q.modification.paired() => {
+                    return Err(src.error_at_key(
+                        &key("from"),
+                        format!("`{from}` is a paired replay (allowed: an earlier single replay: velocity_scale, friction or wall_stop)"),
+                    ))
+                }
+                _ => {}
+            }
+        }
+        if r.checkpoint < -1 {
+            return Err(src.error_at_key(&key("checkpoint"), format!("{} (allowed: a checkpoint index ≥ 0, or −1 for the last)", r.checkpoint)));
+        }
+        positive(src, &key("duration"), r.duration)?;
+        positive(src, &key("sample_interval"), r.sample_interval)?;
+        if r.strips < 2 {
+            return Err(src.error_at_key(&key("strips"), format!("{} (allowed: at least 2)", r.strips)));
+        }
+        // sizes a replay allocates from: one bin per strip, one row of the records per sample
+        use grainwave_study::limits::{check, MAX_POINTS};
+        check(src, &key("strips"), "strips", r.strips as f64, MAX_POINTS, f64::INFINITY, 48.0)?;
+        check(src, &key("sample_interval"), "samples (duration / sample_interval)", r.duration / r.sample_interval, MAX_POINTS, f64::INFINITY, 64.0)?;
+        if !(0.0 <= r.fit_range[0] && r.fit_range[0] < r.fit_range[1] && r.fit_range[1] <= 1.0) {
+            return Err(src.error_at_key(&key("fit_range"), format!("{:?} (allowed: fractions 0 ≤ from < to ≤ 1)", r.fit_range)));
+        }
+        positive(src, &key("bands"), r.bands)?;
+        if !(r.lobe_threshold > 0.0 && r.lobe_threshold <= 1.0) {
+            return Err(src.error_at_key(&key("lobe_threshold"), format!("{} (allowed: a fraction 0 < f ≤ 1)", r.lobe_threshold)));
+        }
+        if r.modification != config::Modification::VelocityScale && (r.rate.is_some() || r.extra_strain.is_some()) {
+            let k2 = if r.rate.is_some() { "rate" } else { "extra_strain" };
+            return Err(src.error_at_key(&key(k2), format!("given for a `{}` replay (allowed: only with modification = \"velocity_scale\")", r.modification.name())));
+        }
+        match r.modification {
+            config::Modification::WallPulse | config::Modification::Radius => {
+                if r.amplitudes.is_empty() {
+                    return Err(src.error_at_key(&key("amplitudes"), "empty (allowed: one or more finite amplitudes, e.g. [1e-6, -1e-6])"));
+                }
+                for a in &r.amplitudes {
+                    if !a.is_finite() || a.abs() >= 1.0 {
+                        return Err(src.error_at_key(&key("amplitudes"), format!("{a} (allowed: finite amplitudes with |a| < 1)")));
+                    }
+                }
+                positive(src, &key("width"), r.width)?;
+                if let Some(d) = r.delay {
+                    non_negative(src, &key("delay"), d)?;
+                }
+            }
+            config::Modification::VelocityScale => {
+                non_negative(src, &key("factor"), r.factor)?;
+                if let Some(v) = r.rate {
+                    positive(src, &key("rate"), v)?;
+                }
+                if let Some(v) = r.extra_strain {
+                    positive(src, &key("extra_strain"), v)?;
+                }
+            }
+            config::Modification::Friction => non_negative(src, &key("friction"), r.friction)?,
+            config::Modification::WallStop => positive(src, &key("stop_time"), r.stop_time)?,
+            config::Modification::TopPiston => {}
+            config::Modification::Incremental => {
+                if r.amplitudes.is_empty() {
+                    return Err(src.error_at_key(&key("amplitudes"), "empty (allowed: one or more finite, non-zero amplitudes, e.g. [1, -1])"));
+                }
+                for a in &r.amplitudes {
+                    if !a.is_finite() || *a == 0.0 {
+                        return Err(src.error_at_key(&key("amplitudes"), format!("{a} (allowed: finite, non-zero amplitudes: the response is homogeneous in p_a)")));
+                    }
+                }
+                if r.shape != config::PulseShape::Delta {
+                    return Err(src.error_at_key(&key("shape"), "\"wavelet\" (allowed: \"delta\" for an incremental replay)"));
+                }
+                if !(r.steps_per_period.is_finite() && r.steps_per_period > std::f64::consts::PI) {
+                    return Err(src.error_at_key(&key("steps_per_period"), format!("{} (allowed: a number > π)", r.steps_per_period)));
+                }
+                if let Some(d) = r.delay {
+                    non_negative(src, &key("delay"), d)?;
+                }
+            }
+        }
+    }
+    let sl = &cfg.static_limit;
+    let roles = [
+        ("static_limit.undeformed", &sl.undeformed),
+        ("static_limit.non_sliding", &sl.non_sliding),
+        ("static_limit.static_state", &sl.static_state),
+        ("static_limit.deforming", &sl.deforming),
+    ];
+    let given = roles.iter().filter(|(_, v)| v.is_some()).count();
+    if given != 0 && given != 4 {
+        return Err(src.error_at_key(
+            "static_limit",
+            format!("{given} of the 4 replays named (allowed: all of undeformed, non_sliding, static_state, deforming, or none)"),
+        ));
+    }
+    let mut amplitudes: Option<&Vec<f64>> = None;
+    for (key, name) in roles {
+        if let Some(name) = name {
+            let Some((_, q)) = cfg.replays.iter().enumerate().find(|(j, q)| q.name.clone().unwrap_or(format!("r{j}")) == *name) else {
+                return Err(src.error_at_key(key, format!("`{name}` (allowed: the name of a wall_pulse replay of this file)")));
+            };
+            if q.modification != config::Modification::WallPulse {
+                return Err(src.error_at_key(key, format!("`{name}` is a `{}` replay (allowed: a wall_pulse replay)", q.modification.name())));
+            }
+            if amplitudes.is_some_and(|a| *a != q.amplitudes) {
+                return Err(src.error_at_key(
+                    key,
+                    format!("`{name}` has amplitudes {:?}, the others {:?} (allowed: the same amplitudes in all four)", q.amplitudes, amplitudes.unwrap()),
+                ));
+            }
+            amplitudes = Some(&q.amplitudes);
+        }
+    }
+    for (k, name) in sl.variants.iter().enumerate() {
+        let key = format!("static_limit.variants[{k}]");
+        let Some((_, q)) = cfg.replays.iter().enumerate().find(|(j, q)| q.name.clone().unwrap_or(format!("r{j}")) == *name) else {
+            return Err(src.error_at_key(&key, format!("`{name}` (allowed: the name of a wall_pulse replay of this file)")));
+        };
+        if q.modification != config::Modification::WallPulse {
+            return Err(src.error_at_key(&key, format!("`{name}` is a `{}` replay (allowed: a wall_pulse replay)", q.modification.name())));
+        }
+    }
+    let an = &cfg.anisotropy;
+    if an.along_y.is_some() != an.along_x.is_some() {
+        return Err(src.error_at_key("anisotropy", "one of the two replays named (allowed: both of along_y, along_x, or none)"));
+    }
+    let mut pairs: Vec<[(String, Option<String>, config::PulseWall); 2]> = vec![[
+        ("anisotropy.along_y".into(), an.along_y.clone(), config::PulseWall::Top),
+        ("anisotropy.along_x".into(), an.along_x.clone(), config::PulseWall::Right),
+    ]];
+    let mut labels = std::collections::BTreeSet::new();
+    if an.along_y.is_some() {
+        labels.insert(an.state.clone());
+    }
+    for (k, p) in an.states.iter().enumerate() {
+        if p.state.is_empty() || !labels.insert(p.state.clone()) {
+            return Err(src.error_at_key(&format!("anisotropy.states[{k}].state"), format!("\"{}\" (allowed: a label not empty and not used by another state)", p.state)));
+        }
+        pairs.push([
+            (format!("anisotropy.states[{k}].along_y"), Some(p.along_y.clone()), config::PulseWall::Top),
+            (format!("anisotropy.states[{k}].along_x"), Some(p.along_x.clone()), config::PulseWall::Right),
+        ]);
+    }
+    for pair in &pairs {
+    let mut amplitudes: Option<&Vec<f64>> = None;
+    for (key, name, wall) in pair.iter().map(|(k, n, w)| (k.as_str(), n, *w)) {
+        if let Some(name) = name {
+            let Some((_, q)) = cfg.replays.iter().enumerate().find(|(j, q)| q.name.clone().unwrap_or(format!("r{j}")) == *name) else {
+                return Err(src.error_at_key(key, format!("`{name}` (allowed: the name of a wall_pulse replay of this file)")));
+            };
+            if q.modification != config::Modification::WallPulse || q.pulse_wall != wall {
+                return Err(src.error_at_key(key, format!("`{name}` is not a wall_pulse replay from the {:?} wall (allowed: such a replay)", wall)));
+            }
+            if amplitudes.is_some_and(|a| *a != q.amplitudes) {
+                return Err(src.error_at_key(
+                    key,
+                    format!("`{name}` has amplitudes {:?}, the other {:?} (allowed: the same amplitudes)", q.amplitudes, amplitudes.unwrap()),
+                ));
+            }
+            amplitudes = Some(&q.amplitudes);
+        }
+    }
+    }
+    positive(src, "output.save_every", cfg.output.save_every)?;
+    Ok(cfg)
+}
+
+/// Lines of `grainwave check` for a valid `e2` config.
+pub fn describe(cfg: &E2Config) -> Vec<String> {
+    let mut v = vec![format!("experiment   e2, seed {}", cfg.seed)];
+    match &cfg.source.dir {
+        Some(d) => v.push(format!("source       checkpoints of {d}")),
+        None => {
+            let p = &cfg.packing;
+            v.push(format!("packing      {} × {} = {} disks, diameters d̄(1 ± {})", p.columns, p.rows, p.columns * p.rows, p.polydispersity));
+            let m = &cfg.material;
+            v.push(format!(
+                "contacts     K_n = {} p*, e = {}, K_t/K_n = {}, γ_t/γ_n = {}, μ = {}, walls frictionless",
+                m.normal_stiffness, m.restitution, m.tangential_stiffness_ratio, m.tangential_damping_ratio, m.friction
+            ));
+            let l = &cfg.loading;
+            v.push(format!(
+                "loading      {} at |ε̇| = {} /t* to |ε_yy| = {}, checkpoints every {}{}",
+                l.direction.name(),
+                l.strain_rate,
+                l.final_strain,
+                l.checkpoint_strain,
+                if l.strain_rate != 2e-5 { " (published: 2e-5 /t*; slow down to the published final rate with `velocity_scale` `rate`)" } else { "" }
+            ));
+            if !m.absorbing_walls {
+                v.push("walls        stiff, reflecting (the canonical protocol has absorbing top, left and bottom walls, SPEC §6.7)".into());
+            }
+        }
+    }
+    for (k, r) in cfg.replays.iter().enumerate() {
+        v.push(format!(
+            "replay       {}: checkpoint {}, {}{}, {} t_a",
+            r.name.clone().unwrap_or(format!("r{k}")),
+            r.checkpoint,
+            r.modification.name(),
+            if r.modification.paired() { format!(" amplitudes {:?}", r.amplitudes) } else { String::new() },
+            r.duration
+        ));
+    }
+    v
+}
+
+impl E2State {
+    /// A fresh state.
+    pub fn new(config: E2Config) -> Self {
+        let stage = if config.source.dir.is_some() { Stage::Replays } else { Stage::Preparing };
+        E2State { config, stage, sim: None, preparation: PreparationInfo::default(), units: None, loading: None, replays: Vec::new() }
+    }
+
+    /// Runs (or continues) the protocol: the units of [`work::plan`] on the scheduler, then the
+    /// summary from the replays' reports, in the order of the config.
+    pub fn run(&mut self, ctx: &mut RunContext<'_>) -> Result<E2Summary> {
+        let cfg = self.config.clone();
+        let started = std::time::Instant::now();
+        if self.stage != Stage::Finished {
+            grainwave_study::outputs::write_resolved_config(ctx.out_dir(), "e2", &cfg, "")?;
+            let out = ctx.out_dir().to_path_buf();
+            work::adopt_reports(&out, &self.replays)?;
+            let (finished, loading_error) = {
+                let work = work::E2Work::new(&cfg, &out, self);
+                let mut scheduler = Scheduler::new(&work);
+                let finished = scheduler.run(ctx);
+                (finished, work.take_loading_error())
+            };
+            if let Some(e) = loading_error {
+                return Err(e);
+            }
+            self.replays = work::finished_reports(&out, &cfg)?;
+            if self.units.is_none() {
+                // a run on the checkpoints of another: the units of that run
+                self.units = self.replays.first().map(|r| r.units);
+            }
+            if finished? == Finished::Interrupted {
+                return Err(ctx.interrupted_error(TAG, self));
+            }
+            self.stage = Stage::Finished;
+        }
+        let summary = outputs::write_summary(ctx.out_dir(), self, started.elapsed().as_secs_f64())?;
+        ctx.save_checkpoint(TAG, self)?;
+        Ok(summary)
+    }
+}
+
+
+/// Re-makes the plots and the summary of the finished run in `dir` (`grainwave plot DIR`).
+pub fn replot(dir: &std::path::Path, state: &E2State) -> Result<Vec<String>> {
+    if state.stage != Stage::Finished {
+        return Err(ExperimentError::Resume { path: dir.to_path_buf(), reason: "the run has not finished: resume it first".into() });
+    }
+    if let Some(l) = &state.loading {
+        outputs::write_loading(dir, &state.config, l)?;
+    }
+    Ok(outputs::write_summary(dir, state, 0.0)?.files)
+}
+
+/// Parses, validates and runs an `e2` config into `ctx`'s directory.
+pub fn run_config(src: &ConfigSource, ctx: &mut RunContext<'_>) -> Result<E2Summary> {
+    let cfg = prepare(src)?;
+    E2State::new(cfg).run(ctx)
+}
+
+/// Lines the command line prints after a run.
+pub fn summary_lines(r: &E2Summary, out: &std::path::Path) -> Vec<String> {
+    let mut v = vec![format!("e2: {} grains, seed {}", r.grains, r.seed)];
+    if let Some(u) = &r.units {
+        v.push(format!(
+            "units        L* = {:.4} d̄, t* = {:.4}, v_a = {:.4}, t_a = {:.4} (engine units)",
+            u.length, u.time, u.acoustic_velocity, u.acoustic_time
+        ));
+    }
+    if let Some(l) = &r.loading {
+        v.push(format!(
+            "loading      ε_yy = {:.4e}, σ_yy = {:.4} p*, σ_xx = {:.4} p*, M_s = {}, {} checkpoints, {:.1} s",
+            l.final_strain_yy, l.final_stress_yy, l.final_stress_xx, l.final_sliding, l.checkpoints, l.seconds
+        ));
+    }
+    for rep in &r.replays {
+        for p in &rep.pairs {
+            v.push(format!(
+                "replay       {} ({}, a = {:e}): speed {} v_a, max |δv| {:.3e}",
+                rep.name,
+                rep.modification,
+                p.amplitude,
+                p.speed.map(|s| format!("{s:.4}")).unwrap_or("—".into()),
+                p.max_difference
+            ));
+        }
+    }
+    v.push(format!("outputs      {}/", out.display()));
+    v
+}

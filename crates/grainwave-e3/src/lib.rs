@@ -1,0 +1,491 @@
+//! The `e3` protocol (SPEC §7): the response of a gravity-loaded 2D granular slab to a localized
+//! force — floor response with the reference state subtracted, coarse-grained stress, contact
+//! network changes, ensembles and sweeps with a single/double-peak classifier, superposition, a
+//! pile variant and lattice elasticity. See docs/e3.md.
+//!
+//! A run is a [`plan::Plan`] of units of work: one reference state per case (parameter set ×
+//! seed), one relaxation per response run (a force, or a pair of forces, applied to a reference)
+//! and optionally one first-opening bisection per case ([`work`]). The scheduler
+//! ([`grainwave_study::work::Scheduler`]) runs them in parallel and persists each as it completes; the
+//! protocol state in `checkpoint.gwck` records which are done, so `grainwave resume` redoes
+//! nothing that finished and continues interrupted units from their own checkpoints. Once every
+//! unit is done, the aggregates, tables, plots and the summary are written ([`outputs`]).
+#![warn(missing_docs)]
+
+mod limits;
+
+pub mod config;
+pub mod measure;
+pub mod outputs;
+pub mod plan;
+pub mod relax;
+pub mod slab;
+pub mod work;
+
+pub use config::E3Config;
+pub use outputs::E3Summary;
+
+use grainwave_study::config::{non_negative, positive, ConfigError, ConfigSource};
+use grainwave_study::Result;
+use grainwave_study::protocol::RunContext;
+use config::Mode;
+use plan::Plan;
+use serde::{Deserialize, Serialize};
+
+/// Content tag of this protocol's checkpoints.
+pub const TAG: &str = "experiment-e3";
+
+/// The state of an `e3` run (what `checkpoint.gwck` holds).
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct E3State {
+    /// The config (stored as its TOML text).
+    #[serde(with = "grainwave_study::config::toml_text")]
+    pub config: E3Config,
+    /// Per case: its reference state is done.
+    pub references_done: Vec<bool>,
+    /// Per run: its response is done.
+    pub runs_done: Vec<bool>,
+    /// All outputs are written.
+    pub finished: bool,
+}
+
+
+/// A validated `e3` config and the plan of its units.
+pub struct E3Spec {
+    /// The config.
+    pub config: E3Config,
+    /// Its parameter sets, cases and response runs.
+    pub plan: Plan,
+}
+
+/// The `e3` protocol: its spec is the config with its [`Plan`]; its units are the reference
+/// states, response runs and bisections ([`work::E3Work`]).
+pub struct E3Protocol;
+
+impl grainwave_study::study::Protocol for E3Protocol {
+    const NAME: &'static str = "e3";
+    const TAG: &'static str = TAG;
+    const REFERENCE: &'static str = "The response of a gravity-loaded granular slab to a localized force (SPEC §7; see docs/e3.md). Units: length R̄\n\
+         (the largest radius), mass m̄ (a disk of radius R̄), time τ = √(R̄/g), force m̄g.";
+    type Config = E3Config;
+    type Spec = E3Spec;
+    type State = E3State;
+    type Report = E3Summary;
+
+    fn validate(src: &ConfigSource) -> Result<E3Spec, ConfigError> {
+        let config = prepare(src)?;
+        let plan = Plan::new(&config);
+        Ok(E3Spec { config, plan })
+    }
+    fn describe(spec: &E3Spec) -> Vec<String> {
+        describe_plan(&spec.config, &spec.plan)
+    }
+    fn plan(spec: &E3Spec) -> Vec<grainwave_study::work::Unit> {
+        work::plan_units(&spec.config, &spec.plan)
+    }
+    fn start(spec: E3Spec) -> E3State {
+        E3State::new(spec.config)
+    }
+    fn config(state: &E3State) -> &E3Config {
+        &state.config
+    }
+    fn run(state: &mut E3State, ctx: &mut RunContext<'_>) -> Result<E3Summary> {
+        state.run(ctx)
+    }
+    fn serve(state: &mut E3State, out: &std::path::Path, link: &dyn grainwave_study::work::WorkerLink, interrupt: std::sync::Arc<std::sync::atomic::AtomicBool>) -> Result<()> {
+        state.serve(out, link, interrupt)
+    }
+    fn summary_lines(report: &E3Summary, out: &std::path::Path) -> Vec<String> {
+        summary_lines(report, out)
+    }
+    fn replot(dir: &std::path::Path, state: &E3State) -> Result<Vec<String>> {
+        replot(dir, state)
+    }
+}
+
+/// Parses and validates an `e3` config.
+pub fn prepare(src: &ConfigSource) -> Result<E3Config, ConfigError> {
+    let cfg: E3Config = src.parse()?;
+    limits::check_sizes(src, &cfg)?;
+    if cfg.experiment != "e3" {
+        return Err(src.error_at_key("experiment", format!("this protocol is `e3`, not `{}`", cfg.experiment)));
+    }
+    let table: toml::Table = src.parse()?;
+    for (key, mode) in [("sweep", Mode::Sweep), ("superposition", Mode::Superposition), ("pile", Mode::Pile), ("lattice", Mode::LatticeElasticity)] {
+        if table.contains_key(key) && cfg.mode != mode {
+            return Err(src.error_at_key(key, format!("`[{key}]` applies to mode `{}` only (this file's mode is `{}`)", mode.name(), cfg.mode.name())));
+        }
+    }
+    for (key, modes) in [("slab", &[Mode::Slab, Mode::Sweep, Mode::Superposition][..]), ("load", &[Mode::Slab, Mode::Sweep, Mode::Superposition][..])] {
+        if table.contains_key(key) && !modes.contains(&cfg.mode) {
+            return Err(src.error_at_key(key, format!("`[{key}]` does not apply to mode `{}`", cfg.mode.name())));
+        }
+    }
+    if cfg.samples == 0 {
+        return Err(src.error_at_key("samples", "0 (allowed: at least 1)"));
+    }
+    // slab
+    let s = &cfg.slab;
+    let sizes: Vec<[usize; 2]> =
+        if cfg.mode == Mode::Sweep && !cfg.sweep.sizes.is_empty() { cfg.sweep.sizes.clone() } else { vec![[s.layers, s.grains_per_layer]] };
+    let size_key = if cfg.mode == Mode::Sweep && !cfg.sweep.sizes.is_empty() { "sweep.sizes" } else { "slab.layers" };
+    for [l, m] in &sizes {
+        if *l < 2 || *m < 3 {
+            return Err(src.error_at_key(size_key, format!("{l} layers × {m} grains (allowed: at least 2 layers of at least 3 grains)")));
+        }
+    }
+    let deltas: Vec<f64> = if cfg.mode == Mode::Sweep && !cfg.sweep.deltas.is_empty() { cfg.sweep.deltas.clone() } else { vec![s.delta] };
+    for d in &deltas {
+        if !(0.0..1.0).contains(d) {
+            return Err(src.error_at_key(
+                if cfg.mode == Mode::Sweep && !cfg.sweep.deltas.is_empty() { "sweep.deltas" } else { "slab.delta" },
+                format!("{d} (allowed: δ in [0, 1))"),
+            ));
+        }
+    }
+    // material
+    let m = &cfg.material;
+    positive(src, "material.normal_stiffness", m.normal_stiffness)?;
+    positive(src, "material.tangential_stiffness_ratio", m.tangential_stiffness_ratio)?;
+    positive(src, "material.wall_stiffness_ratio", m.wall_stiffness_ratio)?;
+    non_negative(src, "material.friction", m.friction)?;
+    for (k, v) in [
+        ("material.wall_friction", m.wall_friction),
+        ("material.side_wall_friction", m.side_wall_friction),
+        ("material.normal_damping", m.normal_damping),
+        ("material.tangential_damping", m.tangential_damping),
+        ("material.wall_normal_damping", m.wall_normal_damping),
+        ("material.wall_tangential_damping", m.wall_tangential_damping),
+    ] {
+        if let Some(v) = v {
+            non_negative(src, k, v)?;
+        }
+    }
+    for v in &cfg.sweep.frictions {
+        non_negative(src, "sweep.frictions", *v)?;
+    }
+    for v in &cfg.sweep.stiffness_ratios {
+        positive(src, "sweep.stiffness_ratios", *v)?;
+    }
+    positive(src, "integration.dt", cfg.integration.dt)?;
+    // relaxation
+    let r = &cfg.relaxation;
+    if let Some(v) = r.kinetic_energy_per_grain {
+        positive(src, "relaxation.kinetic_energy_per_grain", v)?;
+    }
+    positive(src, "relaxation.max_acceleration", r.max_acceleration)?;
+    positive(src, "relaxation.response_max_acceleration", r.response_max_acceleration)?;
+    positive(src, "relaxation.max_time", r.max_time)?;
+    positive(src, "relaxation.static_tolerance", r.static_tolerance)?;
+    if r.static_iterations == 0 {
+        return Err(src.error_at_key("relaxation.static_iterations", "0 (allowed: at least 1)"));
+    }
+    // load
+    let l = &cfg.load;
+    if matches!(cfg.mode, Mode::Slab | Mode::Sweep | Mode::Superposition) {
+        if l.forces.is_empty() {
+            return Err(src.error_at_key("load.forces", "empty (allowed: one or more forces > 0)"));
+        }
+        for f in &l.forces {
+            positive(src, "load.forces", *f)?;
+        }
+        let mut sorted = l.forces.clone();
+        sorted.sort_by(f64::total_cmp);
+        if sorted.windows(2).any(|w| w[0] == w[1]) {
+            return Err(src.error_at_key("load.forces", format!("{:?} repeats a force (each force is one run)", l.forces)));
+        }
+    }
+    if !l.angle.is_finite() || l.angle.abs() >= 90.0 {
+        return Err(src.error_at_key("load.angle", format!("{} (allowed: degrees from the downward vertical in (−90, 90))", l.angle)));
+    }
+    if !l.torque.is_finite() {
+        return Err(src.error_at_key("load.torque", format!("{} (allowed: a finite torque)", l.torque)));
+    }
+    positive(src, "load.ramp_time", l.ramp_time)?;
+    let fo = &cfg.first_opening;
+    if table.contains_key("first_opening") && !matches!(cfg.mode, Mode::Slab | Mode::Sweep) {
+        return Err(src.error_at_key("first_opening", format!("`[first_opening]` applies to modes `slab` and `sweep` only (this file's mode is `{}`)", cfg.mode.name())));
+    }
+    let [lo, hi] = fo.bracket;
+    if !(lo > 0.0 && hi > lo && hi.is_finite()) {
+        return Err(src.error_at_key("first_opening.bracket", format!("{:?} (allowed: [F_low, F_high] with 0 < F_low < F_high, in m̄g)", fo.bracket)));
+    }
+    if !(fo.relative_tolerance > 0.0 && fo.relative_tolerance < 1.0) {
+        return Err(src.error_at_key("first_opening.relative_tolerance", format!("{} (allowed: a fraction in (0, 1))", fo.relative_tolerance)));
+    }
+    if let Some(g) = l.grain {
+        for [layers, m] in &sizes {
+            let n = slab::Sites::of(slab::Shape::Slab { layers: *layers, grains_per_layer: *m, rows: s.rows }).positions.len();
+            if g as usize >= n {
+                return Err(src.error_at_key("load.grain", format!("{g} (allowed: a grain id < {n}, the grain count of a {layers} × {m} slab)")));
+            }
+        }
+    }
+    // response
+    let rc = &cfg.response;
+    if rc.widths.is_empty() {
+        return Err(src.error_at_key("response.widths", "empty (allowed: one or more widths > 0)"));
+    }
+    for w in &rc.widths {
+        positive(src, "response.widths", *w)?;
+    }
+    positive(src, "response.profile_step", rc.profile_step)?;
+    positive(src, "response.stress_width", rc.stress_width)?;
+    positive(src, "response.stress_step", rc.stress_step)?;
+    if let Some(w) = rc.classifier_width {
+        positive(src, "response.classifier_width", w)?;
+    }
+    if !(rc.prominence > 0.0 && rc.prominence < 1.0) {
+        return Err(src.error_at_key("response.prominence", format!("{} (allowed: a fraction in (0, 1))", rc.prominence)));
+    }
+    non_negative(src, "response.boundary_layer", rc.boundary_layer)?;
+    positive(src, "response.asymmetry_threshold", rc.asymmetry_threshold)?;
+    if !(rc.asymmetry_factor.is_finite() && rc.asymmetry_factor >= 1.0) {
+        return Err(src.error_at_key("response.asymmetry_factor", format!("{} (allowed: a factor ≥ 1)", rc.asymmetry_factor)));
+    }
+    // modes
+    if cfg.mode == Mode::Superposition {
+        positive(src, "superposition.separation", cfg.superposition.separation)?;
+        let sites = slab::Sites::of(slab::Shape::Slab { layers: s.layers, grains_per_layer: s.grains_per_layer, rows: s.rows });
+        let axis = 0.5 * sites.width;
+        let d = 0.5 * cfg.superposition.separation;
+        if sites.top_grain_near(axis - d) == sites.top_grain_near(axis + d) {
+            return Err(src.error_at_key(
+                "superposition.separation",
+                format!(
+                    "{} puts both forces on the same grain (allowed: at least the top-row spacing, 2 R̄)",
+                    cfg.superposition.separation
+                ),
+            ));
+        }
+        if axis + d > sites.width {
+            return Err(src.error_at_key("superposition.separation", format!("{} is wider than the slab ({} R̄)", cfg.superposition.separation, sites.width)));
+        }
+    }
+    if cfg.mode == Mode::Pile {
+        if cfg.pile.layers < 2 || cfg.pile.top_grains < 1 {
+            return Err(src.error_at_key(
+                "pile.layers",
+                format!("{} layers, {} top grains (allowed: at least 2 layers and 1 top grain)", cfg.pile.layers, cfg.pile.top_grains),
+            ));
+        }
+        positive(src, "pile.verdict_width", cfg.pile.verdict_width)?;
+        if !(0.0..1.0).contains(&cfg.pile.delta) {
+            return Err(src.error_at_key("pile.delta", format!("{} (allowed: δ in [0, 1))", cfg.pile.delta)));
+        }
+    }
+    if cfg.mode == Mode::LatticeElasticity {
+        let lt = &cfg.lattice;
+        positive(src, "lattice.spacing", lt.spacing)?;
+        for (k, v) in [("lattice.horizontal", lt.horizontal), ("lattice.oblique", lt.oblique)] {
+            if v.iter().any(|x| !(x.is_finite() && *x >= 0.0)) {
+                return Err(src.error_at_key(k, format!("{v:?} (allowed: stiffnesses ≥ 0)")));
+            }
+        }
+        if lt.oblique[0] <= 0.0 {
+            return Err(src.error_at_key("lattice.oblique", "the oblique normal stiffness must be > 0 (the lattice would have no vertical stiffness)"));
+        }
+        for x in &lt.tangential_ratios {
+            non_negative(src, "lattice.tangential_ratios", *x)?;
+        }
+    }
+    // units
+    let u = &cfg.units;
+    for (k, v) in [("units.radius", u.radius), ("units.thickness", u.thickness), ("units.density", u.density), ("units.gravity", u.gravity)] {
+        positive(src, k, v)?;
+    }
+    Ok(cfg)
+}
+
+/// Lines of `grainwave check` for a valid `e3` config.
+pub fn describe(cfg: &E3Config) -> Vec<String> {
+    describe_plan(cfg, &Plan::new(cfg))
+}
+
+/// Lines of `grainwave check` for a valid `e3` config and its plan.
+fn describe_plan(cfg: &E3Config, plan: &Plan) -> Vec<String> {
+    let mut v = vec![format!("experiment   e3, mode {}, seed {}, {} sample(s) per disordered set", cfg.mode.name(), cfg.seed, cfg.samples)];
+    if cfg.mode == Mode::LatticeElasticity {
+        v.push(format!("lattice      spacing {}, horizontal {:?}, oblique {:?}", cfg.lattice.spacing, cfg.lattice.horizontal, cfg.lattice.oblique));
+        return v;
+    }
+    for g in &plan.groups {
+        let n = slab::Sites::of(g.shape).positions.len();
+        let mat = slab::Material::resolve(&cfg.material, g.friction, g.ratio);
+        v.push(format!(
+            "set          {}: {n} grains, δ = {}, μ = {} (floor {}, side walls {}), k_T/k_N = {}, {} case(s)",
+            g.label,
+            g.delta,
+            g.friction,
+            mat.wall_friction,
+            mat.side_wall_friction,
+            g.ratio,
+            g.cases.len()
+        ));
+    }
+    v.push(format!(
+        "work         {} reference state(s), {} response run(s); forces {:?} m̄g, ramp {} τ",
+        plan.cases.len(),
+        plan.runs.len(),
+        if cfg.mode == Mode::Pile { Vec::new() } else { cfg.load.forces.clone() },
+        cfg.load.ramp_time
+    ));
+    v.push(format!("integration  dt = {} τ, {:?}", cfg.integration.dt, cfg.integration.integrator));
+    v
+}
+
+/// What `config.resolved.toml` says about the keys computed during the run.
+const RESOLVED_NOTE: &str = "Keys left out are computed per parameter set (dashpots from the stiffnesses, wall friction\n\
+                             from μ, the kinetic-energy limit from δ; see docs/e3.md).";
+
+impl E3State {
+    /// A fresh state.
+    pub fn new(config: E3Config) -> Self {
+        let plan = Plan::new(&config);
+        E3State { references_done: vec![false; plan.cases.len()], runs_done: vec![false; plan.runs.len()], finished: false, config }
+    }
+
+    /// Runs, in a worker process, the units of this state's run in `out` that the coordinator
+    /// sends ([`grainwave_study::work::serve`]): the same units as [`E3State::run`]'s (the coordinator
+    /// records them and saves the state).
+    pub fn serve(&self, out: &std::path::Path, link: &dyn grainwave_study::work::WorkerLink, interrupt: std::sync::Arc<std::sync::atomic::AtomicBool>) -> Result<()> {
+        let plan = Plan::new(&self.config);
+        let write_run = run_writer(&self.config, &plan);
+        let save = |_: &mut RunContext<'_>, _: &[bool], _: &[bool]| -> Result<()> { Ok(()) };
+        let work = work::E3Work::new(&self.config, &plan, out, &self.references_done, &self.runs_done, &write_run, &save);
+        grainwave_study::work::serve(&work, link, out, interrupt)
+    }
+
+    /// Runs (or continues) the protocol, writing every output into the context's directory.
+    pub fn run(&mut self, ctx: &mut RunContext<'_>) -> Result<E3Summary> {
+        let cfg = self.config.clone();
+        let plan = Plan::new(&cfg);
+        if !self.finished {
+            grainwave_study::outputs::write_resolved_config(ctx.out_dir(), "e3", &cfg, RESOLVED_NOTE)?;
+            ctx.log(&format!("e3 {}: {} reference state(s), {} response run(s)", cfg.mode.name(), plan.cases.len(), plan.runs.len()));
+            let save = |ctx: &mut RunContext<'_>, refs: &[bool], runs: &[bool]| -> Result<()> {
+                let state = E3State { config: cfg.clone(), references_done: refs.to_vec(), runs_done: runs.to_vec(), finished: false };
+                ctx.save_checkpoint(TAG, &state)?;
+                Ok(())
+            };
+            let write_run = run_writer(&cfg, &plan);
+            let out = ctx.out_dir().to_path_buf();
+            let work = work::E3Work::new(&cfg, &plan, &out, &self.references_done, &self.runs_done, &write_run, &save);
+            let mut scheduler = grainwave_study::work::Scheduler::new(&work);
+            let finished = scheduler.run(ctx);
+            (self.references_done, self.runs_done) = work.flags(scheduler.done());
+            if finished? == grainwave_study::work::Finished::Interrupted {
+                return Err(ctx.interrupted_error(TAG, self));
+            }
+        }
+        let summary = outputs::write_final(ctx.out_dir(), &cfg, &plan)?;
+        self.finished = true;
+        ctx.save_checkpoint(TAG, self)?;
+        Ok(summary)
+    }
+}
+
+
+/// Writes the files of a finished response run (a unit's own outputs, written where it runs).
+fn run_writer<'a>(cfg: &'a E3Config, plan: &'a Plan) -> impl Fn(
+    &std::path::Path,
+    &plan::RunSpec,
+    &measure::RunResult,
+    &grainwave_core::snapshot::Snapshot<grainwave_core::dim::D2>,
+    &grainwave_core::snapshot::Snapshot<grainwave_core::dim::D2>,
+    &grainwave_analysis::network::NetworkChanges<grainwave_core::dim::D2>,
+    Option<&measure::FieldData>,
+) -> Result<()>
+       + Sync
+       + 'a {
+    move |out, run, result, reference, after, changes, reference_field| outputs::write_run_files(out, cfg, plan, run, result, reference, after, changes, reference_field)
+}
+
+/// Re-makes the aggregate outputs (tables, plots, summary) of the finished run in `dir` from its
+/// saved units (`grainwave plot DIR`); returns the files written. Per-run pictures are made when a
+/// run completes and are not re-made.
+pub fn replot(dir: &std::path::Path, state: &E3State) -> Result<Vec<String>> {
+    if !state.finished {
+        return Err(grainwave_study::ExperimentError::Resume { path: dir.to_path_buf(), reason: "the run has not finished: resume it first".into() });
+    }
+    Ok(outputs::write_final(dir, &state.config, &Plan::new(&state.config))?.files)
+}
+
+/// Parses, validates and runs an `e3` config into `ctx`'s directory.
+pub fn run_config(src: &ConfigSource, ctx: &mut RunContext<'_>) -> Result<E3Summary> {
+    let cfg = prepare(src)?;
+    E3State::new(cfg).run(ctx)
+}
+
+/// The lines `grainwave run` prints at the end.
+pub fn summary_lines(r: &E3Summary, out: &std::path::Path) -> Vec<String> {
+    let mut lines = vec![format!("e3 {}: {} parameter set(s)", r.mode, r.groups.len())];
+    for g in &r.groups {
+        for c in g.cases.iter().take(3) {
+            lines.push(format!(
+                "reference    {} seed {}: floor carries {:.9} × the weight, max acceleration {:.2e}",
+                g.label, c.seed, c.floor_over_weight, c.max_acceleration
+            ));
+        }
+        for a in &g.responses {
+            lines.push(format!(
+                "response     F = {} ({}): p(0)/F = {:.4e}, {} opened ({} in the cone below the load), {} sliding, {} ({} verdict, dip {:.4}; smoothed {}), A_s = {:.3e}",
+                a.force,
+                a.variant.name(),
+                a.response_at_zero.first().copied().unwrap_or(f64::NAN),
+                a.opened,
+                a.opened_cone,
+                a.sliding,
+                a.verdict,
+                a.verdict_basis,
+                a.dip,
+                a.classification.shape.name(),
+                a.asymmetry
+            ));
+        }
+        for b in &g.first_opening_bisection {
+            let v = |x: Option<f64>| x.map_or("-".to_string(), |x| format!("{x:.4}"));
+            lines.push(format!(
+                "first opening  {}: below the load (cone) {} m̄g [{}, {}], connected to the load {} [{}, {}], anywhere [{}, {}] (linear estimate {})",
+                b.case,
+                v(b.first_opening_below_load),
+                v(b.lower),
+                v(b.upper),
+                v(b.first_opening_connected),
+                v(b.connected_lower),
+                v(b.connected_upper),
+                v(b.anywhere_lower),
+                v(b.anywhere_upper),
+                v(b.anywhere_linear_estimate)
+            ));
+        }
+        if let Some(f) = &g.first_opening {
+            if let Some(e) = f.linear_estimate {
+                lines.push(format!("first opening  ≈ {e:.4} m̄g (linear estimate from F = {})", f.estimated_from.unwrap_or(f64::NAN)));
+            }
+        }
+    }
+    for s in &r.superposition {
+        lines.push(format!("superposition F = {}: per-contact deviation {:.2e}, profile {:.2e}", s.force, s.contact_max_deviation, s.profile_max_deviation.first().copied().unwrap_or(f64::NAN)));
+    }
+    for p in &r.piles {
+        lines.push(format!(
+            "pile         {}: floor/weight {:.9}, {} floor profile ({}, dip {:.4}); raw without the wall-supported contacts: {} (dip {:.4})",
+            p.group,
+            p.floor_over_weight,
+            p.shape.name(),
+            p.verdict_basis,
+            p.dip,
+            p.shape_raw.map_or("none", |s| s.name()),
+            p.dip_raw
+        ));
+    }
+    if let Some(l) = &r.lattice {
+        lines.push(format!("lattice      a = {:.4}, b = {:.4}, c = {:.4}, d = {:.4}, r = {:.4} ({})", l.moduli.a, l.moduli.b, l.moduli.c, l.moduli.d, l.moduli.r, l.verdict));
+    }
+    if !r.not_converged.is_empty() {
+        lines.push(format!("warning      {} relaxation(s) did not converge: {}", r.not_converged.len(), r.not_converged.join(", ")));
+    }
+    lines.push(format!("outputs      {}/", out.display()));
+    lines
+}

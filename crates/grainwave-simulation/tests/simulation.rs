@@ -1,0 +1,200 @@
+//! The `simulation` protocol end to end: config errors with positions, the generated reference,
+//! a small settling run, interrupt + resume bit for bit, and the resolved config.
+
+use grainwave_study::protocol::InterruptAfter as Interrupter;
+
+use grainwave_study::config::ConfigSource;
+use grainwave_study::protocol::{RunContext, SilentReporter};
+use grainwave_study::ExperimentError;
+use std::path::{Path, PathBuf};
+use std::sync::atomic::AtomicBool;
+use std::sync::Arc;
+
+/// 60 disks settling under gravity (a small version of the demo).
+const SMALL: &str = r#"
+experiment = "simulation"
+seed = 7
+gravity = [0.0, -1.0]
+
+[grains]
+kind = "disk"
+count = 60
+size = { distribution = "uniform_diameter", mean_diameter = 1.0, spread = 0.2 }
+
+[domain]
+size = [8.0, 20.0]
+
+[placement]
+region_min = [0.0, 4.0]
+
+[contact]
+preset = "hooke_cundall_strack"
+normal_stiffness = 1.0e4
+restitution = 0.5
+friction = 0.3
+
+[wall_contact]
+friction = 0.0
+
+[[walls]]
+name = "floor"
+axis = "y"
+side = "low"
+contact = { friction = 0.3, rolling_stiffness = 700.0, rolling_damping = 5.0, rolling_friction = 0.1 }
+
+[[walls]]
+name = "left"
+axis = "x"
+side = "low"
+
+[[walls]]
+name = "right"
+axis = "x"
+side = "high"
+
+[stop]
+kinetic_energy_per_grain = 1e-12
+max_acceleration = 1e-7
+check_every = 100
+step_limit = 1_000_000
+
+[output]
+series_every = 500
+checkpoint_every = 5000
+snapshot_every = 4000
+"#;
+
+fn out_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!("grainwave-sim-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+fn run_text(text: &str, out: &Path) -> grainwave_study::Result<grainwave_study::registry::RunSummary> {
+    let src = ConfigSource::from_text("small.toml", text);
+    let mut rep = SilentReporter;
+    let mut ctx = RunContext::new(out, &mut rep, Arc::new(AtomicBool::new(false)))?;
+    crate::REGISTRY.run(&src, &mut ctx)
+}
+
+fn check_err(text: &str) -> grainwave_study::config::ConfigError {
+    crate::REGISTRY.check(&ConfigSource::from_text("bad.toml", text)).expect_err("must be refused")
+}
+
+#[test]
+fn small_pile_settles_and_the_walls_carry_the_weight() {
+    let out = out_dir("pile");
+    let s = run_text(SMALL, &out).unwrap();
+    let r = &s.report;
+    assert_eq!(r["stop_reason"], "converged");
+    let support = r["support_over_weight"].as_f64().unwrap();
+    assert!((support - 1.0).abs() < 1e-6, "walls carry {support} × the weight");
+    for f in ["summary.json", "config.resolved.toml", "series.csv", "series.npz", "grains.csv", "grains.pvd", "contacts.pvd", "checkpoint.gwck", "run.log"] {
+        assert!(out.join(f).exists(), "{f} missing");
+    }
+    let series = std::fs::read_to_string(out.join("series.csv")).unwrap();
+    assert!(series.starts_with("step,time,kinetic_energy_per_grain"), "{}", &series[..80]);
+    assert!(series.lines().count() > 5);
+}
+
+#[test]
+fn config_errors_name_file_line_column_key_value_and_what_is_allowed() {
+    // unknown key, with a suggestion
+    let e = check_err(&SMALL.replace("friction = 0.3\n\n[wall_contact]", "frction = 0.3\n\n[wall_contact]"));
+    assert_eq!((e.file.as_str(), e.line, e.column), ("bad.toml", 21, 1));
+    assert_eq!(e.key.as_deref(), Some("contact.frction"));
+    assert!(e.message.contains("unknown key `frction`") && e.message.contains("did you mean `friction`?"), "{e}");
+    assert!(e.to_string().starts_with("bad.toml:21:1: key `contact.frction`: unknown key"), "{e}");
+    // wrong type
+    let e = check_err(&SMALL.replace("count = 60", "count = \"sixty\""));
+    assert_eq!((e.line, e.column, e.key.as_deref()), (8, 9, Some("grains.count")));
+    assert!(e.message.contains("invalid type: string \"sixty\""), "{e}");
+    // out of range
+    let e = check_err(&SMALL.replace("restitution = 0.5", "restitution = 1.5"));
+    assert_eq!((e.line, e.column, e.key.as_deref()), (20, 15, Some("contact.restitution")));
+    assert!(e.message.contains("1.5") && e.message.contains("(0, 1]"), "{e}");
+    let e = check_err(&SMALL.replace("size = [8.0, 20.0]", "size = [8.0, -20.0]"));
+    assert_eq!(e.key.as_deref(), Some("domain.size"));
+    assert!(e.message.contains("-20") && e.message.contains("lengths > 0"), "{e}");
+    // inconsistent combination
+    let e = check_err(&SMALL.replace("restitution = 0.5", "restitution = 0.5\ndamping_fraction = 0.2"));
+    assert_eq!((e.line, e.key.as_deref()), (20, Some("contact.restitution")));
+    assert!(e.message.contains("at most one of"), "{e}");
+    let e = check_err(&SMALL.replace("side = \"high\"", "side = \"high\"\nmass = 3.0"));
+    assert_eq!(e.key.as_deref(), Some("walls[2].mass"));
+    assert!(e.message.contains("does not apply to a `fixed` wall"), "{e}");
+    // a vector of the wrong dimension
+    let e = check_err(&SMALL.replace("gravity = [0.0, -1.0]", "gravity = [0.0, 0.0, -1.0]"));
+    assert_eq!((e.line, e.key.as_deref()), (4, Some("gravity")));
+    assert!(e.message.contains("3 components") && e.message.contains("needs 2"), "{e}");
+    // unknown value of an enumerated key, with a suggestion
+    let e = check_err(&SMALL.replace("kind = \"disk\"", "kind = \"disc\""));
+    assert!(e.message.contains("unknown value `disc`") && e.message.contains("did you mean `disk`?"), "{e}");
+    // unknown experiment
+    let e = check_err(&SMALL.replace("experiment = \"simulation\"", "experiment = \"simulations\""));
+    assert_eq!((e.line, e.key.as_deref()), (2, Some("experiment")));
+    assert!(e.message.contains("did you mean `simulation`?"), "{e}");
+    // placement impossible: too many grains for the region
+    let e = check_err(&SMALL.replace("count = 60", "count = 6000"));
+    assert_eq!(e.key.as_deref(), Some("placement"));
+    assert!(e.message.contains("too dense"), "{e}");
+}
+
+fn results(out: &Path) -> Vec<(String, Vec<u8>)> {
+    let mut files: Vec<String> = ["summary.json", "series.csv", "series.npz", "grains.csv", "config.resolved.toml", "grains.pvd", "contacts.pvd"]
+        .iter()
+        .map(|s| s.to_string())
+        .collect();
+    let mut snaps: Vec<String> =
+        std::fs::read_dir(out.join("snapshots")).unwrap().map(|e| format!("snapshots/{}", e.unwrap().file_name().to_string_lossy())).collect();
+    snaps.sort();
+    files.extend(snaps);
+    files.into_iter().map(|f| (f.clone(), std::fs::read(out.join(&f)).unwrap())).collect()
+}
+
+#[test]
+fn interrupted_run_resumes_to_the_same_bits() {
+    let straight = out_dir("straight");
+    run_text(SMALL, &straight).unwrap();
+
+    let split = out_dir("split");
+    let src = ConfigSource::from_text("small.toml", SMALL);
+    let flag = Arc::new(AtomicBool::new(false));
+    let mut rep = Interrupter::new(flag.clone(), 7);
+    {
+        let mut ctx = RunContext::new(&split, &mut rep, flag.clone()).unwrap();
+        ctx.report_every = 37; // reports (and so the interruption) at an odd step
+        match crate::REGISTRY.run(&src, &mut ctx) {
+            Err(ExperimentError::Interrupted { checkpoint, .. }) => assert!(checkpoint.exists()),
+            other => panic!("expected an interruption, got {other:?}"),
+        }
+    }
+    assert!(!split.join("summary.json").exists(), "no summary before the end");
+    // resume (with a fresh, unset flag)
+    let mut rep = SilentReporter;
+    let mut ctx = RunContext::new(&split, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
+    crate::REGISTRY.resume(&split, &mut ctx).unwrap();
+    assert_eq!(results(&straight), results(&split), "resumed outputs differ from the uninterrupted run");
+    // resuming a finished run changes nothing
+    crate::REGISTRY.resume(&split, &mut ctx).unwrap();
+    assert_eq!(results(&straight), results(&split));
+}
+
+#[test]
+fn the_resolved_config_reproduces_the_run() {
+    let first = out_dir("first");
+    run_text(SMALL, &first).unwrap();
+    let resolved = std::fs::read_to_string(first.join("config.resolved.toml")).unwrap();
+    assert!(resolved.contains("dt = ") && resolved.contains("skin = "), "computed defaults are filled in");
+    let second = out_dir("second");
+    run_text(&resolved, &second).unwrap();
+    let strip = |v: Vec<(String, Vec<u8>)>| v.into_iter().filter(|(f, _)| f != "config.resolved.toml").collect::<Vec<_>>();
+    assert_eq!(strip(results(&first)), strip(results(&second)));
+}
+
+use grainwave_study::registry::{entry, Entry, Registry};
+
+static ONE: [Entry; 1] = [entry::<grainwave_simulation::SimulationProtocol>()];
+/// The study alone in a registry: the tests check, run, resume and re-plot configs through the
+/// same dispatch as the command line (the table of every study is `grainwave-experiments`').
+pub static REGISTRY: Registry = Registry::new(&ONE);
