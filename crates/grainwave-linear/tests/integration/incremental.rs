@@ -94,6 +94,96 @@ fn single_contact_at_the_limit_follows_the_engine() {
     }
 }
 
+/// The same single contact in 3D, along an oblique normal, where the tangential increment is a
+/// vector: besides pushing on, releasing, compressing and opening, an increment perpendicular to
+/// the sliding direction s (the engine caps the trial force and turns it: to first order its
+/// change is k_t δ, the stick answer, which the rule gives since it does not push along s) and
+/// oblique ones (push on plus perpendicular: slip along s, k_t δ across it; release plus
+/// perpendicular: stick). Compared in the contact's frame as in 2D: ΔF_n and the change of F_t
+/// in the tangent plane (the engine's old F_t carried into the new plane first), tolerance 1e-6
+/// of k ε for the same reasons.
+#[test]
+fn single_contact_at_the_limit_follows_the_engine_in_3d() {
+    use glam::DVec3;
+    let mut law = hooke_params(100.0, 0.5, MU).build(Partner::Grain, "contact").unwrap();
+    law.damping = NormalDamping::None;
+    law.tangential_damping = TangentialDamping::None;
+    let (ri, rj, m) = (0.5, 0.5, 1.0);
+    let n = DVec3::new(1.0, 0.4, -0.3).normalize();
+    let r0 = n * 0.9;
+    let dt = 1e-3;
+    let kin = |r: DVec3, v: DVec3| pair_kinematics::<D3>(r, ri, rj, m, m, DVec3::ZERO, v, DVec3::ZERO, DVec3::ZERO).unwrap();
+    // a tangential loading direction, not along a coordinate axis of the contact's frame
+    let load = (DVec3::new(0.2, -0.7, 0.5) - n * n.dot(DVec3::new(0.2, -0.7, 0.5))).normalize();
+    let mut state = ContactState::<D3>::default();
+    let out = law.evaluate(&kin(r0, load * 1e3), &mut state, dt);
+    assert!(out.sliding, "the loading step must reach the cap");
+    let rest = law.evaluate(&kin(r0, DVec3::ZERO), &mut state, dt);
+    let (f_n, f_t) = (rest.normal_force, rest.tangential_force);
+    assert!((f_t.length() - MU * f_n).abs() < 1e-12 * f_n, "at rest on the limit: |F_t| = {}, μF_n = {}", f_t.length(), MU * f_n);
+    assert!(f_t.dot(n).abs() < 1e-12 * f_n, "F_t in the tangent plane");
+    let c = LinearContact::<D3> {
+        i: 0,
+        j: LinearPartner::Grain(1),
+        normal: n,
+        branch: r0,
+        lever_i: 0.45,
+        lever_j: 0.45,
+        normal_stiffness: rest.normal_stiffness,
+        tangential_stiffness: rest.tangential_stiffness,
+        rolling_stiffness: 0.0,
+        twisting_stiffness: 0.0,
+        normal_force: f_n,
+        prestress: 0.0,
+        tangential_force: f_t,
+        rolling_torque: DVec3::ZERO,
+        full_geometry: false,
+        sliding: true,
+    };
+    let s = f_t / f_t.length();
+    let p = n.cross(s); // in the tangent plane, across s
+    let limit = CoulombLimit::<D3> { s, mu: MU, ..CoulombLimit::STICK };
+    let eps = 1e-7;
+    let scale = 100.0 * eps;
+    let in_plane = |v: DVec3, nn: DVec3| v - nn * nn.dot(v);
+    let cases = [
+        ("push on", s * eps, true),
+        ("release", -s * eps, false),
+        ("compress", -n * eps, false),
+        ("open", n * eps, true),
+        ("across s", p * eps, true),
+        ("push on and across", (s + p) * eps, true),
+        ("release and across", (p - s) * eps, false),
+    ];
+    for (name, delta, engine_slides) in cases {
+        let mut st = state;
+        let new = law.evaluate(&kin(r0 + delta, delta / dt), &mut st, dt);
+        let n_new = (r0 + delta).normalize();
+        let dfn_engine = new.normal_force - f_n;
+        let dft_engine = in_plane(new.tangential_force - in_plane(f_t, n_new), n);
+        assert_eq!(new.sliding, engine_slides, "{name}: engine sliding flag");
+        // the incremental rule slips where the increment pushes F_t on along s
+        let rule_slips = matches!(name, "push on" | "open" | "push on and across");
+        let mut inc = IncrementState::<D3>::ZERO;
+        let l = contact_step(&c, &limit, &mut inc, BranchRule::Incremental, DVec3::ZERO, DVec3::ZERO, delta, DVec3::ZERO, DVec3::ZERO);
+        let dfn = -l.force_i.dot(n);
+        let dft = in_plane(l.force_i, n);
+        let err = (dfn - dfn_engine).abs().max((dft - dft_engine).length());
+        eprintln!("3d {name}: engine ΔF_n {dfn_engine:.6e} ΔF_t {dft_engine:?}; linear {dfn:.6e} {dft:?}");
+        assert!(err < 1e-6 * scale, "{name}: error {err:e}");
+        assert_eq!(inc.slipping, rule_slips, "{name}: branch");
+        // the all-stick rule misses every increment that slides along s
+        let mut inc = IncrementState::<D3>::ZERO;
+        let l = contact_step(&c, &limit, &mut inc, BranchRule::Stick, DVec3::ZERO, DVec3::ZERO, delta, DVec3::ZERO, DVec3::ZERO);
+        let err_stick = (-l.force_i.dot(n) - dfn_engine).abs().max((in_plane(l.force_i, n) - dft_engine).length());
+        if rule_slips {
+            assert!(err_stick > 0.1 * 50.0 * eps, "{name}: the stick rule should miss the slip, error {err_stick:e}");
+        } else {
+            assert!(err_stick < 1e-6 * scale, "{name}: stick and incremental agree off the slip branch, error {err_stick:e}");
+        }
+    }
+}
+
 /// One disk (R = 0.5, m = 1, I = m R²/2) on a frictional floor, its friction fully mobilised
 /// along +x on the disk (s = +x̂), kicked horizontally with velocity v.
 ///
