@@ -111,6 +111,18 @@ fn build_dim<D: Dim>(src: &ConfigSource, cfg: &SimulationConfig) -> Result<Simul
         if wc.name.trim().is_empty() {
             return Err(err(src, &key("name"), "empty (allowed: a name, unique among the walls)"));
         }
+        // they become file and archive member names (`load_<name>`): refused here, before the run,
+        // rather than when the outputs are written after it
+        if wc.name.chars().count() > 64 || wc.name.chars().any(|c| c == '/' || c == '\\' || c.is_control()) {
+            return Err(err(
+                src,
+                &key("name"),
+                format!(
+                    "{:?} (allowed: at most 64 characters, without `/`, `\\` or control characters: the name becomes part of file names)",
+                    grainwave_study::config::clip(&wc.name, grainwave_study::config::MAX_ECHO_CHARS)
+                ),
+            ));
+        }
         if let Some(first) = cfg.walls[..w].iter().position(|o| o.name == wc.name) {
             return Err(err(src, &key("name"), format!("`{}` is already the name of walls[{first}] (allowed: a name unique among the walls)", grainwave_study::config::clip(&wc.name, grainwave_study::config::MAX_ECHO_CHARS))));
         }

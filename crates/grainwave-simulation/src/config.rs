@@ -199,7 +199,8 @@ pub enum MotionKind {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize, JsonSchema)]
 #[serde(deny_unknown_fields)]
 pub struct WallConfig {
-    /// Name used in outputs (e.g. `floor`).
+    /// Name used in outputs (e.g. `floor`): unique among the walls, at most 64 characters, without
+    /// `/`, `\` or control characters (it becomes part of file names).
     pub name: String,
     /// Axis the wall is perpendicular to.
     pub axis: Axis,

@@ -134,6 +134,14 @@ fn config_errors_name_file_line_column_key_value_and_what_is_allowed() {
     let e = check_err(&SMALL.replace("experiment = \"simulation\"", "experiment = \"simulations\""));
     assert_eq!((e.line, e.key.as_deref()), (2, Some("experiment")));
     assert!(e.message.contains("did you mean `simulation`?"), "{e}");
+    // wall names become file names: refused by check, not after the run
+    for bad in ["a/../b", "a\\\\b", "tab\\there"] {
+        let text = SMALL.replacen("name = \"floor\"", &format!("name = \"{bad}\""), 1);
+        assert_ne!(text, SMALL, "the config must have a wall called floor");
+        let e = check_err(&text);
+        assert_eq!(e.key.as_deref(), Some("walls[0].name"), "{bad}: {e}");
+        assert!(e.message.contains("file names"), "{e}");
+    }
     // placement impossible: too many grains for the region
     let e = check_err(&SMALL.replace("count = 60", "count = 6000"));
     assert_eq!(e.key.as_deref(), Some("placement"));
