@@ -6,28 +6,27 @@ use grainwave_study::limits::{check, BYTES_PER_GRAIN, HARD_MAX_GRAINS, MAX_GRAIN
 
 /// The sizes of an `e1` config that the plan would allocate (before planning).
 pub fn check_config(src: &ConfigSource, cfg: &crate::E1Config) -> Result<(), ConfigError> {
-    let (sizes, pressures, grains_key) = if let Some(p) = &cfg.packing {
+    let (sizes, pressures) = if let Some(p) = &cfg.packing {
         let sizes = p.heights.as_ref().map(Vec::len).or(p.grains.as_ref().map(Vec::len)).unwrap_or(0);
         if let Some(g) = &p.grains {
             for (k, n) in g.iter().enumerate() {
                 check(src, &format!("packing.grains[{k}]"), "grains", *n as f64, MAX_GRAINS, HARD_MAX_GRAINS, BYTES_PER_GRAIN)?;
             }
         }
-        (sizes, p.pressures.len(), "packing")
+        (sizes, p.pressures.len())
     } else if let Some(l) = &cfg.lattice {
         for (k, r) in l.rows.iter().enumerate() {
             check(src, &format!("lattice.rows[{k}]"), "grains", *r as f64 * l.columns as f64, MAX_GRAINS, HARD_MAX_GRAINS, BYTES_PER_GRAIN)?;
         }
-        (l.rows.len(), l.pressures.len(), "lattice")
+        (l.rows.len(), l.pressures.len())
     } else if let Some(c) = &cfg.chain {
         for (k, n) in c.grains.iter().enumerate() {
             check(src, &format!("chain.grains[{k}]"), "grains", *n as f64, MAX_GRAINS, HARD_MAX_GRAINS, BYTES_PER_GRAIN)?;
         }
-        (c.grains.len(), 1, "chain")
+        (c.grains.len(), 1)
     } else {
-        (0, 0, "")
+        (0, 0)
     };
-    let _ = grains_key;
     let groups = (sizes * pressures.max(1)) as f64;
     // every task keeps its signals (two per time sample) until the outputs are written
     let per_task = 64.0 + 16.0 * cfg.pulse.time_samples as f64;

@@ -142,10 +142,10 @@ fn circles(graph: &BTreeMap<String, Vec<String>>) -> Vec<Vec<String>> {
         }
         seen
     };
+    let reached: BTreeMap<&String, Vec<String>> = graph.keys().map(|v| (v, reach(v))).collect();
     let mut out: Vec<Vec<String>> = Vec::new();
     for v in graph.keys() {
-        let from_v = reach(v);
-        let mut comp: Vec<String> = graph.keys().filter(|w| *w != v && from_v.contains(w) && reach(w).contains(v)).cloned().collect();
+        let mut comp: Vec<String> = graph.keys().filter(|w| *w != v && reached[v].contains(w) && reached[*w].contains(v)).cloned().collect();
         if !comp.is_empty() {
             comp.push(v.clone());
             comp.sort();

@@ -6,7 +6,7 @@ use crate::common;
 
 use common::{hooke_params, lattice_2d};
 use glam::DVec2;
-use grainwave_core::contact::{pair_kinematics, ContactState, NormalDamping, TangentialDamping};
+use grainwave_core::contact::{pair_kinematics, ContactLaw, ContactOutput, ContactState, NormalDamping, TangentialDamping};
 use grainwave_core::prelude::*;
 use grainwave_core::snapshot::Snapshot;
 use grainwave_linear::contact::{LinearContact, Partner as LinearPartner};
@@ -14,6 +14,37 @@ use grainwave_linear::incremental::{contact_step, BranchRule, CoulombLimit, Incr
 use grainwave_linear::prelude::*;
 
 const MU: f64 = 0.3;
+
+/// The engine's Hooke law of the single-contact tests (k_n = 100, k_t = 50, μ = 0.3), undamped.
+fn undamped_law() -> ContactLaw {
+    let mut law = hooke_params(100.0, 0.5, MU).build(Partner::Grain, "contact").unwrap();
+    law.damping = NormalDamping::None;
+    law.tangential_damping = TangentialDamping::None;
+    law
+}
+
+/// The linearized contact of two grains (levers 0.45) at the Coulomb limit, from the engine's
+/// state at rest `rest` along `normal`, branch vector `branch`.
+fn contact_at_the_limit<D: Dim>(normal: D::Vector, branch: D::Vector, rest: &ContactOutput<D>) -> LinearContact<D> {
+    LinearContact::<D> {
+        i: 0,
+        j: LinearPartner::Grain(1),
+        normal,
+        branch,
+        lever_i: 0.45,
+        lever_j: 0.45,
+        normal_stiffness: rest.normal_stiffness,
+        tangential_stiffness: rest.tangential_stiffness,
+        rolling_stiffness: 0.0,
+        twisting_stiffness: 0.0,
+        normal_force: rest.normal_force,
+        prestress: 0.0,
+        tangential_force: rest.tangential_force,
+        rolling_torque: D::AngVector::ZERO,
+        full_geometry: false,
+        sliding: true,
+    }
+}
 
 /// A single grain–grain contact held at the Coulomb limit by the engine's law (Hooke k_n = 100,
 /// k_t = 50, μ = 0.3, no damping), then moved by a small relative displacement δ of j in one
@@ -27,9 +58,7 @@ const MU: f64 = 0.3;
 /// wrong by k_t ε in the sliding case (so the test can tell the branches apart).
 #[test]
 fn single_contact_at_the_limit_follows_the_engine() {
-    let mut law = hooke_params(100.0, 0.5, MU).build(Partner::Grain, "contact").unwrap();
-    law.damping = NormalDamping::None;
-    law.tangential_damping = TangentialDamping::None;
+    let law = undamped_law();
     let (ri, rj, m) = (0.5, 0.5, 1.0);
     let r0 = DVec2::new(0.9, 0.0);
     let dt = 1e-3;
@@ -43,24 +72,7 @@ fn single_contact_at_the_limit_follows_the_engine() {
     assert!((f_t.length() - MU * f_n).abs() < 1e-12 * f_n, "at rest on the limit: |F_t| = {}, μF_n = {}", f_t.length(), MU * f_n);
     let n = DVec2::X;
     let t = DVec2::new(-n.y, n.x);
-    let c = LinearContact::<D2> {
-        i: 0,
-        j: LinearPartner::Grain(1),
-        normal: n,
-        branch: r0,
-        lever_i: 0.45,
-        lever_j: 0.45,
-        normal_stiffness: rest.normal_stiffness,
-        tangential_stiffness: rest.tangential_stiffness,
-        rolling_stiffness: 0.0,
-        twisting_stiffness: 0.0,
-        normal_force: f_n,
-        prestress: 0.0,
-        tangential_force: f_t,
-        rolling_torque: 0.0,
-        full_geometry: false,
-        sliding: true,
-    };
+    let c = contact_at_the_limit::<D2>(n, r0, &rest);
     let s = f_t / f_t.length();
     let limit = CoulombLimit::<D2> { s, mu: MU, ..CoulombLimit::STICK };
     let eps = 1e-7;
@@ -105,9 +117,7 @@ fn single_contact_at_the_limit_follows_the_engine() {
 #[test]
 fn single_contact_at_the_limit_follows_the_engine_in_3d() {
     use glam::DVec3;
-    let mut law = hooke_params(100.0, 0.5, MU).build(Partner::Grain, "contact").unwrap();
-    law.damping = NormalDamping::None;
-    law.tangential_damping = TangentialDamping::None;
+    let law = undamped_law();
     let (ri, rj, m) = (0.5, 0.5, 1.0);
     let n = DVec3::new(1.0, 0.4, -0.3).normalize();
     let r0 = n * 0.9;
@@ -122,24 +132,7 @@ fn single_contact_at_the_limit_follows_the_engine_in_3d() {
     let (f_n, f_t) = (rest.normal_force, rest.tangential_force);
     assert!((f_t.length() - MU * f_n).abs() < 1e-12 * f_n, "at rest on the limit: |F_t| = {}, μF_n = {}", f_t.length(), MU * f_n);
     assert!(f_t.dot(n).abs() < 1e-12 * f_n, "F_t in the tangent plane");
-    let c = LinearContact::<D3> {
-        i: 0,
-        j: LinearPartner::Grain(1),
-        normal: n,
-        branch: r0,
-        lever_i: 0.45,
-        lever_j: 0.45,
-        normal_stiffness: rest.normal_stiffness,
-        tangential_stiffness: rest.tangential_stiffness,
-        rolling_stiffness: 0.0,
-        twisting_stiffness: 0.0,
-        normal_force: f_n,
-        prestress: 0.0,
-        tangential_force: f_t,
-        rolling_torque: DVec3::ZERO,
-        full_geometry: false,
-        sliding: true,
-    };
+    let c = contact_at_the_limit::<D3>(n, r0, &rest);
     let s = f_t / f_t.length();
     let p = n.cross(s); // in the tangent plane, across s
     let limit = CoulombLimit::<D3> { s, mu: MU, ..CoulombLimit::STICK };
