@@ -88,7 +88,8 @@ def speed(s, names, amp, key):
             continue
         for p in r["pairs"]:
             if p["amplitude"] == amp and p.get(key) is not None:
-                return p[key]
+                # a fitted speed that is not positive is no front (see e2-table2.py, front())
+                return p[key] if p[key] > 0 else None
     return None
 
 
@@ -147,11 +148,10 @@ def drive_rows(name, s):
                     c = speed(s, pulses, a, key)
                     tag = f"{a:g}|{label_k}"
                     info[f"speed|{tag}"] = c
-                    if None in (c0, cns, cd, c):
-                        info[f"sliding|{tag}"] = info[f"rate|{tag}"] = None
-                    else:
-                        info[f"sliding|{tag}"] = (cns - c) / c0
-                        info[f"rate|{tag}"] = (c - cd) / c0
+                    # the sliding loss does not need the deforming state (which may have no
+                    # front by the maximum); the rate term does
+                    info[f"sliding|{tag}"] = None if None in (c0, cns, c) else (cns - c) / c0
+                    info[f"rate|{tag}"] = None if None in (c0, cd, c) else (c - cd) / c0
         rows.append(info)
     return rows
 

@@ -43,27 +43,45 @@ PROCESSES = ["contact_loss", "sliding", "strain_rate", "total"]
 KEYS = {"maximum": "speed_maximum", "first lobe": "speed_first_lobe"}
 
 
+def front(c):
+    """A fitted pulse speed, or None when there is no front: the strip fit of arrival time against
+    distance has no positive slope. This happens by the maximum of |δv_x| in a deforming state
+    whose pulsed and unpulsed replays drift apart by far more than the pulse (the maximum then sits
+    at the end of the record, not at the front); the engine reports no speed for such a fit, and
+    older summaries that carry the negative slope are read the same way."""
+    return c if c is not None and c > 0 else None
+
+
 def speeds(summary, key):
     out = {}
     for r in summary["replays"]:
         if r["name"] in ("undeformed", "nonsliding", "static", "deforming"):
             for p in r["pairs"]:
-                out[(r["name"], p["amplitude"])] = p[key]
+                out[(r["name"], p["amplitude"])] = front(p.get(key))
     return out
 
 
 def losses(sp, amp):
+    """The decomposition of Δc/c₀; a process whose speeds include a missing front is None."""
     c0 = sp[("undeformed", amp)]
     cns, cs, cd = sp[("nonsliding", amp)], sp[("static", amp)], sp[("deforming", amp)]
-    return {"contact_loss": (c0 - cns) / c0, "sliding": (cns - cs) / c0,
-            "strain_rate": (cs - cd) / c0, "total": (c0 - cd) / c0}
+    d = lambda a, b: None if a is None or b is None or c0 is None else (a - b) / c0
+    return {"contact_loss": d(c0, cns), "sliding": d(cns, cs), "strain_rate": d(cs, cd), "total": d(c0, cd)}
 
 
 def stats(xs):
+    """(mean, SE, SD, n) over the values that are not None."""
+    xs = [x for x in xs if x is not None]
     n = len(xs)
+    if n == 0:
+        return float("nan"), float("nan"), float("nan"), 0
     m = sum(xs) / n
     s = math.sqrt(sum((x - m) ** 2 for x in xs) / (n - 1)) if n > 1 else float("nan")
-    return m, s / math.sqrt(n), s
+    return m, s / math.sqrt(n), s, n
+
+
+def cell(x):
+    return "no front" if x is None else f"{x:.3f}"
 
 
 def table(title, runs, amp, published):
@@ -79,14 +97,15 @@ def table(title, runs, amp, published):
             for p in PROCESSES:
                 per[label][p][0].append(lp[p])
                 per[label][p][1].append(lm[p])
-                cells.append(f"{lp[p]:.3f} / {lm[p]:.3f}")
+                cells.append(f"{cell(lp[p])} / {cell(lm[p])}")
             print(f"| {name if label == 'maximum' else ''} | {label} | " + " | ".join(cells) + " |")
     n = len(runs)
     for label in KEYS:
         cells = []
         for p in PROCESSES:
-            (mp, ep, sp_), (mm, em, sm) = stats(per[label][p][0]), stats(per[label][p][1])
-            cells.append(f"{mp:.3f} ± {ep:.3f} / {mm:.3f} ± {em:.3f} (SD {sp_:.3f} / {sm:.3f})")
+            (mp, ep, sp_, np_), (mm, em, sm, nm) = stats(per[label][p][0]), stats(per[label][p][1])
+            fewer = f" [{np_} / {nm} with a front]" if (np_, nm) != (n, n) else ""
+            cells.append(f"{mp:.3f} ± {ep:.3f} / {mm:.3f} ± {em:.3f} (SD {sp_:.3f} / {sm:.3f}){fewer}")
         print(f"| **mean ± SE ({n})** | {label} | " + " | ".join(cells) + " |")
     if published:
         print("| published (128², one packing) | maximum | " + " | ".join(

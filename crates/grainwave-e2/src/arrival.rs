@@ -121,7 +121,11 @@ pub struct StripFit {
 /// The strip method: `distance[i]` is grain i's distance from the source, `arrival[i]` its arrival
 /// time. Strips of equal width cover [0, max distance]; strips with fewer than three arrived grains
 /// are skipped; only strips whose centre lies between `fit_range` fractions of the largest distance
-/// enter the fit. Returns `None` when fewer than two strips remain.
+/// enter the fit. Returns `None` when fewer than two strips remain, and when the fitted slope is
+/// not positive: arrival times that do not increase with distance are no front (by the maximum of
+/// |δv_x| in a deforming packing whose two replays drift apart by more than the pulse, the maxima
+/// sit at the end of the record), and a negative "speed" would pass into the decomposition as a
+/// number.
 pub fn strip_speed(distance: &[f64], arrival: &[Option<f64>], strips: usize, fit_range: [f64; 2]) -> Option<StripFit> {
     let s_max = distance.iter().cloned().fold(0.0, f64::max);
     if !(s_max > 0.0) || strips == 0 {
@@ -149,6 +153,9 @@ pub fn strip_speed(distance: &[f64], arrival: &[Option<f64>], strips: usize, fit
         return None;
     }
     let c = super::strain::regression_slope(&fit.time, &fit.distance);
+    if !(c > 0.0 && c.is_finite()) {
+        return None;
+    }
     let n = fit.time.len() as f64;
     fit.intercept = fit.distance.iter().sum::<f64>() / n - c * fit.time.iter().sum::<f64>() / n;
     fit.speed = c;
