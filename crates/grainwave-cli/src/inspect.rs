@@ -130,15 +130,15 @@ fn describe_checkpoint(path: &Path, bytes: &[u8]) -> Result<Vec<String>> {
         }
         grainwave_experiments::e1::TAG => {
             let state: grainwave_experiments::e1::E1State = decode(bytes, &tag, &p)?;
-            let plan = state.plan()?;
+            let plan = &state.plan;
             let dir = path.parent().unwrap_or(Path::new("."));
-            let done = plan.tasks.iter().filter(|t| grainwave_experiments::e1::ensemble::load_result(dir, &plan, t).is_some()).count();
+            let done = plan.tasks.iter().filter(|t| grainwave_experiments::e1::ensemble::load_result(dir, plan, t).is_some()).count();
             v.push(format!(
                 "  protocol      e1 ({}), {}",
                 plan.kind.name(),
                 if state.finished { "finished".to_string() } else { "in progress — continue with `grainwave resume DIR`".to_string() }
             ));
-            v.push(format!("  samples       {done} of {} done ({} groups × {} samples)", plan.tasks.len(), plan.groups.len(), state.config.samples));
+            v.push(format!("  samples       {done} of {} done ({} groups × {} samples)", plan.tasks.len(), plan.groups.len(), plan.config.samples));
         }
         grainwave_experiments::e1::ensemble::PACKING_TAG | grainwave_experiments::e1::ensemble::PREPARING_TAG => {
             let f: grainwave_experiments::e1::prepare::PackingFile = decode(bytes, &tag, &p)?;
@@ -173,6 +173,9 @@ fn describe_checkpoint(path: &Path, bytes: &[u8]) -> Result<Vec<String>> {
         }
         "simulation-2d" => describe_sim::<D2>(&decode(bytes, &tag, &p)?, &mut v),
         "simulation-3d" => describe_sim::<D3>(&decode(bytes, &tag, &p)?, &mut v),
+        grainwave_experiments::e1::EARLIER_TAG | grainwave_experiments::e2::EARLIER_TAG | grainwave_experiments::e3::EARLIER_TAG => {
+            v.push("  layout        an earlier one (the state without its plan): `grainwave resume DIR` and `grainwave plot DIR` read it, and the resumed run saves the current layout".into());
+        }
         _ => {}
     }
     Ok(v)

@@ -47,7 +47,7 @@ pub fn load_packing(out: &Path, plan: &Plan, task: &Task) -> Option<PackingFile>
 
 /// The units of `plan`: one sample per task (id: its directory), without inputs.
 pub fn units(plan: &Plan) -> Vec<Unit> {
-    plan.tasks.iter().map(|t| Unit { id: sample_dir(plan, t).display().to_string(), kind: "samples", inputs: vec![] }).collect()
+    plan.tasks.iter().map(|t| Unit { id: sample_dir(plan, t).display().to_string(), kind: "samples".into(), inputs: vec![] }).collect()
 }
 
 /// The samples of a plan as units of work: one per task, without inputs.

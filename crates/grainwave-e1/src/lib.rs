@@ -39,18 +39,45 @@ use grainwave_study::protocol::RunContext;
 use grainwave_study::work::Finished;
 use serde::{Deserialize, Serialize};
 
-/// Content tag of this protocol's checkpoints.
-pub const TAG: &str = "experiment-e1";
+/// Content tag of this protocol's checkpoints (the state carries its plan).
+pub const TAG: &str = "experiment-e1/plan";
+/// Content tag of the earlier layout, whose state carried the config only (read by
+/// [`E1Protocol`]'s `upgrade`).
+pub const EARLIER_TAG: &str = "experiment-e1";
 
-/// The state of an `e1` run (what `checkpoint.gwck` holds): the config; the samples' progress is
-/// in their own files.
+/// The state of an `e1` run (what `checkpoint.gwck` holds): the validated plan, config included;
+/// the samples' progress is in their own files. A plan read from a checkpoint is checked
+/// ([`Plan::check_carried`]) before it is used.
 #[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(try_from = "CarriedE1State")]
 pub struct E1State {
-    /// The config with computed defaults filled in (stored as its TOML text).
-    #[serde(with = "grainwave_study::config::toml_text")]
-    pub config: E1Config,
+    /// The plan of the run (the config with computed defaults filled in, groups, tasks).
+    pub plan: Plan,
     /// All samples are done and the outputs written.
     pub finished: bool,
+}
+
+/// [`E1State`] as decoded, before its plan is checked.
+#[derive(Deserialize)]
+struct CarriedE1State {
+    plan: Plan,
+    finished: bool,
+}
+
+impl TryFrom<CarriedE1State> for E1State {
+    type Error = String;
+    fn try_from(s: CarriedE1State) -> std::result::Result<Self, String> {
+        s.plan.check_carried().map_err(|e| format!("the e1 plan it carries is inconsistent: {e}"))?;
+        Ok(E1State { plan: s.plan, finished: s.finished })
+    }
+}
+
+/// The earlier layout of the state ([`EARLIER_TAG`]): the config only.
+#[derive(Deserialize)]
+struct EarlierE1State {
+    #[serde(with = "grainwave_study::config::toml_text")]
+    config: E1Config,
+    finished: bool,
 }
 
 /// Parses and validates an `e1` config.
@@ -103,20 +130,18 @@ pub fn describe(p: &Plan) -> Vec<String> {
 impl E1State {
     /// A fresh state from a validated plan.
     pub fn new(plan: &Plan) -> Self {
-        E1State { config: plan.config.clone(), finished: false }
+        E1State { plan: plan.clone(), finished: false }
     }
 
-    /// The plan of this state's config.
-    pub fn plan(&self) -> Result<Plan> {
-        let text = toml::to_string(&self.config).expect("a config serializes to TOML");
-        let src = ConfigSource::from_text("config stored in the checkpoint", text);
-        Ok(plan::plan(&src, &self.config)?)
+    /// The config of the run, with computed defaults filled in.
+    pub fn config(&self) -> &E1Config {
+        &self.plan.config
     }
 
     /// Runs (or continues) every sample, then writes the outputs.
     pub fn run(&mut self, ctx: &mut RunContext<'_>) -> Result<E1Report> {
-        let plan = self.plan()?;
-        grainwave_study::outputs::write_resolved_config(ctx.out_dir(), "e1", &self.config, "")?;
+        let plan = self.plan.clone();
+        grainwave_study::outputs::write_resolved_config(ctx.out_dir(), "e1", &plan.config, "")?;
         ctx.save_checkpoint(TAG, self)?;
         let started = std::time::Instant::now();
         match ensemble::run_ensemble(&plan, ctx)? {
@@ -164,19 +189,33 @@ impl grainwave_study::study::Protocol for E1Protocol {
         E1State::new(&spec)
     }
     fn config(state: &E1State) -> &E1Config {
-        &state.config
+        state.config()
     }
     fn run(state: &mut E1State, ctx: &mut RunContext<'_>) -> Result<E1Report> {
         state.run(ctx)
     }
     fn serve(state: &mut E1State, out: &std::path::Path, link: &dyn grainwave_study::work::WorkerLink, interrupt: std::sync::Arc<std::sync::atomic::AtomicBool>) -> Result<()> {
-        ensemble::serve(&state.plan()?, out, link, interrupt)
+        ensemble::serve(&state.plan, out, link, interrupt)
     }
     fn summary_lines(report: &E1Report, out: &std::path::Path) -> Vec<String> {
         summary_lines(report, out)
     }
     fn replot(dir: &std::path::Path, state: &E1State) -> Result<Vec<String>> {
         replot(dir, state)
+    }
+
+    const EARLIER_TAGS: &'static [&'static str] = &[EARLIER_TAG];
+    /// A checkpoint of the earlier layout carried the config only: plan it once, as `run` did
+    /// then (through its TOML text, for the planner's error locations), and check the plan's
+    /// sizes; the result is checked like a carried plan.
+    fn upgrade(tag: &str, file: &std::path::Path) -> Result<E1State> {
+        let earlier: EarlierE1State = grainwave_core::checkpoint::load(file, tag)?;
+        let text = toml::to_string(&earlier.config).expect("a config serializes to TOML");
+        let src = ConfigSource::from_text(&format!("the config in {}", file.display()), text);
+        let plan = plan::plan(&src, &earlier.config)?;
+        limits::check_plan(&src, &plan)?;
+        let carried = CarriedE1State { plan, finished: earlier.finished };
+        E1State::try_from(carried).map_err(|reason| ExperimentError::Resume { path: file.to_path_buf(), reason })
     }
 }
 
@@ -190,7 +229,7 @@ pub fn run_config(src: &ConfigSource, ctx: &mut RunContext<'_>) -> Result<E1Repo
 /// an unfinished run (the tables then hold the samples done so far). Returns the files written;
 /// an error when no sample has succeeded yet (none finished, or every finished one failed).
 pub fn replot(dir: &std::path::Path, state: &E1State) -> Result<Vec<String>> {
-    let plan = state.plan()?;
+    let plan = &state.plan;
     // without one successful sample there is nothing to tabulate or plot: say why, rather than
     // fail in the plot stage on empty data
     let results = outputs::collect(dir, &plan);

@@ -4,10 +4,11 @@
 use super::config::*;
 use grainwave_study::config::{positive, ConfigError, ConfigSource};
 use grainwave_core::util::Fnv64;
+use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 
 /// What is studied.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum StudyKind {
     /// Disordered packings by piston compression.
     Packing,
@@ -29,7 +30,7 @@ impl StudyKind {
 }
 
 /// One size at one pressure: a set of samples analysed together.
-#[derive(Clone, Debug, PartialEq)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Group {
     /// Index in the plan.
     pub index: usize,
@@ -54,7 +55,7 @@ pub struct Group {
 }
 
 /// A sample of a group.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Task {
     /// Group index.
     pub group: usize,
@@ -64,10 +65,11 @@ pub struct Task {
     pub seed: u64,
 }
 
-/// A validated `e1` config.
-#[derive(Clone, Debug)]
+/// A validated `e1` config: what a run does, carried by its state ([`crate::E1State`]).
+#[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct Plan {
-    /// The config with computed defaults filled in.
+    /// The config with computed defaults filled in (stored as its TOML text in checkpoints).
+    #[serde(with = "grainwave_study::config::toml_text")]
     pub config: E1Config,
     /// What is studied.
     pub kind: StudyKind,
@@ -484,6 +486,37 @@ pub fn plan(src: &ConfigSource, cfg: &E1Config) -> Result<Plan, ConfigError> {
 }
 
 impl Plan {
+    /// Checks the structure of a plan read from a checkpoint (a crafted or damaged file must be
+    /// refused before anything indexes or allocates by it): group indices in order, every task's
+    /// group and sample in range, grain and time counts within the kernel's hard bounds, time
+    /// grids finite and non-decreasing, dimension 2 or 3. Returns what is wrong.
+    pub fn check_carried(&self) -> Result<(), String> {
+        use grainwave_study::limits::{HARD_MAX_GRAINS, MAX_POINTS, MAX_UNITS};
+        if !matches!(self.dimension, 2 | 3) {
+            return Err(format!("dimension {} (allowed: 2, 3)", self.dimension));
+        }
+        if self.tasks.len() as f64 > MAX_UNITS {
+            return Err(format!("{} tasks (allowed: at most {MAX_UNITS})", self.tasks.len()));
+        }
+        for (k, g) in self.groups.iter().enumerate() {
+            if g.index != k {
+                return Err(format!("group {k} says it is group {}", g.index));
+            }
+            if g.grains as f64 > HARD_MAX_GRAINS || g.rows > g.grains.max(1) {
+                return Err(format!("group {k}: {} grains in {} rows (allowed: at most {HARD_MAX_GRAINS} grains)", g.grains, g.rows));
+            }
+            if g.times.len() as f64 > MAX_POINTS || g.times.iter().any(|t| !t.is_finite()) || g.times.windows(2).any(|w| w[1] < w[0]) {
+                return Err(format!("group {k}: a time grid of {} values that is not finite and non-decreasing (or longer than {MAX_POINTS})", g.times.len()));
+            }
+        }
+        for (k, t) in self.tasks.iter().enumerate() {
+            if t.group >= self.groups.len() || t.sample >= self.config.samples {
+                return Err(format!("task {k}: group {} of {}, sample {} of {}", t.group, self.groups.len(), t.sample, self.config.samples));
+            }
+        }
+        Ok(())
+    }
+
     /// Pressures of the study, in config order (empty for chains).
     pub fn pressures(&self) -> Vec<f64> {
         let mut v: Vec<(usize, f64)> = self.groups.iter().filter_map(|g| g.pressure.map(|p| (g.pressure_index, p))).collect();

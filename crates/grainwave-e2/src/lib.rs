@@ -41,8 +41,11 @@ use model::Units;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 
-/// Content tag of this protocol's checkpoints.
-pub const TAG: &str = "experiment-e2";
+/// Content tag of this protocol's checkpoints (the state carries its plan).
+pub const TAG: &str = "experiment-e2/plan";
+/// Content tag of the earlier layout, whose state carried no plan (read by [`E2Protocol`]'s
+/// `upgrade`).
+pub const EARLIER_TAG: &str = "experiment-e2";
 
 /// Where a run is.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
@@ -57,9 +60,14 @@ pub enum Stage {
     Finished,
 }
 
-/// The state of an `e2` run (what `checkpoint.gwck` holds).
+/// The state of an `e2` run (what `checkpoint.gwck` holds): the config and its plan (the units
+/// of [`work::plan`]), the stage, the engine state and the finished replays. A state read from a
+/// checkpoint is checked (the plan fits the config) before it is used.
 #[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(try_from = "CarriedE2State")]
 pub struct E2State {
+    /// The units of the run, in the order of aggregation ([`work::plan`] of the config).
+    pub plan: Vec<Unit>,
     /// The config (stored as its TOML text).
     #[serde(with = "grainwave_study::config::toml_text")]
     pub config: E2Config,
@@ -76,6 +84,72 @@ pub struct E2State {
     /// Reports of the finished replays, in the order of the config (gathered from their unit
     /// results, `replays/<name>/report.gwck`, when the run is interrupted and at its end).
     pub replays: Vec<outputs::ReplayReport>,
+}
+
+/// [`E2State`] as decoded, before it is checked.
+#[derive(Deserialize)]
+struct CarriedE2State {
+    plan: Vec<Unit>,
+    /// The config (stored as its TOML text).
+    #[serde(with = "grainwave_study::config::toml_text")]
+    config: E2Config,
+    /// Current stage.
+    stage: Stage,
+    /// Engine state during preparation and loading.
+    sim: Option<Simulation<D2>>,
+    /// How the preparation went.
+    preparation: PreparationInfo,
+    /// Units (known after the preparation, or from the source run).
+    units: Option<Units>,
+    /// The loading.
+    loading: Option<Loading>,
+    /// Reports of the finished replays, in the order of the config (gathered from their unit
+    /// results, `replays/<name>/report.gwck`, when the run is interrupted and at its end).
+    replays: Vec<outputs::ReplayReport>,
+}
+
+impl TryFrom<CarriedE2State> for E2State {
+    type Error = String;
+    fn try_from(s: CarriedE2State) -> std::result::Result<Self, String> {
+        // the scheduler and the replay lookup index by the plan: it must have one unit per
+        // replay (and the loading, unless the checkpoints come from `source.dir`), each reading
+        // only units before it
+        let expected = s.config.replays.len() + usize::from(s.config.source.dir.is_none());
+        if s.plan.len() != expected || s.plan.iter().enumerate().any(|(k, u)| u.inputs.iter().any(|&i| i >= k)) {
+            return Err(format!("the e2 plan it carries ({} units) does not fit its config ({expected} units, each reading earlier ones only)", s.plan.len()));
+        }
+        Ok(E2State {
+            plan: s.plan,
+            config: s.config,
+            stage: s.stage,
+            sim: s.sim,
+            preparation: s.preparation,
+            units: s.units,
+            loading: s.loading,
+            replays: s.replays,
+        })
+    }
+}
+
+/// The earlier layout of the state ([`EARLIER_TAG`]): no plan.
+#[derive(Deserialize)]
+struct EarlierE2State {
+    /// The config (stored as its TOML text).
+    #[serde(with = "grainwave_study::config::toml_text")]
+    config: E2Config,
+    /// Current stage.
+    stage: Stage,
+    /// Engine state during preparation and loading.
+    sim: Option<Simulation<D2>>,
+    /// How the preparation went.
+    preparation: PreparationInfo,
+    /// Units (known after the preparation, or from the source run).
+    units: Option<Units>,
+    /// The loading.
+    loading: Option<Loading>,
+    /// Reports of the finished replays, in the order of the config (gathered from their unit
+    /// results, `replays/<name>/report.gwck`, when the run is interrupted and at its end).
+    replays: Vec<outputs::ReplayReport>,
 }
 
 
@@ -137,6 +211,23 @@ impl Protocol for E2Protocol {
     }
     fn summary_lines(report: &E2Summary, out: &Path) -> Vec<String> {
         summary_lines(report, out)
+    }
+
+    const EARLIER_TAGS: &'static [&'static str] = &[EARLIER_TAG];
+    /// A checkpoint of the earlier layout carried no plan: plan its config once ([`work::plan`],
+    /// as `run` did then).
+    fn upgrade(tag: &str, file: &Path) -> Result<E2State> {
+        let e: EarlierE2State = grainwave_core::checkpoint::load(file, tag)?;
+        Ok(E2State {
+            plan: work::plan(&e.config),
+            config: e.config,
+            stage: e.stage,
+            sim: e.sim,
+            preparation: e.preparation,
+            units: e.units,
+            loading: e.loading,
+            replays: e.replays,
+        })
     }
     fn replot(dir: &Path, state: &E2State) -> Result<Vec<String>> {
         replot(dir, state)
@@ -432,7 +523,7 @@ impl E2State {
     /// A fresh state.
     pub fn new(config: E2Config) -> Self {
         let stage = if config.source.dir.is_some() { Stage::Replays } else { Stage::Preparing };
-        E2State { config, stage, sim: None, preparation: PreparationInfo::default(), units: None, loading: None, replays: Vec::new() }
+        E2State { plan: work::plan(&config), config, stage, sim: None, preparation: PreparationInfo::default(), units: None, loading: None, replays: Vec::new() }
     }
 
     /// Runs (or continues) the protocol: the units of [`work::plan`] on the scheduler, then the

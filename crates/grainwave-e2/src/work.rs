@@ -49,7 +49,7 @@ pub fn replay_name(cfg: &E2Config, k: usize) -> String {
 pub fn plan(cfg: &E2Config) -> Vec<Unit> {
     let mut units = Vec::new();
     let loading = cfg.source.dir.is_none().then(|| {
-        units.push(Unit { id: LOADING.into(), kind: "loading", inputs: Vec::new() });
+        units.push(Unit { id: LOADING.into(), kind: "loading".into(), inputs: Vec::new() });
         0
     });
     let first = units.len();
@@ -57,7 +57,7 @@ pub fn plan(cfg: &E2Config) -> Vec<Unit> {
         // validation guarantees that `from` names an earlier replay
         let from = r.from.as_ref().and_then(|f| (0..k).find(|&j| replay_name(cfg, j) == *f)).map(|j| first + j);
         let inputs = from.or(loading).into_iter().collect();
-        units.push(Unit { id: format!("replay/{}", replay_name(cfg, k)), kind: "replays", inputs });
+        units.push(Unit { id: format!("replay/{}", replay_name(cfg, k)), kind: "replays".into(), inputs });
     }
     units
 }
@@ -116,7 +116,7 @@ impl<'a> E2Work<'a> {
     /// The units of `state`'s run into `out` (checkpoints from `source.dir`, or from `out`).
     pub fn new(cfg: &'a E2Config, out: &Path, state: &'a mut E2State) -> Self {
         let source = cfg.source.dir.as_ref().map(PathBuf::from).unwrap_or(out.to_path_buf());
-        E2Work { cfg, units: plan(cfg), out: out.to_path_buf(), source, state: Mutex::new(state), loading_error: Mutex::new(None) }
+        E2Work { cfg, units: state.plan.clone(), out: out.to_path_buf(), source, state: Mutex::new(state), loading_error: Mutex::new(None) }
     }
 
     /// The error of the loading, if it failed.
@@ -190,6 +190,7 @@ pub fn run_loading(st: &mut E2State, ctx: &mut RunContext<'_>) -> Result<bool> {
         }
         let mut sim = st.sim.take().expect("engine state");
         let snapshot = |stage: Stage, sim: &Simulation<D2>, info: &biaxial::PreparationInfo| E2State {
+            plan: st.plan.clone(),
             config: cfg.clone(),
             stage,
             sim: Some(sim.clone()),

@@ -783,7 +783,34 @@ duration = 5.0
                 let law = state.sim.as_ref().unwrap().domain.walls[model::BOTTOM].law;
                 assert_eq!(law != stiff, label.ends_with("absorbing walls"), "{label}: bottom wall law {law:?}");
             }
-            "loading" => assert_eq!(state.stage, Stage::Loading, "{label}"),
+            "loading" => {
+                assert_eq!(state.stage, Stage::Loading, "{label}");
+                // the state carries its plan; one that does not fit its config is refused on
+                // reading, and a checkpoint of the earlier layout (no plan, the earlier tag)
+                // resumes to the same bits
+                let mut crafted = state.clone();
+                crafted.plan[1].inputs = vec![2];
+                let bytes = grainwave_core::checkpoint::encode(grainwave_e2::TAG, &crafted).unwrap();
+                let err = grainwave_core::checkpoint::decode::<E2State>(&bytes, grainwave_e2::TAG, "crafted").unwrap_err().to_string();
+                assert!(err.contains("does not fit its config"), "{err}");
+                crafted.plan.pop();
+                let bytes = grainwave_core::checkpoint::encode(grainwave_e2::TAG, &crafted).unwrap();
+                assert!(grainwave_core::checkpoint::decode::<E2State>(&bytes, grainwave_e2::TAG, "crafted").is_err());
+                #[derive(serde::Serialize)]
+                struct EarlierLayout<'a> {
+                    #[serde(with = "grainwave_study::config::toml_text")]
+                    config: &'a grainwave_e2::E2Config,
+                    stage: Stage,
+                    sim: &'a Option<Simulation<D2>>,
+                    preparation: &'a grainwave_e2::biaxial::PreparationInfo,
+                    units: &'a Option<grainwave_e2::model::Units>,
+                    loading: &'a Option<grainwave_e2::biaxial::Loading>,
+                    replays: &'a Vec<ReplayReport>,
+                }
+                let s = &state;
+                let earlier = EarlierLayout { config: &s.config, stage: s.stage, sim: &s.sim, preparation: &s.preparation, units: &s.units, loading: &s.loading, replays: &s.replays };
+                grainwave_core::checkpoint::save(&split.join("checkpoint.gwck"), grainwave_e2::EARLIER_TAG, &earlier).unwrap();
+            }
             _ => {
                 assert_eq!(state.stage, Stage::Replays, "{label}");
                 assert!(split.join("replays/slow/partial.gwck").exists(), "{label}: no partial.gwck");

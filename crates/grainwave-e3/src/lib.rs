@@ -33,14 +33,22 @@ use plan::Plan;
 use serde::{Deserialize, Serialize};
 
 /// Content tag of this protocol's checkpoints.
-pub const TAG: &str = "experiment-e3";
+pub const TAG: &str = "experiment-e3/plan";
+/// Content tag of the earlier layout, whose state carried no plan (read by [`E3Protocol`]'s
+/// `upgrade`).
+pub const EARLIER_TAG: &str = "experiment-e3";
 
-/// The state of an `e3` run (what `checkpoint.gwck` holds).
+/// The state of an `e3` run (what `checkpoint.gwck` holds): the config and its plan, and which
+/// units are done. A state read from a checkpoint is checked ([`Plan::check_carried`], flags one
+/// per unit) before it is used.
 #[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(try_from = "CarriedE3State")]
 pub struct E3State {
     /// The config (stored as its TOML text).
     #[serde(with = "grainwave_study::config::toml_text")]
     pub config: E3Config,
+    /// Its parameter sets, cases and response runs.
+    pub plan: Plan,
     /// Per case: its reference state is done.
     pub references_done: Vec<bool>,
     /// Per run: its response is done.
@@ -49,6 +57,44 @@ pub struct E3State {
     pub finished: bool,
 }
 
+/// [`E3State`] as decoded, before it is checked.
+#[derive(Deserialize)]
+struct CarriedE3State {
+    #[serde(with = "grainwave_study::config::toml_text")]
+    config: E3Config,
+    plan: Plan,
+    references_done: Vec<bool>,
+    runs_done: Vec<bool>,
+    finished: bool,
+}
+
+impl TryFrom<CarriedE3State> for E3State {
+    type Error = String;
+    fn try_from(s: CarriedE3State) -> std::result::Result<Self, String> {
+        let bad = |e: String| format!("the e3 plan it carries is inconsistent: {e}");
+        s.plan.check_carried().map_err(bad)?;
+        if s.references_done.len() != s.plan.cases.len() || s.runs_done.len() != s.plan.runs.len() {
+            return Err(bad(format!(
+                "{} / {} done flags for {} cases / {} runs",
+                s.references_done.len(),
+                s.runs_done.len(),
+                s.plan.cases.len(),
+                s.plan.runs.len()
+            )));
+        }
+        Ok(E3State { config: s.config, plan: s.plan, references_done: s.references_done, runs_done: s.runs_done, finished: s.finished })
+    }
+}
+
+/// The earlier layout of the state ([`EARLIER_TAG`]): no plan.
+#[derive(Deserialize)]
+struct EarlierE3State {
+    #[serde(with = "grainwave_study::config::toml_text")]
+    config: E3Config,
+    references_done: Vec<bool>,
+    runs_done: Vec<bool>,
+    finished: bool,
+}
 
 /// A validated `e3` config and the plan of its units.
 pub struct E3Spec {
@@ -84,7 +130,7 @@ impl grainwave_study::study::Protocol for E3Protocol {
         work::plan_units(&spec.config, &spec.plan)
     }
     fn start(spec: E3Spec) -> E3State {
-        E3State::new(spec.config)
+        E3State::new(spec.config, spec.plan)
     }
     fn config(state: &E3State) -> &E3Config {
         &state.config
@@ -100,6 +146,17 @@ impl grainwave_study::study::Protocol for E3Protocol {
     }
     fn replot(dir: &std::path::Path, state: &E3State) -> Result<Vec<String>> {
         replot(dir, state)
+    }
+
+    const EARLIER_TAGS: &'static [&'static str] = &[EARLIER_TAG];
+    /// A checkpoint of the earlier layout carried no plan: plan its config once, as `run` did
+    /// then (the resolved config is not validated again: it holds every mode's defaults, which a
+    /// config file may not); the done flags must fit the plan.
+    fn upgrade(tag: &str, file: &std::path::Path) -> Result<E3State> {
+        let earlier: EarlierE3State = grainwave_core::checkpoint::load(file, tag)?;
+        let plan = Plan::new(&earlier.config);
+        let carried = CarriedE3State { config: earlier.config, plan, references_done: earlier.references_done, runs_done: earlier.runs_done, finished: earlier.finished };
+        E3State::try_from(carried).map_err(|reason| grainwave_study::ExperimentError::Resume { path: file.to_path_buf(), reason })
     }
 }
 
@@ -339,32 +396,31 @@ const RESOLVED_NOTE: &str = "Keys left out are computed per parameter set (dashp
                              from μ, the kinetic-energy limit from δ; see docs/e3.md).";
 
 impl E3State {
-    /// A fresh state.
-    pub fn new(config: E3Config) -> Self {
-        let plan = Plan::new(&config);
-        E3State { references_done: vec![false; plan.cases.len()], runs_done: vec![false; plan.runs.len()], finished: false, config }
+    /// A fresh state for `config` and its plan ([`Plan::new`]).
+    pub fn new(config: E3Config, plan: Plan) -> Self {
+        E3State { references_done: vec![false; plan.cases.len()], runs_done: vec![false; plan.runs.len()], finished: false, config, plan }
     }
 
     /// Runs, in a worker process, the units of this state's run in `out` that the coordinator
     /// sends ([`grainwave_study::work::serve`]): the same units as [`E3State::run`]'s (the coordinator
     /// records them and saves the state).
     pub fn serve(&self, out: &std::path::Path, link: &dyn grainwave_study::work::WorkerLink, interrupt: std::sync::Arc<std::sync::atomic::AtomicBool>) -> Result<()> {
-        let plan = Plan::new(&self.config);
-        let write_run = run_writer(&self.config, &plan);
+        let plan = &self.plan;
+        let write_run = run_writer(&self.config, plan);
         let save = |_: &mut RunContext<'_>, _: &[bool], _: &[bool]| -> Result<()> { Ok(()) };
-        let work = work::E3Work::new(&self.config, &plan, out, &self.references_done, &self.runs_done, &write_run, &save);
+        let work = work::E3Work::new(&self.config, plan, out, &self.references_done, &self.runs_done, &write_run, &save);
         grainwave_study::work::serve(&work, link, out, interrupt)
     }
 
     /// Runs (or continues) the protocol, writing every output into the context's directory.
     pub fn run(&mut self, ctx: &mut RunContext<'_>) -> Result<E3Summary> {
         let cfg = self.config.clone();
-        let plan = Plan::new(&cfg);
+        let plan = self.plan.clone();
         if !self.finished {
             grainwave_study::outputs::write_resolved_config(ctx.out_dir(), "e3", &cfg, RESOLVED_NOTE)?;
             ctx.log(&format!("e3 {}: {} reference state(s), {} response run(s)", cfg.mode.name(), plan.cases.len(), plan.runs.len()));
             let save = |ctx: &mut RunContext<'_>, refs: &[bool], runs: &[bool]| -> Result<()> {
-                let state = E3State { config: cfg.clone(), references_done: refs.to_vec(), runs_done: runs.to_vec(), finished: false };
+                let state = E3State { config: cfg.clone(), plan: plan.clone(), references_done: refs.to_vec(), runs_done: runs.to_vec(), finished: false };
                 ctx.save_checkpoint(TAG, &state)?;
                 Ok(())
             };
@@ -408,13 +464,14 @@ pub fn replot(dir: &std::path::Path, state: &E3State) -> Result<Vec<String>> {
     if !state.finished {
         return Err(grainwave_study::ExperimentError::Resume { path: dir.to_path_buf(), reason: "the run has not finished: resume it first".into() });
     }
-    Ok(outputs::write_final(dir, &state.config, &Plan::new(&state.config))?.files)
+    Ok(outputs::write_final(dir, &state.config, &state.plan)?.files)
 }
 
 /// Parses, validates and runs an `e3` config into `ctx`'s directory.
 pub fn run_config(src: &ConfigSource, ctx: &mut RunContext<'_>) -> Result<E3Summary> {
     let cfg = prepare(src)?;
-    E3State::new(cfg).run(ctx)
+    let plan = Plan::new(&cfg);
+    E3State::new(cfg, plan).run(ctx)
 }
 
 /// The lines `grainwave run` prints at the end.

@@ -111,6 +111,36 @@ fn or_single<T: Clone>(list: &[T], single: T) -> Vec<T> {
 }
 
 impl Plan {
+    /// Checks the structure of a plan read from a checkpoint (a crafted or damaged file must be
+    /// refused before anything indexes or allocates by it): every index in order and in range,
+    /// each group's grain count within the kernel's hard bound. Returns what is wrong.
+    pub fn check_carried(&self) -> Result<(), String> {
+        use grainwave_study::limits::{HARD_MAX_GRAINS, MAX_UNITS};
+        if (self.cases.len() + self.runs.len()) as f64 > MAX_UNITS {
+            return Err(format!("{} cases and {} runs (allowed: at most {MAX_UNITS} units)", self.cases.len(), self.runs.len()));
+        }
+        for (k, g) in self.groups.iter().enumerate() {
+            let (a, b) = match g.shape {
+                Shape::Slab { layers, grains_per_layer, .. } => (layers, grains_per_layer),
+                Shape::Pile { layers, top_grains } => (layers, top_grains + layers),
+            };
+            if g.index != k || g.cases.iter().any(|&c| c >= self.cases.len()) || a as f64 * b as f64 > HARD_MAX_GRAINS {
+                return Err(format!("group {k} (index {}, cases {:?}, {a} × {b} grains) does not fit the plan", g.index, g.cases));
+            }
+        }
+        for (k, c) in self.cases.iter().enumerate() {
+            if c.index != k || c.group >= self.groups.len() {
+                return Err(format!("case {k} (index {}, group {}) does not fit the plan", c.index, c.group));
+            }
+        }
+        for (k, r) in self.runs.iter().enumerate() {
+            if r.index != k || r.case >= self.cases.len() {
+                return Err(format!("run {k} (index {}, case {}) does not fit the plan", r.index, r.case));
+            }
+        }
+        Ok(())
+    }
+
     /// The plan of a (validated) config.
     pub fn new(cfg: &E3Config) -> Plan {
         let mut plan = Plan { groups: Vec::new(), cases: Vec::new(), runs: Vec::new() };

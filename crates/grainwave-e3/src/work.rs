@@ -383,16 +383,16 @@ fn units(cfg: &E3Config, plan: &Plan) -> (Vec<Unit>, Vec<Kind>) {
     let mut units = Vec::new();
     let mut kinds = Vec::new();
     for c in &plan.cases {
-        units.push(Unit { id: format!("reference {}", c.label), kind: "reference states", inputs: vec![] });
+        units.push(Unit { id: format!("reference {}", c.label), kind: "reference states".into(), inputs: vec![] });
         kinds.push(Kind::Reference(c.index));
     }
     for r in &plan.runs {
-        units.push(Unit { id: format!("run {}/{}", plan.cases[r.case].label, r.label), kind: "response runs", inputs: vec![r.case] });
+        units.push(Unit { id: format!("run {}/{}", plan.cases[r.case].label, r.label), kind: "response runs".into(), inputs: vec![r.case] });
         kinds.push(Kind::Run(r.index));
     }
     if cfg.first_opening.bisection {
         for c in &plan.cases {
-            units.push(Unit { id: format!("bisection {}", c.label), kind: "first-opening bisections", inputs: vec![c.index] });
+            units.push(Unit { id: format!("bisection {}", c.label), kind: "first-opening bisections".into(), inputs: vec![c.index] });
             kinds.push(Kind::Bisection(c.index));
         }
     }

@@ -376,10 +376,37 @@ fn interrupted_runs_resume_to_the_same_bits() {
             }
         }
         assert!(!split.join("summary.json").exists());
+        let ck = split.join("checkpoint.gwck");
+        let state: e3::E3State = grainwave_core::checkpoint::load(&ck, e3::TAG).unwrap();
+        // the state carries its plan; one whose done flags do not fit it is refused on reading
+        let mut crafted = state.clone();
+        crafted.runs_done.push(true);
+        let bytes = grainwave_core::checkpoint::encode(e3::TAG, &crafted).unwrap();
+        let err = grainwave_core::checkpoint::decode::<e3::E3State>(&bytes, e3::TAG, "crafted").unwrap_err().to_string();
+        assert!(err.contains("inconsistent") && err.contains("done flags"), "{err}");
+        let mut crafted = state.clone();
+        crafted.plan.runs[0].case = crafted.plan.cases.len();
+        let bytes = grainwave_core::checkpoint::encode(e3::TAG, &crafted).unwrap();
+        assert!(grainwave_core::checkpoint::decode::<e3::E3State>(&bytes, e3::TAG, "crafted").is_err());
+        if after == 40 {
+            // a checkpoint of the earlier layout (no plan, the earlier tag) resumes to the same
+            // bits
+            #[derive(serde::Serialize)]
+            struct EarlierLayout<'a> {
+                #[serde(with = "grainwave_study::config::toml_text")]
+                config: &'a e3::E3Config,
+                references_done: Vec<bool>,
+                runs_done: Vec<bool>,
+                finished: bool,
+            }
+            let earlier = EarlierLayout { config: &state.config, references_done: state.references_done.clone(), runs_done: state.runs_done.clone(), finished: false };
+            grainwave_core::checkpoint::save(&ck, e3::EARLIER_TAG, &earlier).unwrap();
+        }
         let mut rep = SilentReporter;
         let mut ctx = RunContext::new(&split, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
         crate::REGISTRY.resume(&split, &mut ctx).unwrap();
         assert_eq!(result_files(&straight), result_files(&split), "interrupted after {after} reports");
+        assert_eq!(grainwave_study::protocol::checkpoint_tag(&split).unwrap().1, e3::TAG);
         // a finished run resumes to the same files, and `grainwave plot` re-makes them identically
         crate::REGISTRY.resume(&split, &mut ctx).unwrap();
         assert_eq!(result_files(&straight), result_files(&split));

@@ -239,7 +239,7 @@ impl grainwave_study::study::Protocol for SimulationProtocol {
     }
     fn plan(_: &Prepared) -> Vec<grainwave_study::work::Unit> {
         // one unit, checkpointed as a whole at fixed step numbers
-        vec![grainwave_study::work::Unit { id: "simulation".into(), kind: "simulations", inputs: Vec::new() }]
+        vec![grainwave_study::work::Unit { id: "simulation".into(), kind: "simulations".into(), inputs: Vec::new() }]
     }
     fn start(spec: Prepared) -> SimulationState {
         SimulationState::new(spec)

@@ -27,6 +27,8 @@ pub struct Entry {
     pub name: &'static str,
     /// Content tag of its state in `checkpoint.gwck`.
     pub tag: &'static str,
+    /// Content tags of earlier layouts of its state that it still reads ([`Protocol::upgrade`]).
+    pub earlier_tags: &'static [&'static str],
     /// Introduction of its section of the config reference.
     pub reference: &'static str,
     /// The JSON schema of its raw config.
@@ -96,15 +98,25 @@ fn run_with<P: Protocol>(src: &ConfigSource, ctx: &mut RunContext<'_>) -> Result
     finish::<P>(&mut state, ctx)
 }
 
+/// The state in checkpoint `file`: the current layout, or an earlier one through
+/// [`Protocol::upgrade`].
+fn load<P: Protocol>(file: &Path) -> Result<P::State> {
+    let (_, tag) = checkpoint_tag(file)?;
+    if tag != P::TAG && P::EARLIER_TAGS.contains(&tag.as_str()) {
+        return P::upgrade(&tag, file);
+    }
+    load_state(file, P::TAG)
+}
+
 fn resume_with<P: Protocol>(dir: &Path, file: &Path, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
-    let mut state: P::State = load_state(file, P::TAG)?;
+    let mut state: P::State = load::<P>(file)?;
     belongs_to(dir, P::config(&state))?;
     ctx.log(&format!("resuming from {}", file.display()));
     finish::<P>(&mut state, ctx)
 }
 
 fn plot_with<P: Protocol>(dir: &Path, file: &Path) -> Result<Vec<String>> {
-    let state: P::State = load_state(file, P::TAG)?;
+    let state: P::State = load::<P>(file)?;
     P::replot(dir, &state)
 }
 
@@ -122,6 +134,7 @@ pub const fn entry<P: Protocol>() -> Entry {
     Entry {
         name: P::NAME,
         tag: P::TAG,
+        earlier_tags: P::EARLIER_TAGS,
         reference: P::REFERENCE,
         schema: schema::<P>,
         check: check_with::<P>,
@@ -211,7 +224,7 @@ impl Registry {
     fn by_tag(&self, dir: &Path, tag: &str, what: &str) -> Result<&'static Entry> {
         self.protocols
             .iter()
-            .find(|p| p.tag == tag)
+            .find(|p| p.tag == tag || p.earlier_tags.contains(&tag))
             .ok_or_else(|| ExperimentError::Resume { path: dir.to_path_buf(), reason: format!("its checkpoint holds `{tag}`, which {what}") })
     }
 

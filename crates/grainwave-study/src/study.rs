@@ -13,8 +13,10 @@
 //!   with the *plan* of the run where the study has one: its units of work (samples, reference
 //!   states, response runs…) with stable ids and declared inputs ([`crate::work`]).
 //! * `State` is the whole resumable state of a run, written to `checkpoint.gwck`; it carries
-//!   the resolved config so that `grainwave resume` can check that a checkpoint belongs to its
-//!   directory.
+//!   the spec (the resolved config and the plan made from it), so that `run`, `resume`, `plot`
+//!   and the worker processes never validate or plan again, and `grainwave resume` can check
+//!   that a checkpoint belongs to its directory. A study that changes its state's layout gives
+//!   it a new content tag and reads the earlier one with [`Protocol::upgrade`].
 //! * `run` executes the plan (the units on the [`crate::work::Scheduler`], which persists each
 //!   result and skips the finished ones on resume), aggregates the results in the order of the
 //!   unit ids (so the bits do not depend on the thread count or the completion order), writes
@@ -73,4 +75,18 @@ pub trait Protocol: 'static {
     /// Re-makes the plots (and tables) of the run in `dir` from its saved data; returns the files
     /// written, relative to `dir`.
     fn replot(dir: &Path, state: &Self::State) -> Result<Vec<String>>;
+
+    /// Content tags of earlier layouts of `State` that [`Protocol::upgrade`] still reads
+    /// (checkpoints written by earlier versions); empty when there is none.
+    const EARLIER_TAGS: &'static [&'static str] = &[];
+    /// Reads checkpoint `file`, whose content tag `tag` is one of [`Protocol::EARLIER_TAGS`], into
+    /// the current `State`. This is the one place where a state is made again from the config an
+    /// earlier layout carried (a run and its resumption otherwise use the spec the state holds);
+    /// the resumed run then saves the current layout. The default refuses.
+    fn upgrade(tag: &str, file: &Path) -> Result<Self::State> {
+        Err(crate::error::ExperimentError::Resume {
+            path: file.to_path_buf(),
+            reason: format!("its checkpoint holds `{tag}`, an earlier layout of the {} state that this version does not read", Self::NAME),
+        })
+    }
 }

@@ -49,15 +49,15 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 use std::sync::{Arc, Condvar, Mutex};
 
-/// One unit of work of a plan.
-#[derive(Clone, Debug, PartialEq, Eq)]
+/// One unit of work of a plan (serializable: a study's state carries its plan).
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 pub struct Unit {
     /// Stable id, unique in the plan (e.g. `sample p1e-4_N40/s0003`, `run mu0.5_s1/F0.1`):
     /// the same config gives the same ids.
     pub id: String,
     /// What kind of unit it is, in the plural ("samples", "response runs"): progress and
     /// failures are reported by kind.
-    pub kind: &'static str,
+    pub kind: std::borrow::Cow<'static, str>,
     /// Indices (in the plan) of the units whose results this one reads.
     pub inputs: Vec<usize>,
 }
@@ -422,9 +422,9 @@ impl<'w, W: Work> Scheduler<'w, W> {
         if !failures.is_empty() {
             // failures of one kind are counted among the units of that kind that were started
             let ran: Vec<usize> = to_run.iter().copied().filter(|&k| started[k]).collect();
-            let kind = units[failed[0]].kind;
-            let e = if failed.iter().all(|&k| units[k].kind == kind) {
-                crate::protocol::failed_units(kind, ran.iter().filter(|&&k| units[k].kind == kind).count(), failures)
+            let kind = &units[failed[0]].kind;
+            let e = if failed.iter().all(|&k| units[k].kind == *kind) {
+                crate::protocol::failed_units(kind, ran.iter().filter(|&&k| units[k].kind == *kind).count(), failures)
             } else {
                 crate::protocol::failed_units("units", ran.len(), failures)
             };
@@ -671,8 +671,8 @@ struct Queue {
 fn kinds(units: &[Unit], ks: impl Iterator<Item = usize>) -> String {
     let mut v: Vec<&str> = Vec::new();
     for k in ks {
-        if !v.contains(&units[k].kind) {
-            v.push(units[k].kind);
+        if !v.contains(&&*units[k].kind) {
+            v.push(&units[k].kind);
         }
     }
     v.join(", ")
@@ -705,7 +705,7 @@ mod tests {
     impl Squares {
         fn new(dir: &Path, n: usize) -> Self {
             // units 0..n/2 have no inputs; each later unit reads the two before it
-            let units = (0..n).map(|k| Unit { id: format!("u{k:02}"), kind: "units", inputs: if k < n / 2 { vec![] } else { vec![k - 2, k - 1] } }).collect();
+            let units = (0..n).map(|k| Unit { id: format!("u{k:02}"), kind: "units".into(), inputs: if k < n / 2 { vec![] } else { vec![k - 2, k - 1] } }).collect();
             Squares { dir: dir.to_path_buf(), units, fail: None, interrupt_at: None, runs: AtomicUsize::new(0), local_only: None, ran: Mutex::new(Vec::new()), pause: std::time::Duration::ZERO }
         }
         fn file(&self, k: usize) -> std::path::PathBuf {
@@ -867,9 +867,9 @@ mod tests {
         let dir = temp("overtake");
         let w = Overtake {
             units: vec![
-                Unit { id: "slow".into(), kind: "units", inputs: vec![] },
-                Unit { id: "quick".into(), kind: "units", inputs: vec![] },
-                Unit { id: "after-quick".into(), kind: "units", inputs: vec![1] },
+                Unit { id: "slow".into(), kind: "units".into(), inputs: vec![] },
+                Unit { id: "quick".into(), kind: "units".into(), inputs: vec![] },
+                Unit { id: "after-quick".into(), kind: "units".into(), inputs: vec![1] },
             ],
             dir: dir.clone(),
             started2: AtomicBool::new(false),

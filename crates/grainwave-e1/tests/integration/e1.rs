@@ -435,6 +435,40 @@ fn outputs_and_checkpoint() {
     let reported = summary.report["sample_seconds"].as_f64().unwrap();
     // same numbers summed in possibly another order: rounding only
     assert!((reported - sum).abs() <= 1e-9 * sum.max(1.0), "sample_seconds {reported} vs Σ sample seconds {sum}");
+
+    // The state carries its plan. A checkpoint of the earlier layout (the config only, under the
+    // earlier tag) still plots and resumes: the resumed run finds every sample done, writes the
+    // same summary and saves the current layout.
+    #[derive(serde::Serialize)]
+    struct EarlierLayout<'a> {
+        #[serde(with = "grainwave_study::config::toml_text")]
+        config: &'a e1::E1Config,
+        finished: bool,
+    }
+    let ck = dir.join("checkpoint.gwck");
+    grainwave_core::checkpoint::save(&ck, e1::EARLIER_TAG, &EarlierLayout { config: &state.plan.config, finished: false }).unwrap();
+    assert!(crate::REGISTRY.plot(&dir).is_ok(), "plot from the earlier layout");
+    let before = std::fs::read_to_string(dir.join("groups.csv")).unwrap();
+    let mut rep = SilentReporter;
+    let mut ctx = RunContext::new(&dir, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
+    let resumed = crate::REGISTRY.resume(&dir, &mut ctx).unwrap();
+    assert_eq!(resumed.report["groups"], summary.report["groups"]);
+    assert_eq!(std::fs::read_to_string(dir.join("groups.csv")).unwrap(), before);
+    let (_, tag) = grainwave_study::protocol::checkpoint_tag(&dir).unwrap();
+    assert_eq!(tag, e1::TAG);
+    let again: E1State = grainwave_core::checkpoint::load(&ck, e1::TAG).unwrap();
+    assert!(again.finished && again.plan.tasks == state.plan.tasks && again.plan.groups == state.plan.groups);
+    // a carried plan that does not hold together is refused when the checkpoint is read, before
+    // anything indexes by it
+    let mut crafted = state.clone();
+    crafted.plan.tasks[0].group = crafted.plan.groups.len();
+    let bytes = grainwave_core::checkpoint::encode(e1::TAG, &crafted).unwrap();
+    let err = grainwave_core::checkpoint::decode::<E1State>(&bytes, e1::TAG, "crafted").unwrap_err().to_string();
+    assert!(err.contains("inconsistent") && err.contains("task 0"), "{err}");
+    let mut crafted = state.clone();
+    crafted.plan.groups[0].times.push(f64::NAN);
+    let bytes = grainwave_core::checkpoint::encode(e1::TAG, &crafted).unwrap();
+    assert!(grainwave_core::checkpoint::decode::<E1State>(&bytes, e1::TAG, "crafted").is_err());
 }
 
 fn check_err(text: &str) -> grainwave_study::config::ConfigError {
