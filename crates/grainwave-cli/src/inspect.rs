@@ -276,7 +276,11 @@ fn describe_dir(dir: &Path) -> Result<Vec<String>> {
     }
     if dir.join("checkpoint.gwck").exists() {
         v.push(String::new());
-        v.extend(describe_checkpoint(&dir.join("checkpoint.gwck"), &grainwave_experiments::engine::read_bytes(&dir.join("checkpoint.gwck")).map_err(grainwave_experiments::ExperimentError::from)?)?);
+        let lines = describe_checkpoint(&dir.join("checkpoint.gwck"), &grainwave_experiments::engine::read_bytes(&dir.join("checkpoint.gwck")).map_err(grainwave_experiments::ExperimentError::from)?)?;
+        // the checkpoint of a failed run is the state saved before the failure, not a run in progress
+        let failed = grainwave_experiments::protocol::failure_of(dir).is_some();
+        let in_progress = "in progress — continue with `grainwave resume DIR`";
+        v.extend(lines.into_iter().map(|l| if failed { l.replace(in_progress, "saved before the failure (`grainwave resume --retry DIR` continues from it)") } else { l }));
     }
     Ok(v)
 }

@@ -125,24 +125,48 @@ pub enum SizeDistribution {
     },
 }
 
+/// Smallest and largest radius a grain may have [length]: masses and moments of inertia go as
+/// R⁵ at most (a sphere's I = 2/5 ρ (4/3 π) R⁵), which must stay a normal, finite f64
+/// (1e-60⁵ = 1e-300 > 2.2e-308, 1e60⁵ = 1e300 < 1.8e308). A radius outside, such as the 0 that
+/// `mean_diameter = 5e-324` rounds to, would give zero or infinite masses and cell sizes that
+/// placement cannot grow from.
+pub const RADIUS_RANGE: (f64, f64) = (1e-60, 1e60);
+
+/// Checks that radius `r`, which `field = value` gives (itself, or the smallest or largest radius
+/// it allows), is in [`RADIUS_RANGE`].
+fn require_radius(field: &str, value: f64, r: f64, what: &str) -> Result<()> {
+    let (lo, hi) = RADIUS_RANGE;
+    if r.is_finite() && r >= lo && r <= hi {
+        Ok(())
+    } else {
+        Err(CoreError::invalid(field, format!("{value:?}"), format!("{what} between {lo:e} and {hi:e}, here {r:?} (masses and moments of inertia ∝ R⁵ must be representable)")))
+    }
+}
+
 impl SizeDistribution {
-    /// Validates the parameters.
+    /// Validates the parameters: every radius the distribution can draw lies in
+    /// [`RADIUS_RANGE`].
     pub fn validate(&self) -> Result<()> {
         match self {
-            SizeDistribution::Monodisperse { radius } => require_positive("radius", *radius),
+            SizeDistribution::Monodisperse { radius } => {
+                require_positive("radius", *radius)?;
+                require_radius("radius", *radius, *radius, "a radius")
+            }
             SizeDistribution::UniformDiameter { mean_diameter, spread } => {
                 require_positive("mean_diameter", *mean_diameter)?;
                 if !(0.0..1.0).contains(spread) {
                     return Err(CoreError::invalid("spread", spread, "a number in [0, 1)"));
                 }
-                Ok(())
+                require_radius("mean_diameter", *mean_diameter, 0.5 * mean_diameter * (1.0 + spread), "a largest radius d̄(1 + a)/2")?;
+                require_radius("mean_diameter", *mean_diameter, 0.5 * mean_diameter * (1.0 - spread), "a smallest radius d̄(1 − a)/2")
             }
             SizeDistribution::UniformRadius { max_radius, delta } => {
                 require_positive("max_radius", *max_radius)?;
                 if !(0.0..1.0).contains(delta) {
                     return Err(CoreError::invalid("delta", delta, "a number in [0, 1)"));
                 }
-                Ok(())
+                require_radius("max_radius", *max_radius, *max_radius, "a radius")?;
+                require_radius("max_radius", *max_radius, max_radius * (1.0 - delta), "a smallest radius R̄(1 − δ)")
             }
             SizeDistribution::Explicit { radii } => {
                 if radii.is_empty() {
@@ -150,6 +174,7 @@ impl SizeDistribution {
                 }
                 for (k, r) in radii.iter().enumerate() {
                     require_positive(&format!("radii[{k}]"), *r)?;
+                    require_radius(&format!("radii[{k}]"), *r, *r, "a radius")?;
                 }
                 Ok(())
             }
@@ -329,5 +354,20 @@ mod tests {
         let r = d.sample(10_000, &mut rng).unwrap();
         assert!(r.iter().all(|&x| (0.75..=1.0).contains(&x)));
         assert!(SizeDistribution::Monodisperse { radius: -1.0 }.validate().is_err());
+        // radii whose R⁵ (masses, moments of inertia) is not a normal finite number are refused,
+        // by the smallest and the largest radius a distribution can draw
+        for (d, ok) in [
+            (SizeDistribution::UniformDiameter { mean_diameter: 5e-324, spread: 0.0 }, false),
+            (SizeDistribution::UniformDiameter { mean_diameter: 1e-50, spread: 0.5 }, true),
+            (SizeDistribution::UniformDiameter { mean_diameter: 1.0, spread: 1.0 - 1e-70 }, false),
+            (SizeDistribution::UniformRadius { max_radius: 1e61, delta: 0.0 }, false),
+            (SizeDistribution::UniformRadius { max_radius: 1e59, delta: 0.5 }, true),
+            (SizeDistribution::Monodisperse { radius: 1e-61 }, false),
+            (SizeDistribution::Explicit { radii: vec![1.0, 1e-65] }, false),
+        ] {
+            assert_eq!(d.validate().is_ok(), ok, "{d:?}");
+        }
+        let e = SizeDistribution::UniformDiameter { mean_diameter: 5e-324, spread: 0.0 }.validate().unwrap_err().to_string();
+        assert!(e.contains("mean_diameter") && e.contains("5e-324") && e.contains("between 1e-60 and 1e60"), "{e}");
     }
 }

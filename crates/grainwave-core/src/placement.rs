@@ -40,6 +40,17 @@ pub fn random_gas<D: Dim>(
     // size is bounded by the grain count whatever the box size. The overlap test is exact, so
     // the cell size does not change which positions are accepted.
     let mut cell = 2.0 * r_max;
+    // the loop below grows `cell` geometrically until the grid is small enough: it ends only
+    // from a cell > 0 in a box of finite lengths
+    if !(cell > 0.0 && cell.is_finite()) {
+        return Err(CoreError::invalid("largest radius", r_max, "a finite radius > 0"));
+    }
+    for k in 0..D::D {
+        let l = hi.get(k) - lo.get(k);
+        if !l.is_finite() {
+            return Err(CoreError::invalid(format!("box size[{k}]"), l, "a finite length (a gas fraction or density too small for the grains?)"));
+        }
+    }
     let cap = (4 * n).max(27);
     let mut dims = [1usize; 3];
     loop {
@@ -159,6 +170,19 @@ mod tests {
     use super::*;
     use crate::dim::{D2, D3};
     use rand::SeedableRng;
+
+    #[test]
+    fn a_zero_radius_or_an_infinite_box_is_refused_not_looped_on() {
+        // the grid-sizing loop grows the cell by × 1.26 from the largest diameter: from 0, or in
+        // a box of infinite length, it would never end
+        let mut rng = ChaCha8Rng::seed_from_u64(1);
+        let hi = glam::DVec2::new(10.0, 10.0);
+        let e = random_gas::<D2>(&[0.0, 0.0], glam::DVec2::ZERO, hi, [true, true, false], &mut rng, 10).unwrap_err();
+        assert!(e.to_string().contains("largest radius"), "{e}");
+        let tall = glam::DVec2::new(10.0, f64::INFINITY);
+        let e = random_gas::<D2>(&[0.5, 0.5], glam::DVec2::ZERO, tall, [false; 3], &mut rng, 10).unwrap_err();
+        assert!(e.to_string().contains("finite length"), "{e}");
+    }
 
     /// Checks a dense periodic gas pair by pair against the domain's minimum image (an
     /// independent all-pairs test, not the placement's cell search), in a still and in a sheared

@@ -196,8 +196,10 @@ pub fn plan(src: &ConfigSource, cfg: &E1Config) -> Result<Plan, ConfigError> {
     }
     let mut config = cfg.clone();
     let pc = &cfg.preparation;
-    if !(pc.gas_fraction > 0.0 && pc.gas_fraction < 0.6) {
-        return Err(err(src, "preparation.gas_fraction", format!("{} (allowed: a fraction in (0, 0.6))", pc.gas_fraction)));
+    // below 1e-3 the gas box is a thousand times the packing's height (and at 5e-324 infinite):
+    // the piston would take longer to close it than any preparation limit allows
+    if !(pc.gas_fraction >= 1e-3 && pc.gas_fraction < 0.6) {
+        return Err(err(src, "preparation.gas_fraction", format!("{} (allowed: a fraction in [0.001, 0.6))", pc.gas_fraction)));
     }
     if let Some(v) = pc.initial_speed {
         if !(v.is_finite() && v >= 0.0) {

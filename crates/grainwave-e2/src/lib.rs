@@ -248,8 +248,9 @@ pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
     if !(0.0..1.0).contains(&p.polydispersity) {
         return Err(src.error_at_key("packing.polydispersity", format!("{} (allowed: a in [0, 1))", p.polydispersity)));
     }
-    if !(p.gas_fraction > 0.0 && p.gas_fraction <= 0.5) {
-        return Err(src.error_at_key("packing.gas_fraction", format!("{} (allowed: a solid fraction in (0, 0.5])", p.gas_fraction)));
+    // below 1e-3 the gas box is a thousand times the packing's area (and at 5e-324 infinite)
+    if !(p.gas_fraction >= 1e-3 && p.gas_fraction <= 0.5) {
+        return Err(src.error_at_key("packing.gas_fraction", format!("{} (allowed: a solid fraction in [0.001, 0.5])", p.gas_fraction)));
     }
     let m = &cfg.material;
     positive(src, "material.normal_stiffness", m.normal_stiffness)?;
@@ -293,18 +294,20 @@ pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
     if !cfg.replays.is_empty() && cfg.source.dir.is_none() && l.checkpoint_strain == 0.0 {
         return Err(src.error_at_key("loading.checkpoint_strain", "0 writes no checkpoint, but `[[replays]]` need them (allowed: a strain > 0)"));
     }
-    let mut names = std::collections::BTreeSet::new();
+    // names of the replays so far → their index: one lookup per `from`, so that checking n chained
+    // replays takes n log n, not n² (30 000 chained replays took 80 s)
+    let mut names: std::collections::BTreeMap<String, usize> = std::collections::BTreeMap::new();
     for (k, r) in cfg.replays.iter().enumerate() {
         let key = |s: &str| format!("replays[{k}].{s}");
         let name = r.name.clone().unwrap_or(format!("r{k}"));
         if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_') {
-            return Err(src.error_at_key(&key("name"), format!("`{name}` (allowed: letters, digits, `-`, `_`)")));
+            return Err(src.error_at_key(&key("name"), format!("`{}` (allowed: letters, digits, `-`, `_`)", grainwave_study::config::clip(&name, grainwave_study::config::MAX_ECHO_CHARS))));
         }
-        if !names.insert(name.clone()) {
+        if names.contains_key(&name) {
             return Err(src.error_at_key(&key("name"), format!("`{name}` is used twice (each replay writes replays/<name>/)")));
         }
         if let Some(from) = &r.from {
-            match cfg.replays[..k].iter().enumerate().find(|(j, q)| q.name.clone().unwrap_or(format!("r{j}")) == *from) {
+            match names.get(from).map(|&j| (j, &cfg.replays[j])) {
                 // with `source.dir`, a single replay of that run (its final.gwck is read at run time)
                 None if cfg.source.dir.is_some() => {}
                 None => {
@@ -322,6 +325,7 @@ pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
                 _ => {}
             }
         }
+        names.insert(name, k);
         if r.checkpoint < -1 {
             return Err(src.error_at_key(&key("checkpoint"), format!("{} (allowed: a checkpoint index ≥ 0, or −1 for the last)", r.checkpoint)));
         }

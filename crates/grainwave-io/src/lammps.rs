@@ -470,6 +470,22 @@ pub fn parse_data(text: &str, source: &str) -> Result<LammpsData> {
         data.vel[k] = [v[0], v[1], v[2]];
         data.omega[k] = [v[3], v[4], v[5]];
     }
+    // Positions inside the box, or at most one box length (plus the tilts) outside it, as LAMMPS
+    // writes atoms that moved across a periodic face since the last re-neighboring; a
+    // coordinate such as 1e300 is a damaged file, not a periodic image.
+    let slack = data.tilt.iter().map(|t| t.abs()).sum::<f64>();
+    for (k, p) in data.pos.iter().enumerate() {
+        for axis in 0..3 {
+            let [lo, hi] = data.bounds[axis];
+            let l = hi - lo;
+            if !(p[axis].is_finite() && p[axis] >= lo - l - slack && p[axis] <= hi + l + slack) {
+                return Err(err(
+                    0,
+                    format!("atom {} has {} = {} (allowed: inside the box [{lo}, {hi}], or within one box length of it)", data.id[k], ["x", "y", "z"][axis], p[axis]),
+                ));
+            }
+        }
+    }
     Ok(data)
 }
 
@@ -690,6 +706,25 @@ Velocities
         assert!(parse_data(&bonds, "f").unwrap_err().to_string().contains("2 bonds"));
         let point = SMALL_3D.replace("4 1 1.2 2", "4 1 0 2");
         assert!(parse_data(&point, "f").unwrap_err().to_string().contains("diameter 0"));
+    }
+
+    #[test]
+    fn atoms_far_outside_the_box_are_refused() {
+        // less than one box length outside (a periodic image LAMMPS may write) is read; 1e300 is not
+        let atoms = SMALL_3D.find("Atoms").unwrap();
+        let line_start = SMALL_3D[atoms..].find("\n\n").unwrap() + atoms + 2;
+        let line_end = SMALL_3D[line_start..].find('\n').unwrap() + line_start;
+        let line = &SMALL_3D[line_start..line_end];
+        let mut w: Vec<String> = line.split_whitespace().map(String::from).collect();
+        for (x, ok) in [("15.0", true), ("-8", true), ("1e300", false), ("inf", false), ("-1e30", false)] {
+            w[4] = x.to_string();
+            let text = format!("{}{}{}", &SMALL_3D[..line_start], w.join(" "), &SMALL_3D[line_end..]);
+            let r = parse_data(&text, "f");
+            assert_eq!(r.is_ok(), ok, "x = {x}: {r:?}");
+            if let Err(e) = r {
+                assert!(e.to_string().contains(&format!("has x = {}", x.parse::<f64>().unwrap())), "{e}");
+            }
+        }
     }
 
     #[test]

@@ -94,6 +94,12 @@ fn prepare_directory(out: &Path, mode: UsedDirectory) -> Result<()> {
             reason: format!("it holds {} file(s) that are not grainwave outputs; give a new or empty directory (`--overwrite` clears only grainwave output directories)", others.len()),
         });
     }
+    if mode == UsedDirectory::Refuse && !out.join(CHECKPOINT_FILE).exists() && !out.join(crate::outputs::SUMMARY_FILE).exists() {
+        return Err(ExperimentError::UsedDirectory {
+            dir: out.to_path_buf(),
+            reason: "it holds the start of an earlier run that stopped before it saved anything (no `checkpoint.gwck`: nothing to resume); start it again with `--overwrite`, or give another `--out`".into(),
+        });
+    }
     if mode == UsedDirectory::Refuse {
         return Err(ExperimentError::UsedDirectory {
             dir: out.to_path_buf(),
@@ -410,7 +416,14 @@ pub fn checkpoint_tag(path: &Path) -> Result<(PathBuf, String)> {
     if !file.exists() {
         return Err(ExperimentError::Resume {
             path: path.to_path_buf(),
-            reason: format!("no `{CHECKPOINT_FILE}` there (was the run started with `grainwave run … --out {}`?)", path.display()),
+            reason: if path.join(crate::outputs::RESOLVED_CONFIG_FILE).exists() {
+                format!(
+                    "no `{CHECKPOINT_FILE}` there: the run stopped before it saved anything, so there is nothing to resume; start it again with `grainwave run CONFIG --out {} --overwrite`",
+                    path.display()
+                )
+            } else {
+                format!("no `{CHECKPOINT_FILE}` there (was the run started with `grainwave run … --out {}`?)", path.display())
+            },
         });
     }
     let bytes = grainwave_core::checkpoint::read_bytes(&file)?;

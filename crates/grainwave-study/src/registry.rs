@@ -80,6 +80,13 @@ fn plan_with<P: Protocol>(src: &ConfigSource) -> Result<Vec<Unit>, ConfigError> 
 
 fn finish<P: Protocol>(state: &mut P::State, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
     let out = ctx.out_dir().to_path_buf();
+    // A new run saves its starting state before it computes anything: a run killed at any
+    // moment leaves a directory that `grainwave resume` continues (a study's own saves come
+    // later — e2's every `output.save_every` seconds — and a kill before the first one used to
+    // leave a directory that neither `run` nor `resume` accepted).
+    if !ctx.path(crate::protocol::CHECKPOINT_FILE).exists() {
+        ctx.save_checkpoint(P::TAG, &*state)?;
+    }
     if let Some(link) = ctx.remote() {
         // the workers build the same plan from the same state
         let dir = std::fs::canonicalize(&out).unwrap_or_else(|_| out.clone());

@@ -294,7 +294,8 @@ fn a_blow_up_is_logged_marked_and_not_resumed_without_retry() {
     let (code, err) = gw(&["resume", d]);
     assert_eq!(code, 2, "{err}");
     assert!(err.contains("the run failed: numerical blow-up") && err.contains("--retry"), "{err}");
-    // --retry gets past the marker (here the run blew up before its first checkpoint: nothing to resume)
+    // --retry gets past the marker (here it resumes from the starting state, saved before the
+    // first step, and blows up again)
     let (code, err) = gw(&["resume", "--retry", d]);
     assert_ne!(code, 0, "{err}");
     assert!(!err.contains("the run failed"), "{err}");
@@ -482,4 +483,151 @@ fn a_config_from_a_pipe_is_still_read() {
     let o = child.wait_with_output().unwrap();
     assert_eq!(o.status.code(), Some(0), "{}", String::from_utf8_lossy(&o.stderr));
     assert!(String::from_utf8_lossy(&o.stdout).contains("valid"));
+}
+
+/// Starts the program with `args` (one worker thread, quiet), stderr captured.
+fn spawn(args: &[&str]) -> std::process::Child {
+    Command::new(BIN)
+        .args(["--threads", "1", "--quiet"])
+        .args(args)
+        .stderr(std::process::Stdio::piped())
+        .stdout(std::process::Stdio::null())
+        .spawn()
+        .expect("the program starts")
+}
+
+/// Waits up to `limit` for `child`; kills it and fails the test if it is still running.
+fn wait_at_most(child: &mut std::process::Child, limit: std::time::Duration, what: &str) -> (i32, String) {
+    let start = std::time::Instant::now();
+    loop {
+        if let Some(status) = child.try_wait().unwrap() {
+            let mut err = String::new();
+            let _ = std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut err);
+            return (status.code().unwrap_or(-1), err);
+        }
+        if start.elapsed() > limit {
+            let _ = child.kill();
+            let _ = child.wait();
+            panic!("{what}: still running after {limit:?}");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+}
+
+fn signal(child: &std::process::Child, sig: &str) {
+    let ok = Command::new("kill").args([sig, &child.id().to_string()]).status().unwrap().success();
+    assert!(ok, "kill {sig}");
+}
+
+#[test]
+fn a_radius_that_rounds_to_zero_is_refused_by_check() {
+    // before: check and run never answered (the placement grid's cell grew from 0 by × 1.26)
+    refused("sim-zero-radius.toml", "grains.size.mean_diameter", "between 1e-60 and 1e60");
+}
+
+#[test]
+fn a_gas_fraction_of_5e_324_is_refused_by_check() {
+    // before: check passed, run looped for ever sizing the placement grid of an infinite gas box
+    refused("e1-gas-fraction-5e-324.toml", "preparation.gas_fraction", "[0.001, 0.6)");
+    refused("e2-gas-fraction-5e-324.toml", "packing.gas_fraction", "[0.001, 0.5]");
+}
+
+#[test]
+fn a_speed_of_1e30_in_a_periodic_box_ends_with_a_diagnosis() {
+    // before: the periodic wrap subtracted one box length at a time from 1e30 × dt, for ever
+    let dir = out("speed-1e30");
+    let cfg = fixture("sim-speed-1e30-periodic.toml");
+    let mut child = spawn(&["run", cfg.to_str().unwrap(), "--out", dir.to_str().unwrap()]);
+    // generous for a loaded machine: the run takes milliseconds
+    let (code, err) = wait_at_most(&mut child, std::time::Duration::from_secs(60), "a run at 1e30");
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("blow-up"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn ctrl_c_is_honoured_whatever_the_preparation_chunk() {
+    // before: with check_every = 2^32 the preparation looked at the interrupt flag only between
+    // chunks; a Ctrl-C printed its message and the run went on for minutes
+    let dir = out("check-every");
+    let cfg = fixture("e1-check-every-2e32.toml");
+    let mut child = spawn(&["run", cfg.to_str().unwrap(), "--out", dir.to_str().unwrap()]);
+    // once the sample's preparation has begun (its directory exists), interrupt
+    let start = std::time::Instant::now();
+    while !dir.join("samples").exists() && start.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    std::thread::sleep(std::time::Duration::from_millis(500));
+    signal(&child, "-INT");
+    let (code, err) = wait_at_most(&mut child, std::time::Duration::from_secs(30), "an interrupted preparation");
+    assert_eq!(code, 130, "{err}");
+    assert!(dir.join("checkpoint.gwck").exists(), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn a_run_killed_at_once_resumes_and_a_directory_without_a_checkpoint_says_so() {
+    // before: e2 first saved after `output.save_every` = 300 s; a run killed earlier left only
+    // config.resolved.toml and run.log, which `run` refused (pointing to `resume`) and `resume`
+    // refused (no checkpoint). Now every run saves its starting state first.
+    let dir = out("killed");
+    let d = dir.to_str().unwrap();
+    let cfg = fixture("e2-small.toml");
+    let mut child = spawn(&["run", cfg.to_str().unwrap(), "--out", d]);
+    let start = std::time::Instant::now();
+    while !dir.join("checkpoint.gwck").exists() && start.elapsed().as_secs() < 60 {
+        std::thread::sleep(std::time::Duration::from_millis(10));
+    }
+    signal(&child, "-KILL");
+    let _ = child.wait();
+    assert!(dir.join("checkpoint.gwck").exists(), "no checkpoint within 60 s");
+    let (code, err) = gw(&["resume", d]);
+    assert_eq!(code, 0, "{err}");
+    assert!(dir.join("summary.json").exists());
+    // a directory left by an earlier version, which saved nothing before it was killed
+    let dead = out("dead-end");
+    std::fs::create_dir_all(&dead).unwrap();
+    std::fs::copy(dir.join("config.resolved.toml"), dead.join("config.resolved.toml")).unwrap();
+    std::fs::write(dead.join("run.log"), b"[     0.0 s] e2: preparing 400 disks\n").unwrap();
+    let dd = dead.to_str().unwrap();
+    let (code, err) = gw(&["resume", dd]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("nothing to resume") && err.contains("--overwrite"), "{err}");
+    let (code, err) = gw(&["run", cfg.to_str().unwrap(), "--out", dd]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("stopped before it saved anything") && err.contains("--overwrite") && !err.contains("grainwave resume"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+    let _ = std::fs::remove_dir_all(&dead);
+}
+
+/// An e2 config with `n` replays, each (after the first) `from` the one before.
+fn e2_chain(n: usize) -> String {
+    let mut s = String::from("experiment = \"e2\"\n[packing]\ncolumns = 10\nrows = 10\n[loading]\nfinal_strain = 2e-4\ncheckpoint_strain = 2e-5\n");
+    for k in 0..n {
+        s.push_str(&format!("[[replays]]\nname = \"r{k}\"\ncheckpoint = -1\nmodification = \"velocity_scale\"\n"));
+        if k > 0 {
+            s.push_str(&format!("from = \"r{}\"\n", k - 1));
+        }
+    }
+    s
+}
+
+#[test]
+fn a_long_chain_of_e2_replays_is_checked_without_a_quadratic_cost_and_the_count_is_bounded() {
+    // before: `check` compared each `from` with every earlier replay's name: 30 000 chained
+    // replays took 80 s, 180 000 (within the 16 MiB config limit) about 40 minutes; nothing
+    // bounded the count (100 001 replays were accepted)
+    let dir = out("chain");
+    std::fs::create_dir_all(&dir).unwrap();
+    let cfg = dir.join("chain.toml");
+    std::fs::write(&cfg, e2_chain(30_000)).unwrap();
+    let mut child = spawn(&["check", cfg.to_str().unwrap()]);
+    // a hang guard, not a timing: the check takes well under a second now
+    let (code, err) = wait_at_most(&mut child, std::time::Duration::from_secs(30), "check of 30 000 chained replays");
+    assert_eq!(code, 0, "{err}");
+    std::fs::write(&cfg, e2_chain(100_001)).unwrap();
+    let (code, err) = gw(&["check", cfg.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("`replays`") && err.contains("exceed the limit"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
 }

@@ -193,14 +193,24 @@ impl<D: Dim> Domain<D> {
                     let l = self.length(k);
                     let lo = self.lo.get(k);
                     let mut xk = x.get(k);
-                    // A grain moves far less than a cell length per step; loop for robustness.
-                    while xk >= lo + l {
+                    // A grain moves far less than a cell length per step: one period at most
+                    // (the same bits as before). Further out — a position of 1e30 read from a
+                    // file or reached in a blow-up, where x − L may equal x — in one step, so
+                    // that no coordinate makes this loop run for ever.
+                    if xk >= lo + l {
                         xk -= l;
                         image[k] += 1;
-                    }
-                    while xk < lo {
+                    } else if xk < lo {
                         xk += l;
                         image[k] -= 1;
+                    }
+                    if !(xk >= lo && xk < lo + l) && xk.is_finite() {
+                        let periods = ((xk - lo) / l).floor();
+                        xk = lo + (xk - lo).rem_euclid(l);
+                        if !(xk < lo + l) {
+                            xk = lo; // rem_euclid can round up to exactly l
+                        }
+                        image[k] = image[k].saturating_add(periods.clamp(i32::MIN as f64, i32::MAX as f64) as i32);
                     }
                     x.set(k, xk);
                 }
@@ -541,5 +551,24 @@ mod tests {
         assert_eq!(im[0], 1);
         assert!((x.x - 0.25).abs() < 1e-14 && x.y == 7.0);
         assert!((d.unwrapped(x, im).x - 10.25).abs() < 1e-14);
+        // far outside (a damaged file, a blow-up): one step, inside the cell, the image count
+        // moved by the number of periods; before, 1e30 − 10 == 1e30 and the loop never ended
+        for (x0, periods) in [(1e30, 1e29), (-1e30, -1e29), (1e300, 1e299), (35.5, 3.0), (-20.5, -3.0)] {
+            let mut x = DVec2::new(x0, 1.0);
+            let mut im = [0; 3];
+            d.wrap(&mut x, &mut im);
+            assert!((0.0..10.0).contains(&x.x), "{x0} → {}", x.x);
+            let expected = (periods as f64).clamp(i32::MIN as f64, i32::MAX as f64) as i32;
+            assert!((im[0] - expected).abs() <= 1, "{x0}: image {} (expected {expected})", im[0]);
+        }
+        // a period and a half out: the same as two single steps would give (35.5 − 30 = 5.5)
+        let mut x = DVec2::new(35.5, 1.0);
+        let mut im = [0; 3];
+        d.wrap(&mut x, &mut im);
+        assert_eq!((x.x, im[0]), (5.5, 3));
+        // non-finite positions are left to the blow-up checks, without looping
+        let mut x = DVec2::new(f64::INFINITY, 1.0);
+        d.wrap(&mut x, &mut [0; 3]);
+        assert!(x.x.is_infinite());
     }
 }
