@@ -73,4 +73,8 @@ pub trait Protocol: 'static {
     /// Re-makes the plots (and tables) of the run in `dir` from its saved data; returns the files
     /// written, relative to `dir`.
     fn replot(dir: &Path, state: &Self::State) -> Result<Vec<String>>;
+
+    /// Every file a run writes into its output directory, declared once
+    /// ([`crate::outputs::OutputFile`]; the common ones are [`crate::outputs::COMMON`]).
+    const OUTPUTS: &'static [crate::outputs::OutputFile];
 }
