@@ -140,8 +140,10 @@ pub const SUMMARY: OutputFile = OutputFile::always(SUMMARY_FILE, Format::Json, "
 pub const CHECKPOINT: OutputFile = OutputFile::always(crate::protocol::CHECKPOINT_FILE, Format::Checkpoint, "the complete state of the run (resume, inspect or re-plot it)");
 /// `run.log`: the log of the run (appended to by every resume).
 pub const LOG: OutputFile = OutputFile::always(crate::protocol::LOG_FILE, Format::Text, "log of the run, appended to by each resume");
-/// `.grainwave.lock`: the directory's lock while a run holds it (empty; left in place).
-pub const LOCK: OutputFile = OutputFile::always(crate::protocol::LOCK_FILE, Format::Text, "the directory's lock (empty; held by the process that runs in it)");
+/// `.grainwave.lock`: the directory's advisory lock, held by the process that runs in it and
+/// left in place afterwards (its text names the last holder's process id).
+pub const LOCK: OutputFile =
+    OutputFile::always(crate::protocol::LOCK_FILE, Format::Text, "the directory's advisory lock, held by the process that runs in it (its text: the last holder's process id)");
 /// `run.failed`: the failure marker with the diagnosis of a failed run.
 pub const FAILED: OutputFile = OutputFile::when(crate::protocol::FAILED_FILE, Format::Text, "the diagnosis of a failed run (`grainwave resume --retry` tries again)", "after a failure");
 /// The files every study's run directory has (the kernel writes them the same way for all).
