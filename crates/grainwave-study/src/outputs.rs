@@ -136,16 +136,19 @@ pub const RESOLVED_CONFIG: OutputFile =
     OutputFile::always(RESOLVED_CONFIG_FILE, Format::Toml, "the config with every default filled in; running it again gives the same results");
 /// `summary.json` ([`write_summary`]), written by every study at the end of a run.
 pub const SUMMARY: OutputFile = OutputFile::always(SUMMARY_FILE, Format::Json, "the report: every scalar result, with units, the version and the files written");
+// The names of the files below are the protocol module's (`protocol::CHECKPOINT_FILE` … are
+// these patterns), so that the two modules do not import each other.
+
 /// `checkpoint.gwck`: the resumable state of the run (`grainwave resume`, `inspect`, `plot`).
-pub const CHECKPOINT: OutputFile = OutputFile::always(crate::protocol::CHECKPOINT_FILE, Format::Checkpoint, "the complete state of the run (resume, inspect or re-plot it)");
+pub const CHECKPOINT: OutputFile = OutputFile::always("checkpoint.gwck", Format::Checkpoint, "the complete state of the run (resume, inspect or re-plot it)");
 /// `run.log`: the log of the run (appended to by every resume).
-pub const LOG: OutputFile = OutputFile::always(crate::protocol::LOG_FILE, Format::Text, "log of the run, appended to by each resume");
+pub const LOG: OutputFile = OutputFile::always("run.log", Format::Text, "log of the run, appended to by each resume");
 /// `.grainwave.lock`: the directory's advisory lock, held by the process that runs in it and
 /// left in place afterwards (its text names the last holder's process id).
 pub const LOCK: OutputFile =
-    OutputFile::always(crate::protocol::LOCK_FILE, Format::Text, "the directory's advisory lock, held by the process that runs in it (its text: the last holder's process id)");
+    OutputFile::always(".grainwave.lock", Format::Text, "the directory's advisory lock, held by the process that runs in it (its text: the last holder's process id)");
 /// `run.failed`: the failure marker with the diagnosis of a failed run.
-pub const FAILED: OutputFile = OutputFile::when(crate::protocol::FAILED_FILE, Format::Text, "the diagnosis of a failed run (`grainwave resume --retry` tries again)", "after a failure");
+pub const FAILED: OutputFile = OutputFile::when("run.failed", Format::Text, "the diagnosis of a failed run (`grainwave resume --retry` tries again)", "after a failure");
 /// The files every study's run directory has (the kernel writes them the same way for all).
 pub const COMMON: [OutputFile; 6] = [RESOLVED_CONFIG, SUMMARY, CHECKPOINT, LOG, LOCK, FAILED];
 
