@@ -274,6 +274,7 @@ fn describe_dir(dir: &Path) -> Result<Vec<String>> {
             v.push(format!("  {name:24} {:>10} bytes  {}", meta.len(), file_role(&name)));
         }
     }
+    v.extend(describe_declared(dir));
     if dir.join("checkpoint.gwck").exists() {
         v.push(String::new());
         let lines = describe_checkpoint(&dir.join("checkpoint.gwck"), &grainwave_experiments::engine::read_bytes(&dir.join("checkpoint.gwck")).map_err(grainwave_experiments::ExperimentError::from)?)?;
@@ -283,4 +284,56 @@ fn describe_dir(dir: &Path) -> Result<Vec<String>> {
         v.extend(lines.into_iter().map(|l| if failed { l.replace(in_progress, "saved before the failure (`grainwave resume --retry DIR` continues from it)") } else { l }));
     }
     Ok(v)
+}
+
+/// The most files of one declaration that [`describe_declared`] names one by one; more are
+/// counted under their pattern.
+const NAMED_PER_DECLARATION: usize = 8;
+
+/// The files under `dir` by the output declarations of its protocol (found from its
+/// `config.resolved.toml` or its checkpoint: `Registry::of_directory`): per declaration the files
+/// that match it (named, or counted when there are many) with its description, then the files
+/// that match no declaration.
+fn describe_declared(dir: &Path) -> Vec<String> {
+    let mut v = vec![String::new()];
+    let Some(entry) = grainwave_experiments::registry::REGISTRY.of_directory(dir) else {
+        v.push("  files: the protocol of this directory is unknown (no readable config.resolved.toml or checkpoint.gwck)".into());
+        return v;
+    };
+    let files = match grainwave_experiments::outputs::files_under(dir) {
+        Ok(f) => f,
+        Err(e) => {
+            v.push(format!("  files: cannot list the directory: {e}"));
+            return v;
+        }
+    };
+    v.push(format!("  files, by the outputs `{}` declares (docs/outputs.md):", entry.name));
+    let mut undeclared = Vec::new();
+    let mut by_declaration: Vec<Vec<&str>> = vec![Vec::new(); entry.outputs.len()];
+    for f in &files {
+        match entry.outputs.iter().position(|o| o.matches(f)) {
+            Some(k) => by_declaration[k].push(f.as_str()),
+            None => undeclared.push(f.as_str()),
+        }
+    }
+    for (o, found) in entry.outputs.iter().zip(&by_declaration) {
+        match found.len() {
+            0 => {}
+            n if n <= NAMED_PER_DECLARATION => {
+                for f in found {
+                    v.push(format!("    {f:40} {}: {}", o.format.name(), o.description));
+                }
+            }
+            n => v.push(format!("    {:40} {n} files, {}: {}", o.pattern, o.format.name(), o.description)),
+        }
+    }
+    if undeclared.is_empty() {
+        v.push(format!("  every file ({}) matches a declaration", files.len()));
+    } else {
+        v.push(format!("  {} file(s) match no declaration of `{}`:", undeclared.len(), entry.name));
+        for f in undeclared {
+            v.push(format!("    {f}"));
+        }
+    }
+    v
 }

@@ -170,7 +170,12 @@ enum Command {
         dir: PathBuf,
     },
     /// Print the config reference (Markdown; the source of docs/config.md)
-    Reference,
+    Reference {
+        /// Print the output reference instead: the files each study writes (the source of
+        /// docs/outputs.md).
+        #[arg(long)]
+        outputs: bool,
+    },
     /// Print shell completions
     Completions {
         /// Shell: bash, zsh, fish, elvish or powershell.
@@ -356,10 +361,11 @@ fn run(cli: &Cli) -> Result<()> {
             }
             Ok(())
         }
-        Command::Reference => {
+        Command::Reference { outputs } => {
             {
                 use std::io::Write as _;
-                let _ = write!(std::io::stdout().lock(), "{}", registry::reference_markdown());
+                let text = if *outputs { registry::outputs_markdown() } else { registry::reference_markdown() };
+                let _ = write!(std::io::stdout().lock(), "{text}");
             }
             Ok(())
         }

@@ -163,6 +163,38 @@ impl E1State {
     }
 }
 
+use grainwave_study::outputs::{Format, OutputFile};
+
+const PLOTS: &str = "output.plots = true";
+
+/// Every file an `e1` run writes into its output directory (docs/outputs.md); `<group>` is a
+/// parameter set's name, `<seed>` a sample's seed (4 digits).
+pub const OUTPUTS: &[OutputFile] = &[
+    grainwave_study::outputs::RESOLVED_CONFIG,
+    grainwave_study::outputs::SUMMARY,
+    grainwave_study::outputs::CHECKPOINT,
+    grainwave_study::outputs::LOG,
+    grainwave_study::outputs::LOCK,
+    grainwave_study::outputs::FAILED,
+    OutputFile::always("samples.csv", Format::Csv, "one row per finished sample: group, seed, grains, its measurements, failure (empty: none)"),
+    OutputFile::always("groups.csv", Format::Csv, "one row per parameter set: the ensemble means and spreads of the measurements"),
+    OutputFile::always("heights.csv", Format::Csv, "the packing heights of the samples, per group"),
+    OutputFile::when("pressures.csv", Format::Csv, "the measurements against the confining pressure", "with pressures"),
+    OutputFile::when("signals/<group>.csv", Format::Csv, "the transmitted signal against time: the mean, each sample (s<seed>), the closed form and damped variants where computed", "per group with signals"),
+    OutputFile::when("signals/<group>.npz", Format::Npz, "the same signals as NumPy arrays", "per group with signals"),
+    OutputFile::when("spectra/<group>.csv", Format::Csv, "the spectrum of the first sample of the group", "per group with a finished sample"),
+    OutputFile::when("spectra/<group>.npz", Format::Npz, "the same spectrum as NumPy arrays", "per group with a finished sample"),
+    OutputFile::when("histograms/<group>.csv", Format::Csv, "histograms of the contact angles and forces, pooled over the group's samples", "per group with statistics"),
+    OutputFile::when("histograms/<group>.npz", Format::Npz, "the same histograms as NumPy arrays", "per group with statistics"),
+    OutputFile::when("vtk/<group>_grains.vtp", Format::Vtp, "the first sample's grains, with displacement fields and rattler flags", "output.vtk = true, packings (not chains)"),
+    OutputFile::when("vtk/<group>_contacts.vtp", Format::Vtp, "the first sample's contact network", "output.vtk = true, packings (not chains)"),
+    OutputFile::when("plots/<plot>.png", Format::Png, "plots: signals, damped signals, spectra, contributions, angle and force histograms, networks, displacements, arrival times, amplitudes, widths, speeds, moduli", PLOTS),
+    OutputFile::when("plots/<plot>.svg", Format::Svg, "the same plots as SVG", PLOTS),
+    OutputFile::when("samples/<group>/s<seed>/result.gwck", Format::Checkpoint, "the result of one sample (its unit of work), reused on resume", "per finished sample"),
+    OutputFile::when("samples/<group>/s<seed>/packing.gwck", Format::Checkpoint, "the prepared packing of one sample, reused by runs with the same preparation keys", "per prepared packing"),
+    OutputFile::when("samples/<group>/s<seed>/preparing.gwck", Format::Checkpoint, "a preparation in progress (removed when it is done)", "while a preparation is unfinished"),
+];
+
 /// The `e1` protocol: its spec is the [`Plan`] (groups × seeds = samples, the units of work).
 pub struct E1Protocol;
 
@@ -175,6 +207,7 @@ impl grainwave_study::study::Protocol for E1Protocol {
     type Spec = Plan;
     type State = E1State;
     type Report = E1Report;
+    const OUTPUTS: &'static [OutputFile] = OUTPUTS;
 
     fn validate(src: &ConfigSource) -> Result<Plan, ConfigError> {
         prepare(src)

@@ -171,6 +171,113 @@ impl E2Spec {
     }
 }
 
+use grainwave_study::outputs::{Format, OutputFile};
+
+const PLOTS: &str = "output.plots = true";
+
+/// Every file an `e2` run writes into its output directory (docs/outputs.md). Times of the
+/// replays' files are in t_a, positions and distances in L*, speeds in v_a (`summary.json`'s
+/// `unit_system`).
+pub const OUTPUTS: &[OutputFile] = &[
+    grainwave_study::outputs::RESOLVED_CONFIG,
+    grainwave_study::outputs::SUMMARY,
+    grainwave_study::outputs::CHECKPOINT,
+    grainwave_study::outputs::LOG,
+    grainwave_study::outputs::LOCK,
+    grainwave_study::outputs::FAILED,
+    // the loading
+    OutputFile::when(
+        "loading.csv",
+        Format::Csv,
+        "the loading series: time [t*], strain_yy, strain_xx (compression positive), stress_yy, stress_xx [p*], sliding, contacts, kinetic_energy [p* L*²], step",
+        "unless source.dir is set",
+    ),
+    OutputFile::when("loading.npz", Format::Npz, "the same loading series as NumPy arrays", "unless source.dir is set"),
+    OutputFile::when(
+        "checkpoints/index.csv",
+        Format::Csv,
+        "the strain checkpoints: index, step, time [t*], strain_yy, strain_xx, stress_yy, stress_xx [p*], sliding, file, kind (full or reference)",
+        "unless source.dir is set",
+    ),
+    OutputFile::when("checkpoints/ck-<index>.gwck", Format::Checkpoint, "strain checkpoint <index> (6 digits) of the loading, replayed by `[[replays]]`", "unless source.dir is set"),
+    OutputFile::when("stress_strain.png", Format::Png, "σ_yy and σ_xx against ε_yy", PLOTS),
+    OutputFile::when("stress_strain.svg", Format::Svg, "the same plot as SVG", PLOTS),
+    OutputFile::when("sliding_strain.png", Format::Png, "sliding contacts M_s against ε_yy", PLOTS),
+    OutputFile::when("sliding_strain.svg", Format::Svg, "the same plot as SVG", PLOTS),
+    OutputFile::when("kinetic_energy_strain.png", Format::Png, "kinetic energy against ε_yy (log scale)", PLOTS),
+    OutputFile::when("kinetic_energy_strain.svg", Format::Svg, "the same plot as SVG", PLOTS),
+    // every replay
+    OutputFile::when("replays/<name>/report.gwck", Format::Checkpoint, "the finished replay's report (its unit of work's result)", "per replay"),
+    // paired replays, per amplitude <k> (index into `amplitudes`)
+    OutputFile::when("replays/<name>/a<k>_field.npy", Format::Npy, "δv field, shape (samples, grains, 2) [engine velocity]", "per amplitude of a paired replay, output.fields = true"),
+    OutputFile::when("replays/<name>/a<k>_times.npy", Format::Npy, "sample times of the field [t_a]", "per amplitude of a paired replay"),
+    OutputFile::when(
+        "replays/<name>/a<k>_arrivals.csv",
+        Format::Csv,
+        "per grain: id, x, y [L*], distance from the source [L*], arrival [t_a] (empty: no arrival)",
+        "per amplitude of a paired replay",
+    ),
+    OutputFile::when(
+        "replays/<name>/a<k>_sliding.csv",
+        Format::Csv,
+        "per sample: time [t_a], sliding (M_s with the perturbation), sliding_reference (without)",
+        "per amplitude of a paired replay",
+    ),
+    OutputFile::when("replays/<name>/a<k>_strips.csv", Format::Csv, "the strip fit's points: distance [L*], arrival [t_a]", "per amplitude with a strip fit"),
+    OutputFile::when(
+        "replays/<name>/a<k>_branches.csv",
+        Format::Csv,
+        "per contact at the Coulomb limit: i, j (j < 0: wall −1 − j), slip_steps, switches, first_slip, last_switch [t_a] (empty: never), slipping_at_end (0/1)",
+        "per amplitude of an incremental replay",
+    ),
+    OutputFile::when("replays/<name>/incremental.json", Format::Json, "per amplitude: branch rule, contact counts, slips, steps, dt, impulse, seconds", "per incremental replay"),
+    OutputFile::when("replays/<name>/a<k>_arrival_map.png", Format::Png, "map of the arrival times over the packing", "per amplitude of a paired replay, output.plots = true"),
+    OutputFile::when("replays/<name>/a<k>_arrival_map.svg", Format::Svg, "the same map as SVG", "per amplitude of a paired replay, output.plots = true"),
+    OutputFile::when("replays/<name>/a<k>_arrival_fit.png", Format::Png, "arrival against distance, with the strip fit", "per amplitude with arrivals, output.plots = true"),
+    OutputFile::when("replays/<name>/a<k>_arrival_fit.svg", Format::Svg, "the same plot as SVG", "per amplitude with arrivals, output.plots = true"),
+    OutputFile::when("replays/<name>/sliding_difference.png", Format::Png, "M_s(with) − M_s(without) against t/t_a, per amplitude", "per paired replay, output.plots = true"),
+    OutputFile::when("replays/<name>/sliding_difference.svg", Format::Svg, "the same plot as SVG", "per paired replay, output.plots = true"),
+    OutputFile::when("replays/<name>/speed_vs_amplitude.png", Format::Png, "pulse speed [v_a] against the amplitude", "per paired replay with two or more speeds, output.plots = true"),
+    OutputFile::when("replays/<name>/speed_vs_amplitude.svg", Format::Svg, "the same plot as SVG", "per paired replay with two or more speeds, output.plots = true"),
+    // single replays
+    OutputFile::when(
+        "replays/<name>/series.csv",
+        Format::Csv,
+        "the replay's series: time [t_a], stress_yy, stress_xx [p*], sliding, kinetic_energy [p* L*²]",
+        "per single replay",
+    ),
+    OutputFile::when("replays/<name>/series.npz", Format::Npz, "the same series as NumPy arrays", "per single replay"),
+    OutputFile::when("replays/<name>/final.gwck", Format::Checkpoint, "the state at the end of the replay (start of replays `from` it)", "per single replay"),
+    OutputFile::when("replays/<name>/partial.gwck", Format::Checkpoint, "the progress of an unfinished single replay (removed when it finishes)", "while a single replay is unfinished"),
+    OutputFile::when("replays/<name>/kinetic_energy.png", Format::Png, "kinetic energy against t/t_a (log scale)", "per single replay, output.plots = true"),
+    OutputFile::when("replays/<name>/kinetic_energy.svg", Format::Svg, "the same plot as SVG", "per single replay, output.plots = true"),
+    OutputFile::when("replays/<name>/sliding.png", Format::Png, "M_s against t/t_a", "per single replay, output.plots = true"),
+    OutputFile::when("replays/<name>/sliding.svg", Format::Svg, "the same plot as SVG", "per single replay, output.plots = true"),
+    // the tables over replays
+    OutputFile::when(
+        "pulses.csv",
+        Format::Csv,
+        "every amplitude of every paired replay: replay, checkpoint, strain_yy, amplitude, speed [v_a] (empty: none), mobilised and flagged M_s (start, end with, end without), max_sliding_difference, pushed_on",
+        "with paired replays",
+    ),
+    OutputFile::when("pulses_released.png", Format::Png, "fraction of the mobilised contacts a pulse released, against |p_a|", "with four or more wall-pulse amplitudes of a sign, output.plots = true"),
+    OutputFile::when("pulses_released.svg", Format::Svg, "the same plot as SVG", "with four or more wall-pulse amplitudes of a sign, output.plots = true"),
+    OutputFile::when(
+        "static_limit.csv",
+        Format::Csv,
+        "the Δc/c₀ decomposition per amplitude: speeds c₀, c_ns, c_s, c_d [v_a] and the losses [fractions of c₀] (empty: missing), by the replays' arrival and by the maximum",
+        "with [static_limit]",
+    ),
+    OutputFile::when("static_limit_speeds.png", Format::Png, "pulse speed against |p_a| for the four states and the variants", "with [static_limit], output.plots = true"),
+    OutputFile::when("static_limit_speeds.svg", Format::Svg, "the same plot as SVG", "with [static_limit], output.plots = true"),
+    OutputFile::when(
+        "anisotropy.csv",
+        Format::Csv,
+        "per state and amplitude: state, amplitude, along_y, along_x [v_a], anisotropy 2(c₁ − c₂)/(c₁ + c₂) (empty: missing)",
+        "with [anisotropy]",
+    ),
+];
+
 /// The `e2` protocol.
 pub struct E2Protocol;
 
@@ -184,6 +291,7 @@ impl Protocol for E2Protocol {
     type Spec = E2Spec;
     type State = E2State;
     type Report = E2Summary;
+    const OUTPUTS: &'static [OutputFile] = OUTPUTS;
 
     fn validate(src: &ConfigSource) -> Result<E2Spec, ConfigError> {
         E2Spec::validate(src)

@@ -11,7 +11,7 @@ use grainwave_study::Result;
 use grainwave_core::prelude::*;
 use grainwave_core::snapshot::Snapshot;
 use grainwave_io::plot::{LinePlot, PackingPicture};
-use grainwave_io::Series;
+use grainwave_io::{CsvTable, Series, write_csv_atomic};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
@@ -217,30 +217,23 @@ pub fn write_loading(dir: &Path, cfg: &E2Config, l: &Loading) -> Result<Vec<Stri
     Ok(files)
 }
 
-/// Writes a CSV file atomically: the header line, then one line per row (every table of `e2`:
-/// the checkpoint index, arrivals, strips, sliding series, pulses, Δc/c₀, anisotropy).
-fn write_csv(path: &Path, header: &str, rows: impl Iterator<Item = String>) -> Result<()> {
-    let mut s = String::from(header);
-    s.push('\n');
-    for r in rows {
-        s.push_str(&r);
-        s.push('\n');
-    }
-    grainwave_core::checkpoint::atomic_write(path, s.as_bytes())?;
-    Ok(())
-}
-
 /// Writes `a<ai>_branches.csv` of an incremental replay: one row per contact at the Coulomb
 /// limit (or the rolling cap) — grain ids i, j (j < 0: wall −1 − j), steps on the slip branch,
 /// branch switches, time of the first slip and of the last switch [t_a] (empty: never), and
 /// whether it slips at the end.
 pub fn write_branches(dir: &Path, ai: usize, info: &super::incremental::IncrementalInfo, u: &Units) -> Result<()> {
-    let t = |x: Option<f64>| x.map(|x| format!("{:.6e}", x / u.acoustic_time)).unwrap_or_default();
-    write_csv(
-        &dir.join(format!("a{ai}_branches.csv")),
-        "i,j,slip_steps,switches,first_slip,last_switch,slipping_at_end",
-        info.history.iter().zip(&info.pairs).map(|(h, (i, j))| format!("{i},{j},{},{},{},{},{}", h.slip_steps, h.switches, t(h.first_slip), t(h.last_switch), h.slipping as u8)),
-    )
+    let in_t_a = |x: Option<f64>| x.map(|x| x / u.acoustic_time);
+    let h = &info.history;
+    let mut t = CsvTable::new();
+    t.push_u32("i", info.pairs.iter().map(|p| p.0))?;
+    t.push_i64("j", info.pairs.iter().map(|p| p.1))?;
+    t.push_u64("slip_steps", h.iter().map(|h| h.slip_steps))?;
+    t.push_u64("switches", h.iter().map(|h| h.switches))?;
+    t.push_opt_f64("first_slip", h.iter().map(|h| in_t_a(h.first_slip)))?;
+    t.push_opt_f64("last_switch", h.iter().map(|h| in_t_a(h.last_switch)))?;
+    t.push_u32("slipping_at_end", h.iter().map(|h| h.slipping as u32))?;
+    write_csv_atomic(&dir.join(format!("a{ai}_branches.csv")), &t)?;
+    Ok(())
 }
 
 /// Writes `incremental.json` of an incremental replay: per amplitude the branch rule, the
@@ -298,29 +291,30 @@ pub fn write_pair(
     grainwave_io::npy::write_npy(&p, &[times_ta.len()], &times_ta)?;
     files.push(rel(out, &p));
     let p = dir.join(format!("{stem}_arrivals.csv"));
-    write_csv(
-        &p,
-        "id,x,y,distance,arrival",
-        (0..r.grains).map(|i| {
-            format!(
-                "{i},{:.9e},{:.9e},{:.9e},{}",
-                r.positions[i].x / u.length,
-                r.positions[i].y / u.length,
-                arr.distance[i] / u.length,
-                arr.time[i].map(|t| format!("{:.9e}", t / u.acoustic_time)).unwrap_or_default()
-            )
-        }),
-    )?;
+    let mut t = CsvTable::new();
+    t.push_u64("id", 0..r.grains as u64)?;
+    t.push_f64("x", r.positions[..r.grains].iter().map(|p| p.x / u.length))?;
+    t.push_f64("y", r.positions[..r.grains].iter().map(|p| p.y / u.length))?;
+    t.push_f64("distance", arr.distance[..r.grains].iter().map(|s| s / u.length))?;
+    t.push_opt_f64("arrival", arr.time[..r.grains].iter().map(|t| t.map(|t| t / u.acoustic_time)))?;
+    write_csv_atomic(&p, &t)?;
     files.push(rel(out, &p));
     let p = dir.join(format!("{stem}_sliding.csv"));
-    write_csv(&p, "time,sliding,sliding_reference", (0..r.times.len()).map(|s| format!("{:.9e},{},{}", times_ta[s], r.sliding[s], r.sliding_reference[s])))?;
+    let mut t = CsvTable::new();
+    t.push_f64("time", times_ta.iter().copied())?;
+    t.push_u64("sliding", r.sliding.iter().copied())?;
+    t.push_u64("sliding_reference", r.sliding_reference.iter().copied())?;
+    write_csv_atomic(&p, &t)?;
     files.push(rel(out, &p));
     let diff: Vec<f64> = r.sliding.iter().zip(&r.sliding_reference).map(|(a, b)| *a as f64 - *b as f64).collect();
     let in_v_a = |fit: &Option<StripFit>| fit.as_ref().map(|f| f.speed / u.acoustic_velocity);
     let (speed, by_max, by_lobe) = (in_v_a(&arr.fit), in_v_a(&arr.fit_maximum), in_v_a(&arr.fit_first_lobe));
     if let Some(f) = &arr.fit {
         let p = dir.join(format!("{stem}_strips.csv"));
-        write_csv(&p, "distance,arrival", f.distance.iter().zip(&f.time).map(|(s, t)| format!("{:.9e},{:.9e}", s / u.length, t / u.acoustic_time)))?;
+        let mut t = CsvTable::new();
+        t.push_f64("distance", f.distance.iter().map(|s| s / u.length))?;
+        t.push_f64("arrival", f.time.iter().map(|t| t / u.acoustic_time))?;
+        write_csv_atomic(&p, &t)?;
         files.push(rel(out, &p));
     }
     if cfg.output.plots {
@@ -665,31 +659,31 @@ fn write_static_limit(dir: &Path, cfg: &E2Config, rows: &[StaticLimitRow], repla
     if rows.is_empty() {
         return Ok(());
     }
-    let f = |x: Option<f64>| x.map(|v| format!("{v:.9e}")).unwrap_or_default();
-    write_csv(
-        &dir.join("static_limit.csv"),
-        "direction,amplitude,undeformed,non_sliding,static,deforming,contact_loss,sliding,strain_rate,total,static_mobilised_before,static_mobilised_after,static_pushed_on,\
-         undeformed_maximum,non_sliding_maximum,static_maximum,deforming_maximum,contact_loss_maximum,sliding_maximum,strain_rate_maximum,total_maximum",
-        rows.iter().map(|r| {
-            format!(
-                "{},{:e},{},{},{},{},{},{},{},{},{},{},{},{}",
-                r.direction,
-                r.amplitude,
-                f(r.undeformed),
-                f(r.non_sliding),
-                f(r.static_state),
-                f(r.deforming),
-                f(r.contact_loss),
-                f(r.sliding),
-                f(r.strain_rate),
-                f(r.total),
-                r.static_mobilised[0],
-                r.static_mobilised[1],
-                r.static_pushed_on,
-                r.by_maximum.iter().map(|&x| f(x)).collect::<Vec<_>>().join(",")
-            )
-        }),
-    )?;
+    let mut t = CsvTable::new();
+    t.push_text("direction", rows.iter().map(|r| r.direction.as_str()))?;
+    t.push_f64("amplitude", rows.iter().map(|r| r.amplitude))?;
+    let speeds_and_losses: [(&str, fn(&StaticLimitRow) -> Option<f64>); 8] = [
+        ("undeformed", |r| r.undeformed),
+        ("non_sliding", |r| r.non_sliding),
+        ("static", |r| r.static_state),
+        ("deforming", |r| r.deforming),
+        ("contact_loss", |r| r.contact_loss),
+        ("sliding", |r| r.sliding),
+        ("strain_rate", |r| r.strain_rate),
+        ("total", |r| r.total),
+    ];
+    for (name, get) in speeds_and_losses {
+        t.push_opt_f64(name, rows.iter().map(get))?;
+    }
+    // before the pulse and at its end with the pulse (index 2, without it, is not tabulated)
+    t.push_u64("static_mobilised_before", rows.iter().map(|r| r.static_mobilised[0]))?;
+    t.push_u64("static_mobilised_after", rows.iter().map(|r| r.static_mobilised[1]))?;
+    t.push_u64("static_pushed_on", rows.iter().map(|r| r.static_pushed_on))?;
+    // `by_maximum` in its order: c₀, c_ns, c_s, c_d, then the four losses
+    for (k, (name, _)) in speeds_and_losses.iter().enumerate() {
+        t.push_opt_f64(format!("{name}_maximum"), rows.iter().map(|r| r.by_maximum[k]))?;
+    }
+    write_csv_atomic(&dir.join("static_limit.csv"), &t)?;
     if cfg.output.plots {
         let mut plot = LinePlot::new("Pulse speed vs amplitude").x_label("|p_a|").y_label("c / v_a").log_x();
         let states: [(&str, fn(&StaticLimitRow) -> Option<f64>); 4] =
@@ -793,39 +787,33 @@ pub fn write_summary(dir: &Path, state: &E2State, wall_seconds: f64) -> Result<E
     });
     let static_limit = static_limit_rows(&state.config, &state.replays);
     write_static_limit(dir, &state.config, &static_limit, &state.replays)?;
-    let f = |x: Option<f64>| x.map(|v| format!("{v:.9e}")).unwrap_or_default();
     let anisotropy = anisotropy_rows(&state.config, &state.replays);
     if !anisotropy.is_empty() {
-        write_csv(
-            &dir.join("anisotropy.csv"),
-            "state,amplitude,along_y,along_x,anisotropy",
-            anisotropy.iter().map(|r| format!("{},{:e},{},{},{}", r.state, r.amplitude, f(r.along_y), f(r.along_x), f(r.anisotropy))),
-        )?;
+        let mut t = CsvTable::new();
+        t.push_text("state", anisotropy.iter().map(|r| r.state.as_str()))?;
+        t.push_f64("amplitude", anisotropy.iter().map(|r| r.amplitude))?;
+        t.push_opt_f64("along_y", anisotropy.iter().map(|r| r.along_y))?;
+        t.push_opt_f64("along_x", anisotropy.iter().map(|r| r.along_x))?;
+        t.push_opt_f64("anisotropy", anisotropy.iter().map(|r| r.anisotropy))?;
+        write_csv_atomic(&dir.join("anisotropy.csv"), &t)?;
     }
     let pulses = pulse_rows(&state.replays);
     if !pulses.is_empty() {
-        write_csv(
-            &dir.join("pulses.csv"),
-            "replay,checkpoint,strain_yy,amplitude,speed,mobilised_start,mobilised_end_with,mobilised_end_without,flagged_start,flagged_end_with,flagged_end_without,max_sliding_difference,pushed_on",
-            pulses.iter().map(|r| {
-                format!(
-                    "{},{},{:e},{:e},{},{},{},{},{},{},{},{},{}",
-                    r.replay,
-                    r.checkpoint,
-                    r.strain_yy,
-                    r.amplitude,
-                    f(r.speed),
-                    r.mobilised[0],
-                    r.mobilised[1],
-                    r.mobilised[2],
-                    r.flagged[0],
-                    r.flagged[1],
-                    r.flagged[2],
-                    r.max_sliding_difference,
-                    r.pushed_on
-                )
-            }),
-        )?;
+        let mut t = CsvTable::new();
+        t.push_text("replay", pulses.iter().map(|r| r.replay.as_str()))?;
+        t.push_u64("checkpoint", pulses.iter().map(|r| r.checkpoint))?;
+        t.push_f64("strain_yy", pulses.iter().map(|r| r.strain_yy))?;
+        t.push_f64("amplitude", pulses.iter().map(|r| r.amplitude))?;
+        t.push_opt_f64("speed", pulses.iter().map(|r| r.speed))?;
+        for (k, when) in ["start", "end_with", "end_without"].iter().enumerate() {
+            t.push_u64(format!("mobilised_{when}"), pulses.iter().map(|r| r.mobilised[k]))?;
+        }
+        for (k, when) in ["start", "end_with", "end_without"].iter().enumerate() {
+            t.push_u64(format!("flagged_{when}"), pulses.iter().map(|r| r.flagged[k]))?;
+        }
+        t.push_i64("max_sliding_difference", pulses.iter().map(|r| r.max_sliding_difference))?;
+        t.push_u64("pushed_on", pulses.iter().map(|r| r.pushed_on))?;
+        write_csv_atomic(&dir.join("pulses.csv"), &t)?;
     }
     if state.config.output.plots {
         write_released_plot(dir, &state.config, &pulses)?;

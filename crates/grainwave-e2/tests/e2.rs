@@ -308,6 +308,59 @@ fn small_run_writes_checkpoints_series_replays_and_plots() {
     assert!(single["kinetic_energy"][1].as_f64().unwrap() < single["kinetic_energy"][0].as_f64().unwrap(), "the stopped packing calms down");
 }
 
+/// The declaration of e2's outputs (`grainwave_e2::OUTPUTS`, docs/outputs.md) and the files of
+/// a run agree: every file of the small run matches a declaration, every unconditional
+/// declaration matches a file, and the tables of that run are the ones the Python scripts read
+/// (column names as before, empty cells for missing values).
+#[test]
+fn the_small_run_writes_exactly_the_declared_files() {
+    let dir = small_run();
+    let c = grainwave_study::outputs::check_directory(dir, grainwave_e2::OUTPUTS).unwrap();
+    assert!(c.undeclared.is_empty(), "files e2 does not declare: {:?}", c.undeclared);
+    assert!(c.missing.is_empty(), "declared files the run did not write: {:?}", c.missing);
+    let files = grainwave_study::outputs::files_under(dir).unwrap();
+    // the conditional declarations this run meets have their files, each under the right one
+    for (f, pattern) in [
+        ("replays/pulse/a0_arrivals.csv", "replays/<name>/a<k>_arrivals.csv"),
+        ("replays/pulse/a1_sliding.csv", "replays/<name>/a<k>_sliding.csv"),
+        ("replays/stop/final.gwck", "replays/<name>/final.gwck"),
+        ("checkpoints/index.csv", "checkpoints/index.csv"),
+        ("pulses.csv", "pulses.csv"),
+        ("anisotropy.csv", "anisotropy.csv"),
+    ] {
+        assert!(files.iter().any(|x| x == f), "{f} missing");
+        assert_eq!(grainwave_study::outputs::declaration_of(grainwave_e2::OUTPUTS, f).map(|o| o.pattern), Some(pattern));
+    }
+    // the tables: their headers, numbers that read back, empty cells for "no value"
+    let read = |f: &str| std::fs::read_to_string(dir.join(f)).unwrap();
+    let arrivals = read("replays/pulse/a0_arrivals.csv");
+    let mut lines = arrivals.lines();
+    assert_eq!(lines.next(), Some("id,x,y,distance,arrival"));
+    let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+    assert_eq!(rows.len(), 144);
+    assert!(rows.iter().all(|r| r.len() == 5 && r[1].parse::<f64>().is_ok() && r[0].parse::<u64>().is_ok()));
+    // the zero-amplitude replay has no arrivals: every arrival cell is empty, not NaN
+    let silent = read("replays/pulse/a1_arrivals.csv");
+    assert!(silent.lines().skip(1).all(|l| l.ends_with(',')), "{}", &silent[..200.min(silent.len())]);
+    assert!(rows.iter().any(|r| r[4].parse::<f64>().is_ok_and(|t| t > 0.0)), "the pulse arrives somewhere");
+    assert_eq!(read("replays/pulse/a0_sliding.csv").lines().next(), Some("time,sliding,sliding_reference"));
+    assert_eq!(read("replays/pulse/a0_strips.csv").lines().next(), Some("distance,arrival"));
+    assert_eq!(read("anisotropy.csv").lines().next(), Some("state,amplitude,along_y,along_x,anisotropy"));
+    let pulses = read("pulses.csv");
+    assert_eq!(
+        pulses.lines().next(),
+        Some(
+            "replay,checkpoint,strain_yy,amplitude,speed,mobilised_start,mobilised_end_with,mobilised_end_without,flagged_start,flagged_end_with,\
+             flagged_end_without,max_sliding_difference,pushed_on"
+        )
+    );
+    // the zero amplitude has no speed: an empty cell; the amplitude itself reads back exactly
+    let zero = pulses.lines().find(|l| l.starts_with("pulse,") && l.split(',').nth(3) == Some("0.0")).expect("the zero-amplitude row");
+    assert_eq!(zero.split(',').nth(4), Some(""), "{zero}");
+    let first = pulses.lines().find(|l| l.starts_with("pulse,")).unwrap();
+    assert_eq!(first.split(',').nth(3).unwrap().parse::<f64>().unwrap(), 1e-4, "{first}");
+}
+
 #[test]
 fn the_undeformed_state_is_not_jolted_by_the_switch_to_a_top_piston() {
     // Checkpoint 0 (the undeformed state) is taken as the loading starts, with the top wall

@@ -104,6 +104,53 @@ pub struct E3Spec {
     pub plan: Plan,
 }
 
+use grainwave_study::outputs::{Format, OutputFile};
+
+const RUN_FILES: &str = "per response run, when run directories are written (output.runs; default: every mode but sweep)";
+const RUN_PLOTS: &str = "per response run, when run directories are written, output.plots = true";
+const PLOTS: &str = "output.plots = true";
+
+/// Every file an `e3` run writes into its output directory (docs/outputs.md); `<case>` is a
+/// case's label (parameter set and seed), `<run>` a response run's label, `<group>` a
+/// parameter set's label. Lengths in R̄, forces in m̄g, stresses in m̄g/R̄.
+pub const OUTPUTS: &[OutputFile] = &[
+    grainwave_study::outputs::RESOLVED_CONFIG,
+    grainwave_study::outputs::SUMMARY,
+    grainwave_study::outputs::CHECKPOINT,
+    grainwave_study::outputs::LOG,
+    grainwave_study::outputs::LOCK,
+    grainwave_study::outputs::FAILED,
+    OutputFile::always("timing.json", Format::Json, "wall-clock seconds of the units of work [s]"),
+    OutputFile::when("runs.csv", Format::Csv, "one row per response run: case, force, its measurements", "with response runs"),
+    OutputFile::when("results.csv", Format::Csv, "one row per parameter set and force: the ensemble's measurements", "with response runs"),
+    OutputFile::when("profiles.csv", Format::Csv, "the ensemble-mean floor response Δσ_zz(x) per parameter set, force and width", "with response runs"),
+    OutputFile::when("profiles.npz", Format::Npz, "the same profiles as NumPy arrays", "with response runs"),
+    OutputFile::when("superposition.csv", Format::Csv, "left, right and both loads: the superposition error per case and force", "mode = \"superposition\""),
+    OutputFile::when("pile_floor_<group>.csv", Format::Csv, "mean floor stress σ_zz(x) under the pile, per width", "mode = \"pile\""),
+    OutputFile::when("pile_floor_<group>.npz", Format::Npz, "the same profile as NumPy arrays", "mode = \"pile\""),
+    OutputFile::when("pile_floor_<group>_contacts.csv", Format::Csv, "the floor contacts of every pile: seed, x, fz, fx", "mode = \"pile\""),
+    OutputFile::when("pile_floor_<group>_verdict.csv", Format::Csv, "the profile the verdict is judged on, with the window (in_window 0/1)", "mode = \"pile\""),
+    OutputFile::when("pile_floor_<group>_verdict.npz", Format::Npz, "the same as NumPy arrays", "mode = \"pile\""),
+    OutputFile::when("lattice_scan.csv", Format::Csv, "the lattice elasticity scan", "mode = \"lattice_elasticity\" with a scan"),
+    OutputFile::when("<plot>.png", Format::Png, "plots: profiles_<group>, linearity, opened_region, crossover_…, superposition_…, pile_floor_<group>, lattice_scan", PLOTS),
+    OutputFile::when("<plot>.svg", Format::Svg, "the same plots as SVG", PLOTS),
+    OutputFile::when("units/<case>/<unit>.gwck", Format::Checkpoint, "units of work: reference.gwck (the relaxed reference), <run>.gwck (a response), opening_<k>.gwck (a bisection step), ….partial.gwck (an interrupted unit)", "per unit of work"),
+    OutputFile::when("runs/<case>/<run>/floor_contacts.csv", Format::Csv, "the floor contacts: grain, x, fz_reference, fz, dfz, fx_reference, fx", RUN_FILES),
+    OutputFile::when("runs/<case>/<run>/floor_profile.csv", Format::Csv, "the floor response Δσ_zz(x) per width", RUN_FILES),
+    OutputFile::when("runs/<case>/<run>/floor_profile.npz", Format::Npz, "the same profile as NumPy arrays", RUN_FILES),
+    OutputFile::when("runs/<case>/<run>/contact_changes.csv", Format::Csv, "every contact whose force changed, or that opened or closed", RUN_FILES),
+    OutputFile::when("runs/<case>/<run>/stress_field.npz", Format::Npz, "the coarse-grained stress field, with the reference's", "per response run with a stress field"),
+    OutputFile::when("runs/<case>/<run>/contact_force_difference.vtp", Format::Vtp, "the contact force change (ParaView)", "per response run, output.vtk = true"),
+    OutputFile::when("runs/<case>/<run>/grains.vtp", Format::Vtp, "the grains after the load (ParaView)", "per response run, output.vtk = true"),
+    OutputFile::when("runs/<case>/<run>/<plot>.png", Format::Png, "plots: network, stress_zz, floor_profile", RUN_PLOTS),
+    OutputFile::when("runs/<case>/<run>/<plot>.svg", Format::Svg, "the same plots as SVG", RUN_PLOTS),
+    OutputFile::when("runs/<case>/<plot>.png", Format::Png, "pile plots: force_network, stress_zz", "mode = \"pile\", output.plots = true"),
+    OutputFile::when("runs/<case>/<plot>.svg", Format::Svg, "the same plots as SVG", "mode = \"pile\", output.plots = true"),
+    OutputFile::when("runs/<case>/stress_field.npz", Format::Npz, "the pile's stress field under gravity", "mode = \"pile\", output.plots = true"),
+    OutputFile::when("runs/<case>/grains.vtp", Format::Vtp, "the pile's grains (ParaView)", "mode = \"pile\", output.plots and output.vtk = true"),
+    OutputFile::when("runs/<case>/contacts.vtp", Format::Vtp, "the pile's contact network (ParaView)", "mode = \"pile\", output.plots and output.vtk = true"),
+];
+
 /// The `e3` protocol: its spec is the config with its [`Plan`]; its units are the reference
 /// states, response runs and bisections ([`work::E3Work`]).
 pub struct E3Protocol;
@@ -117,6 +164,7 @@ impl grainwave_study::study::Protocol for E3Protocol {
     type Spec = E3Spec;
     type State = E3State;
     type Report = E3Summary;
+    const OUTPUTS: &'static [OutputFile] = OUTPUTS;
 
     fn validate(src: &ConfigSource) -> Result<E3Spec, ConfigError> {
         let config = prepare(src)?;

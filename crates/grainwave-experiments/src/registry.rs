@@ -79,3 +79,9 @@ pub fn plot(dir: &Path) -> Result<Vec<String>> {
 pub fn reference_markdown() -> String {
     REGISTRY.reference_markdown()
 }
+
+/// The output reference (`docs/outputs.md`), generated from each study's declaration of its
+/// files.
+pub fn outputs_markdown() -> String {
+    REGISTRY.outputs_markdown()
+}

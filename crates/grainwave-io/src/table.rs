@@ -5,7 +5,10 @@
 //! carriage return or a newline are enclosed in double quotes with inner quotes doubled.
 //! Floating-point numbers are written in the shortest form that reads back to the same bits
 //! (`0.5`, `1e-7`, `-3.25e20`); non-finite values are written `NaN`, `inf`, `-inf`, which
-//! numpy, pandas and spreadsheet programs read.
+//! numpy, pandas and spreadsheet programs read. A column of optional numbers ([`Column::OptF64`])
+//! writes a missing value as an empty field (`1.5,,2`): "no value", which readers must not
+//! confuse with `NaN` (a value that is not a number). Integers are written in decimal, signed
+//! ones with a leading `-` where negative.
 
 use crate::error::{OutputError, Result};
 use grainwave_core::checkpoint::atomic_write;
@@ -17,10 +20,14 @@ use std::path::Path;
 pub enum Column {
     /// Floating-point numbers.
     F64(Vec<f64>),
+    /// Floating-point numbers that may be missing; `None` is written as an empty field.
+    OptF64(Vec<Option<f64>>),
     /// Unsigned integers up to 32 bits (ids, counts).
     U32(Vec<u32>),
     /// Unsigned integers up to 64 bits (step counters).
     U64(Vec<u64>),
+    /// Signed integers up to 64 bits (wall ids stored as negative numbers, signed differences).
+    I64(Vec<i64>),
     /// Text (quoted where needed).
     Text(Vec<String>),
 }
@@ -30,8 +37,10 @@ impl Column {
     pub fn len(&self) -> usize {
         match self {
             Column::F64(v) => v.len(),
+            Column::OptF64(v) => v.len(),
             Column::U32(v) => v.len(),
             Column::U64(v) => v.len(),
+            Column::I64(v) => v.len(),
             Column::Text(v) => v.len(),
         }
     }
@@ -44,8 +53,14 @@ impl Column {
     fn write_field(&self, row: usize, out: &mut String) {
         match self {
             Column::F64(v) => write_f64(v[row], out),
+            Column::OptF64(v) => {
+                if let Some(x) = v[row] {
+                    write_f64(x, out);
+                }
+            }
             Column::U32(v) => write!(out, "{}", v[row]).expect("writing to a String cannot fail"),
             Column::U64(v) => write!(out, "{}", v[row]).expect("writing to a String cannot fail"),
+            Column::I64(v) => write!(out, "{}", v[row]).expect("writing to a String cannot fail"),
             Column::Text(v) => write_text(&v[row], out),
         }
     }
@@ -130,6 +145,12 @@ impl CsvTable {
         self.push(name, Column::F64(values.into_iter().collect()))
     }
 
+    /// Appends a column of optional floating-point numbers: `None` is written as an empty field
+    /// ("no value"), `Some(x)` like [`CsvTable::push_f64`] writes `x`.
+    pub fn push_opt_f64(&mut self, name: impl Into<String>, values: impl IntoIterator<Item = Option<f64>>) -> Result<()> {
+        self.push(name, Column::OptF64(values.into_iter().collect()))
+    }
+
     /// Appends a column of 32-bit unsigned integers.
     pub fn push_u32(&mut self, name: impl Into<String>, values: impl IntoIterator<Item = u32>) -> Result<()> {
         self.push(name, Column::U32(values.into_iter().collect()))
@@ -138,6 +159,11 @@ impl CsvTable {
     /// Appends a column of 64-bit unsigned integers.
     pub fn push_u64(&mut self, name: impl Into<String>, values: impl IntoIterator<Item = u64>) -> Result<()> {
         self.push(name, Column::U64(values.into_iter().collect()))
+    }
+
+    /// Appends a column of 64-bit signed integers.
+    pub fn push_i64(&mut self, name: impl Into<String>, values: impl IntoIterator<Item = i64>) -> Result<()> {
+        self.push(name, Column::I64(values.into_iter().collect()))
     }
 
     /// Appends a column of text.
@@ -271,6 +297,49 @@ pub(crate) mod tests {
         assert_eq!(t.names(), ["a"]);
         assert_eq!(t.rows(), 2);
         assert_eq!(t.column("a"), Some(&Column::F64(vec![1.0, 2.0])));
+    }
+
+    #[test]
+    fn missing_values_are_empty_fields_and_present_ones_read_back() {
+        let values = [Some(0.1), None, Some(-2.5e-300), None, Some(f64::NAN), Some(6.02214076e23)];
+        let mut t = CsvTable::new();
+        t.push_opt_f64("c", values).unwrap();
+        t.push_i64("d", [-1, 0, i64::MIN, i64::MAX, 7, -42]).unwrap();
+        let csv = t.to_csv_string();
+        // None is an empty field, NaN is a value and named
+        assert!(csv.starts_with("c,d\n0.1,-1\n,0\n"), "{csv}");
+        assert!(csv.contains("\nNaN,7\n"), "{csv}");
+        let dir = scratch_dir("optional");
+        let path = dir.join("t.csv");
+        write_csv_atomic(&path, &t).unwrap();
+        let rows = parse_csv(&std::fs::read_to_string(&path).unwrap());
+        assert_eq!(rows.len(), values.len() + 1);
+        assert_eq!(rows[0], vec!["c", "d"]);
+        for (k, v) in values.iter().enumerate() {
+            let field = &rows[k + 1][0];
+            match v {
+                None => assert_eq!(field, "", "row {k}"),
+                Some(x) if x.is_nan() => assert_eq!(field, "NaN", "row {k}"),
+                Some(x) => assert_eq!(field.parse::<f64>().unwrap().to_bits(), x.to_bits(), "row {k}: {field}"),
+            }
+        }
+        let ints: Vec<i64> = rows[1..].iter().map(|r| r[1].parse().unwrap()).collect();
+        assert_eq!(ints, [-1, 0, i64::MIN, i64::MAX, 7, -42]);
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn optional_columns_are_length_checked() {
+        let mut t = CsvTable::new();
+        t.push_f64("a", [1.0, 2.0, 3.0]).unwrap();
+        let err = t.push_opt_f64("b", [Some(1.0), None]).unwrap_err();
+        assert!(matches!(err, OutputError::ColumnLength { len: 2, expected: 3, .. }), "{err}");
+        let err = t.push_i64("c", [1, 2, 3, 4]).unwrap_err();
+        assert!(matches!(err, OutputError::ColumnLength { len: 4, expected: 3, .. }), "{err}");
+        t.push_opt_f64("b", [None, None, None]).unwrap();
+        // a column of nothing but missing values still has its rows
+        assert_eq!(t.to_csv_string(), "a,b\n1.0,\n2.0,\n3.0,\n");
+        assert_eq!(t.column("b"), Some(&Column::OptF64(vec![None; 3])));
     }
 
     #[test]

@@ -217,6 +217,35 @@ impl SimulationState {
     }
 }
 
+use grainwave_study::outputs::{Format, OutputFile};
+
+/// Every file a `simulation` run writes into its output directory (docs/outputs.md).
+pub const OUTPUTS: &[OutputFile] = &[
+    grainwave_study::outputs::RESOLVED_CONFIG,
+    grainwave_study::outputs::SUMMARY,
+    grainwave_study::outputs::CHECKPOINT,
+    grainwave_study::outputs::LOG,
+    grainwave_study::outputs::LOCK,
+    grainwave_study::outputs::FAILED,
+    OutputFile::always(
+        "series.csv",
+        Format::Csv,
+        "time series, one row per record (`output.series_every` steps): step, time, kinetic energy per grain, max acceleration, contacts, sliding, load_<wall> per wall [config units]",
+    ),
+    OutputFile::always("series.npz", Format::Npz, "the same time series as NumPy arrays, one per column"),
+    OutputFile::always("grains.csv", Format::Csv, "the final grains, one row per grain: id, position, velocity, angular velocity, radius, mass, force [config units]"),
+    OutputFile::when("snapshots/grains_<step>.vtp", Format::Vtp, "VTK snapshot of the grains at step <step> (10 digits), the final state included", "output.vtk = true"),
+    OutputFile::when("snapshots/contacts_<step>.vtp", Format::Vtp, "VTK snapshot of the contact network at step <step>", "output.vtk = true"),
+    OutputFile::when("grains.pvd", Format::Pvd, "ParaView collection of the grain snapshots over time", "output.vtk = true"),
+    OutputFile::when("contacts.pvd", Format::Pvd, "ParaView collection of the contact snapshots over time", "output.vtk = true"),
+    OutputFile::when("plots/energy.png", Format::Png, "kinetic energy per grain and max acceleration against time (log scale)", "output.plots = true"),
+    OutputFile::when("plots/energy.svg", Format::Svg, "the same plot as SVG", "output.plots = true"),
+    OutputFile::when("plots/wall_loads.png", Format::Png, "normal load of each wall against time", "output.plots = true, with walls"),
+    OutputFile::when("plots/wall_loads.svg", Format::Svg, "the same plot as SVG", "output.plots = true, with walls"),
+    OutputFile::when("plots/force_network.png", Format::Png, "picture of the final packing with its force network", "output.plots = true, 2D runs"),
+    OutputFile::when("plots/force_network.svg", Format::Svg, "the same picture as SVG", "output.plots = true, 2D runs"),
+];
+
 /// The `simulation` protocol: one unit of work (the run itself, checkpointed as a whole at fixed
 /// step numbers), so its plan is the prepared engine state.
 pub struct SimulationProtocol;
@@ -230,6 +259,7 @@ impl grainwave_study::study::Protocol for SimulationProtocol {
     type Spec = Prepared;
     type State = SimulationState;
     type Report = SimulationReport;
+    const OUTPUTS: &'static [OutputFile] = OUTPUTS;
 
     fn validate(src: &ConfigSource) -> Result<Prepared, ConfigError> {
         prepare(src)

@@ -95,6 +95,19 @@ fn small_pile_settles_and_the_walls_carry_the_weight() {
     let series = std::fs::read_to_string(out.join("series.csv")).unwrap();
     assert!(series.starts_with("step,time,kinetic_energy_per_grain"), "{}", &series[..80]);
     assert!(series.lines().count() > 5);
+    // the files of the run are the declared ones (docs/outputs.md), and the declarations that
+    // hold for every run have their files
+    let c = grainwave_study::outputs::check_directory(&out, grainwave_simulation::OUTPUTS).unwrap();
+    assert!(c.undeclared.is_empty(), "files simulation does not declare: {:?}", c.undeclared);
+    assert!(c.missing.is_empty(), "declared files the run did not write: {:?}", c.missing);
+    let files = grainwave_study::outputs::files_under(&out).unwrap();
+    let snapshot = files.iter().find(|f| f.starts_with("snapshots/grains_")).expect("a snapshot (snapshot_every = 4000)");
+    assert_eq!(grainwave_study::outputs::declaration_of(grainwave_simulation::OUTPUTS, snapshot).map(|o| o.pattern), Some("snapshots/grains_<step>.vtp"));
+    assert!(files.iter().any(|f| f == "plots/energy.png"), "{files:?}");
+    // a file the study does not write is reported
+    std::fs::write(out.join("plots/notes.txt"), b"mine").unwrap();
+    let c = grainwave_study::outputs::check_directory(&out, grainwave_simulation::OUTPUTS).unwrap();
+    assert_eq!(c.undeclared, ["plots/notes.txt"]);
 }
 
 #[test]

@@ -16,17 +16,17 @@ use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::Arc;
 
 /// Name of the checkpoint file in an output directory.
-pub const CHECKPOINT_FILE: &str = "checkpoint.gwck";
+pub const CHECKPOINT_FILE: &str = crate::outputs::CHECKPOINT.pattern;
 /// Name of the log file in an output directory.
-pub const LOG_FILE: &str = "run.log";
+pub const LOG_FILE: &str = crate::outputs::LOG.pattern;
 /// Name of the lock file in an output directory: held (an advisory `flock`-style lock) by the
 /// process running in the directory, released by the system when that process ends in any way,
 /// so a lock is never stale.
-pub const LOCK_FILE: &str = ".grainwave.lock";
+pub const LOCK_FILE: &str = crate::outputs::LOCK.pattern;
 /// Name of the marker of a failed run (a numerical blow-up, every sample failed…): it holds the
 /// diagnosis. `grainwave inspect` reports it; `grainwave resume` refuses the directory unless
 /// told `--retry`.
-pub const FAILED_FILE: &str = "run.failed";
+pub const FAILED_FILE: &str = crate::outputs::FAILED.pattern;
 /// Files whose presence marks a directory as a grainwave output directory.
 pub const OUTPUT_MARKERS: &[&str] = &[CHECKPOINT_FILE, LOG_FILE, FAILED_FILE, crate::outputs::RESOLVED_CONFIG_FILE, crate::outputs::SUMMARY_FILE];
 

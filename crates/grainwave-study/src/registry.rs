@@ -48,6 +48,8 @@ pub struct Entry {
     /// Runs, in a worker process, the units of the run whose state (checkpoint bytes) the
     /// coordinator sent, in the given output directory ([`Protocol::serve`]).
     pub serve: fn(&[u8], &Path, &dyn WorkerLink, Arc<AtomicBool>) -> Result<()>,
+    /// The files a run writes ([`Protocol::OUTPUTS`]).
+    pub outputs: &'static [crate::outputs::OutputFile],
 }
 
 fn schema<P: Protocol>() -> serde_json::Value {
@@ -151,6 +153,7 @@ pub const fn entry<P: Protocol>() -> Entry {
         plot: plot_with::<P>,
         decode: decode_with::<P>,
         serve: serve_with::<P>,
+        outputs: P::OUTPUTS,
     }
 }
 
@@ -274,6 +277,40 @@ impl Registry {
             e => e,
         })?;
         (self.by_tag(dir, &tag, "has no plots")?.plot)(dir, &file)
+    }
+
+    /// The protocol whose run directory `dir` is: by the `experiment` key of its
+    /// `config.resolved.toml` (written when a run starts), or else by its checkpoint's content
+    /// tag. `None` when neither names a protocol of the table.
+    pub fn of_directory(&self, dir: &Path) -> Option<&'static Entry> {
+        let by_config = || -> Option<&'static Entry> {
+            let path = dir.join(crate::outputs::RESOLVED_CONFIG_FILE);
+            let bytes = grainwave_core::files::read_bounded(&path, crate::config::MAX_CONFIG_BYTES, "the run's config.resolved.toml").ok()?;
+            let table: toml::Table = toml::from_str(std::str::from_utf8(&bytes).ok()?).ok()?;
+            self.protocol(table.get("experiment")?.as_str()?)
+        };
+        by_config().or_else(|| {
+            let (_, tag) = checkpoint_tag(dir).ok()?;
+            self.protocols.iter().find(|p| p.tag == tag || p.earlier_tags.contains(&tag.as_str()))
+        })
+    }
+
+    /// The output reference (`docs/outputs.md`): a table of the files of each protocol, generated
+    /// from their declarations ([`Protocol::OUTPUTS`]).
+    pub fn outputs_markdown(&self) -> String {
+        let mut s = String::from(
+            "# Output files\n\n\
+             Generated from each study's declaration of its outputs (`OUTPUTS` of its crate) by `grainwave reference --outputs`;\n\
+             do not edit by hand (a test fails when this file is stale). Paths are relative to the output directory;\n\
+             `<name>` stands for one level of a path (a replay's name, an index…). `grainwave inspect DIR` names the files\n\
+             of a run directory by these declarations. Files written only under a condition say when.\n\n",
+        );
+        for p in self.protocols {
+            s.push_str(&format!("## `experiment = \"{}\"`\n\n", p.name));
+            s.push_str(&crate::outputs::markdown(p.outputs));
+            s.push('\n');
+        }
+        s
     }
 
     /// The config reference (`docs/config.md`), generated from the key definitions.

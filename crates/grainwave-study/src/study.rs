@@ -89,4 +89,8 @@ pub trait Protocol: 'static {
             reason: format!("its checkpoint holds `{tag}`, an earlier layout of the {} state that this version does not read", Self::NAME),
         })
     }
+
+    /// Every file a run writes into its output directory, declared once
+    /// ([`crate::outputs::OutputFile`]; the common ones are [`crate::outputs::COMMON`]).
+    const OUTPUTS: &'static [crate::outputs::OutputFile];
 }

@@ -146,6 +146,16 @@ fn inspect_describes_checkpoints_and_directories() {
     let o = Command::new(BIN).args(["inspect"]).arg(&dir).output().unwrap();
     let text = String::from_utf8_lossy(&o.stdout);
     assert!(text.contains("simulation run, stopped: converged") && text.contains("summary.json"), "{text}");
+    // the files by the study's declarations (docs/outputs.md): each named with its description
+    assert!(text.contains("files, by the outputs `simulation` declares"), "{text}");
+    assert!(text.lines().any(|l| l.trim_start().starts_with("grains.csv") && l.contains("CSV: the final grains")), "{text}");
+    assert!(text.contains("matches a declaration") && !text.contains("match no declaration"), "{text}");
+    // a file the study does not write is named as such
+    std::fs::write(dir.join("notes.txt"), b"mine").unwrap();
+    let o = Command::new(BIN).args(["inspect"]).arg(&dir).output().unwrap();
+    let text = String::from_utf8_lossy(&o.stdout);
+    assert!(text.contains("1 file(s) match no declaration of `simulation`") && text.lines().any(|l| l.trim() == "notes.txt"), "{text}");
+    std::fs::remove_file(dir.join("notes.txt")).unwrap();
     // a corrupted checkpoint is refused with a clear message
     let mut bytes = std::fs::read(dir.join("checkpoint.gwck")).unwrap();
     let k = bytes.len() / 2;
