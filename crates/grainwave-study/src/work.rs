@@ -1025,7 +1025,11 @@ mod tests {
     #[test]
     fn a_worker_with_another_plan_refuses_its_units() {
         let dir = temp("rank-plan");
-        let coordinator = Squares::new(&dir, 6);
+        let mut coordinator = Squares::new(&dir, 6);
+        // the coordinator's units take 200 ms: the worker is sent some before the coordinator could
+        // run all six itself (without a pause, on a loaded machine, it sometimes did, and the run
+        // completed without asking the worker: 3 failures in 8 runs)
+        coordinator.pause = std::time::Duration::from_millis(200);
         // the worker's plan has other ids: every unit it is sent comes back failed, naming both
         let make = || {
             let mut w = Squares::new(&dir, 6);
