@@ -80,8 +80,8 @@ def fmt_pm(m, e, digits=3):
     """Mean ± error with the error's precision (two significant digits of the error)."""
     if e is None or math.isnan(e) or e == 0:
         return fmt(m, digits)
-    if m != 0 and abs(m) < 0.01:
-        # small numbers in the published tables' style: a common power of ten
+    if m != 0 and abs(m) < 0.01 and abs(e) < 0.01:
+        # small numbers with small errors in the published tables' style: a common power of ten
         k = math.floor(math.log10(abs(m)))
         mm, ee = m / 10 ** k, e / 10 ** k
         d = max(0, 1 - math.floor(math.log10(abs(ee))))
