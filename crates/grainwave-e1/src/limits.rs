@@ -44,8 +44,13 @@ pub fn check_plan(src: &ConfigSource, plan: &crate::plan::Plan) -> Result<(), Co
             (_, crate::plan::StudyKind::Lattice) => format!("lattice.rows[{}]", g.size_index),
             _ => format!("chain.grains[{}]", g.size_index),
         };
-        let parallel = plan.config.parallel_samples.unwrap_or(1).max(1) as f64;
-        check(src, &key, "grains", g.grains as f64, MAX_GRAINS, HARD_MAX_GRAINS, BYTES_PER_GRAIN * parallel)?;
+        check(src, &key, "grains", g.grains as f64, MAX_GRAINS, HARD_MAX_GRAINS, BYTES_PER_GRAIN)?;
+    }
+    // samples prepared at once hold the largest group's grains each: named by their own key (a
+    // parallel_samples of 2³¹ was blamed on `packing.heights[0]`)
+    if let Some(parallel) = plan.config.parallel_samples {
+        let largest = plan.groups.iter().map(|g| g.grains).max().unwrap_or(0) as f64;
+        check(src, "parallel_samples", "samples at once", parallel as f64, f64::INFINITY, f64::INFINITY, BYTES_PER_GRAIN * largest)?;
     }
     Ok(())
 }

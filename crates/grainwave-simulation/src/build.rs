@@ -90,6 +90,22 @@ fn build_dim<D: Dim>(src: &ConfigSource, cfg: &SimulationConfig) -> Result<Simul
         periodic[a.index()] = true;
     }
     let hi = origin + size;
+    // the box must keep its size where it is placed: at origin 1e17 a size of 8 is lost to
+    // rounding (hi − origin = 0), which was then blamed on `domain.size`
+    for k in 0..D::D {
+        let kept = hi.get(k) - origin.get(k);
+        if !origin.get(k).is_finite() || (kept - size.get(k)).abs() > 1e-9 * size.get(k) {
+            return Err(err(
+                src,
+                "domain.origin",
+                format!(
+                    "{:?} (allowed: an origin at which the box keeps its size: here size[{k}] = {} becomes {kept} after rounding)",
+                    cfg.domain.origin.as_deref().unwrap_or(&[]),
+                    size.get(k)
+                ),
+            ));
+        }
+    }
     let mut domain = Domain::new(origin, hi, periodic);
 
     // contact laws

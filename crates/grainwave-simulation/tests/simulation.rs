@@ -121,7 +121,7 @@ fn config_errors_name_file_line_column_key_value_and_what_is_allowed() {
     // wrong type
     let e = check_err(&SMALL.replace("count = 60", "count = \"sixty\""));
     assert_eq!((e.line, e.column, e.key.as_deref()), (8, 9, Some("grains.count")));
-    assert!(e.message.contains("invalid type: string \"sixty\""), "{e}");
+    assert!(e.message.contains("text \"sixty\", but `grains.count` takes a whole number"), "{e}");
     // out of range
     let e = check_err(&SMALL.replace("restitution = 0.5", "restitution = 1.5"));
     assert_eq!((e.line, e.column, e.key.as_deref()), (20, 15, Some("contact.restitution")));

@@ -631,3 +631,15 @@ fn a_long_chain_of_e2_replays_is_checked_without_a_quadratic_cost_and_the_count_
     assert!(err.contains("`replays`") && err.contains("exceed the limit"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn errors_name_the_key_the_file_has() {
+    // before, each of these was refused naming no key (serde's "invalid type: map, expected f64"
+    // at the section header), a key no file has, or another key
+    refused("e1-packing-width-table.toml", "packing.width", "a table, but `packing.width` is a value");
+    refused("settle-pile-mean-diameter-string.toml", "grains.size.mean_diameter", "text \"x\", but `grains.size.mean_diameter` takes a number");
+    refused("e1-parallel_samples-2e31.toml", "parallel_samples", "GiB");
+    refused("sim-kt-ratio-1e308.toml", "contact.tangential_stiffness_ratio", "k_t = ratio × normal_stiffness a finite, normal number");
+    refused("sim-origin-1e17.toml", "domain.origin", "keeps its size");
+    refused("sim-radius-1e-300.toml", "grains.size.radius", "between 1e-60 and 1e60");
+}

@@ -222,6 +222,18 @@ impl ContactParams {
                 require_modulus(&key("normal_stiffness"), k_n)?;
                 let ratio = self.tangential_stiffness_ratio.unwrap_or(2.0 / 7.0);
                 require_positive(&key("tangential_stiffness_ratio"), ratio)?;
+                // the product is checked under the key the file has (1e308 × k_n overflowed and was
+                // blamed on `tangential_stiffness`, which no file has)
+                // (finite and normal: a vanishing ratio such as 1e-300, a "no tangential spring",
+                // stays allowed)
+                let k_t = ratio * k_n;
+                if !(k_t.is_finite() && k_t.is_normal()) {
+                    return Err(CoreError::invalid(
+                        key("tangential_stiffness_ratio"),
+                        format!("{ratio:?}"),
+                        format!("a ratio that makes k_t = ratio × normal_stiffness a finite, normal number (here {k_t:?})"),
+                    ));
+                }
                 let given: Vec<&str> = [
                     ("restitution", self.restitution.is_some()),
                     ("normal_damping", self.normal_damping.is_some()),

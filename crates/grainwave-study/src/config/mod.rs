@@ -272,6 +272,27 @@ pub fn check_shapes(src: &ConfigSource, schema: &serde_json::Value) -> Result<()
         }
         out
     }
+    /// The resolved alternatives of an `anyOf`/`oneOf` schema (empty for other schemas).
+    fn alternatives<'a>(v: &'a J, root: &'a J) -> Vec<&'a J> {
+        ["anyOf", "oneOf"].iter().filter_map(|k| v.get(*k).and_then(J::as_array)).flatten().map(|a| resolve(a, root)).collect()
+    }
+    /// The table alternative of `v` that table `t` is: the only one, or the one whose tag
+    /// property (a constant, or an enum of one value) has `t`'s value.
+    fn table_alternative<'a>(v: &'a J, root: &'a J, t: &toml::Table) -> Option<&'a J> {
+        let tables: Vec<&J> = alternatives(v, root).into_iter().filter(|a| a.get("properties").is_some()).collect();
+        if tables.len() == 1 {
+            return Some(tables[0]);
+        }
+        tables.into_iter().find(|a| {
+            a["properties"].as_object().is_some_and(|props| {
+                props.iter().any(|(k, p)| {
+                    let p = resolve(p, root);
+                    let tag = p.get("const").or_else(|| p.get("enum").and_then(J::as_array).filter(|e| e.len() == 1).and_then(|e| e.first()));
+                    matches!((tag, t.get(k)), (Some(J::String(c)), Some(toml::Value::String(x))) if c == x)
+                })
+            })
+        })
+    }
     fn walk(src: &ConfigSource, value: &toml::Value, schema: &J, root: &J, path: &str) -> Result<(), ConfigError> {
         let allowed = types(schema, root);
         let s = resolve(schema, root);
@@ -288,7 +309,46 @@ pub fn check_shapes(src: &ConfigSource, schema: &serde_json::Value) -> Result<()
                     return Err(src.error_at_key(path, format!("a table, but `{path}` is a value (allowed: {what}, written `{path} = …`)")));
                 }
             }
+            // a scalar of another kind than the key's (serde would say "invalid type: string
+            // \"x\", expected f64" at the section header, naming no key)
+            let what = || {
+                let words: Vec<&str> = allowed
+                    .iter()
+                    .filter_map(|t| match *t {
+                        "number" => Some("a number"),
+                        "integer" => Some("a whole number"),
+                        "string" => Some("text"),
+                        "boolean" => Some("true or false"),
+                        "array" => Some("a list"),
+                        "object" => Some("a table"),
+                        _ => None,
+                    })
+                    .collect();
+                words.join(" or ")
+            };
+            let shown = || clip(&value.to_string(), MAX_ECHO_CHARS);
+            let wrong = match value {
+                toml::Value::String(_) => (!allowed.contains(&"string")).then(|| format!("text {}", shown())),
+                toml::Value::Boolean(_) => (!allowed.contains(&"boolean")).then(|| format!("`{}`", shown())),
+                toml::Value::Integer(_) => (!allowed.contains(&"integer") && !allowed.contains(&"number")).then(|| format!("the number {}", shown())),
+                toml::Value::Float(_) if !allowed.contains(&"number") => {
+                    Some(format!("{} {}", if allowed.contains(&"integer") { "the fractional number" } else { "the number" }, shown()))
+                }
+                _ => None,
+            };
+            if let Some(found) = wrong {
+                return Err(src.error_at_key(path, format!("{found}, but `{path}` takes {} (written `{path} = …`)", what())));
+            }
         }
+        // an optional section or a tagged choice (`anyOf`/`oneOf` of tables): walk into the
+        // alternative that the value is, so that its keys are checked too
+        let s = match value {
+            toml::Value::Table(t) if s.get("properties").is_none() => table_alternative(s, root, t).unwrap_or(s),
+            toml::Value::Array(_) if s.get("items").is_none() => {
+                alternatives(s, root).into_iter().find(|a| a.get("items").is_some()).unwrap_or(s)
+            }
+            _ => s,
+        };
         match value {
             toml::Value::Table(t) => {
                 if let Some(props) = s.get("properties").and_then(J::as_object) {
