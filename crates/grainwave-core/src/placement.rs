@@ -34,6 +34,10 @@ pub fn random_gas<D: Dim>(
         if !periodic[k] && l < 2.0 * r_max {
             return Err(CoreError::invalid(format!("box size[{k}]"), l, format!("at least the largest diameter {}", 2.0 * r_max)));
         }
+        // the grid-sizing loop below ends only in a box of finite lengths
+        if !l.is_finite() {
+            return Err(CoreError::invalid(format!("box size[{k}]"), l, "a finite length (a gas fraction or density too small for the grains?)"));
+        }
     }
     // Cell edge ≥ the largest diameter (so the search reaches one cell in every direction); in
     // a sparse box the edge grows until there are at most a few cells per grain, so the grid's
@@ -41,15 +45,9 @@ pub fn random_gas<D: Dim>(
     // the cell size does not change which positions are accepted.
     let mut cell = 2.0 * r_max;
     // the loop below grows `cell` geometrically until the grid is small enough: it ends only
-    // from a cell > 0 in a box of finite lengths
+    // from a cell > 0 (and finite box lengths, checked above)
     if !(cell > 0.0 && cell.is_finite()) {
         return Err(CoreError::invalid("largest radius", r_max, "a finite radius > 0"));
-    }
-    for k in 0..D::D {
-        let l = hi.get(k) - lo.get(k);
-        if !l.is_finite() {
-            return Err(CoreError::invalid(format!("box size[{k}]"), l, "a finite length (a gas fraction or density too small for the grains?)"));
-        }
     }
     let cap = (4 * n).max(27);
     let mut dims = [1usize; 3];

@@ -247,18 +247,10 @@ pub fn relax<D: Dim>(
             save(sim, info)?;
             last_save = std::time::Instant::now();
         }
-        // to the next multiple of `every`, in pieces of at most INTERRUPT_POLL_STEPS steps so that
-        // an interrupt is seen soon whatever `check_every` is; a preparation stopped between two
-        // pieces resumes to the next multiple, as an uninterrupted one (steps do not depend on
-        // how they are grouped)
-        let mut n = every - sim.step % every;
-        while n > 0 {
-            let m = n.min(grainwave_core::sim::INTERRUPT_POLL_STEPS);
-            sim.steps(m)?;
-            n -= m;
-            if n > 0 && interrupt.load(Ordering::Relaxed) {
-                return Ok(RelaxStatus::Interrupted);
-            }
+        // to the next multiple of `every`, looking at the interrupt flag on the way; a preparation
+        // stopped there resumes to the same multiple, as an uninterrupted one
+        if !sim.steps_until(every - sim.step % every, || interrupt.load(Ordering::Relaxed))? {
+            return Ok(RelaxStatus::Interrupted);
         }
         if pc.quench {
             let g = &sim.grains;

@@ -335,16 +335,10 @@ pub fn prepare(
             save(ctx, sim, info)?;
             last_save = std::time::Instant::now();
         }
-        // in pieces, so that an interrupt is seen soon whatever `check_every` is (resuming runs
-        // on to the same multiple of `check_every`)
-        let mut n = pc.check_every - sim.step % pc.check_every;
-        while n > 0 {
-            let m = n.min(grainwave_core::sim::INTERRUPT_POLL_STEPS);
-            sim.steps(m)?;
-            n -= m;
-            if n > 0 && ctx.interrupted() {
-                return Ok(false);
-            }
+        // to the next multiple of `check_every`, looking at the interrupt flag on the way
+        // (resuming runs on to the same multiple)
+        if !sim.steps_until(pc.check_every - sim.step % pc.check_every, || ctx.interrupted())? {
+            return Ok(false);
         }
         let g = &sim.grains;
         let mut power = grainwave_core::util::det_sum(g.len(), |k| g.force[k].dot(g.vel[k]) + g.torque[k] * g.omega[k]);

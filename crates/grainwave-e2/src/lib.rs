@@ -86,26 +86,13 @@ pub struct E2State {
     pub replays: Vec<outputs::ReplayReport>,
 }
 
-/// [`E2State`] as decoded, before it is checked.
+/// [`E2State`] as decoded, before it is checked: its plan, then the fields of the earlier layout.
+/// Checkpoints are bincode, which writes a struct's fields in order with no markers, so the
+/// nested struct reads the same bytes as [`E2State`]'s flat fields.
 #[derive(Deserialize)]
 struct CarriedE2State {
     plan: Vec<Unit>,
-    /// The config (stored as its TOML text).
-    #[serde(with = "grainwave_study::config::toml_text")]
-    config: E2Config,
-    /// Current stage.
-    stage: Stage,
-    /// Engine state during preparation and loading.
-    sim: Option<Simulation<D2>>,
-    /// How the preparation went.
-    preparation: PreparationInfo,
-    /// Units (known after the preparation, or from the source run).
-    units: Option<Units>,
-    /// The loading.
-    loading: Option<Loading>,
-    /// Reports of the finished replays, in the order of the config (gathered from their unit
-    /// results, `replays/<name>/report.gwck`, when the run is interrupted and at its end).
-    replays: Vec<outputs::ReplayReport>,
+    rest: EarlierE2State,
 }
 
 impl TryFrom<CarriedE2State> for E2State {
@@ -114,20 +101,11 @@ impl TryFrom<CarriedE2State> for E2State {
         // the scheduler and the replay lookup index by the plan: it must have one unit per
         // replay (and the loading, unless the checkpoints come from `source.dir`), each reading
         // only units before it
-        let expected = s.config.replays.len() + usize::from(s.config.source.dir.is_none());
+        let expected = s.rest.config.replays.len() + usize::from(s.rest.config.source.dir.is_none());
         if s.plan.len() != expected || s.plan.iter().enumerate().any(|(k, u)| u.inputs.iter().any(|&i| i >= k)) {
             return Err(format!("the e2 plan it carries ({} units) does not fit its config ({expected} units, each reading earlier ones only)", s.plan.len()));
         }
-        Ok(E2State {
-            plan: s.plan,
-            config: s.config,
-            stage: s.stage,
-            sim: s.sim,
-            preparation: s.preparation,
-            units: s.units,
-            loading: s.loading,
-            replays: s.replays,
-        })
+        Ok(E2State::from_parts(s.plan, s.rest))
     }
 }
 
@@ -326,16 +304,7 @@ impl Protocol for E2Protocol {
     /// as `run` did then).
     fn upgrade(tag: &str, file: &Path) -> Result<E2State> {
         let e: EarlierE2State = grainwave_core::checkpoint::load(file, tag)?;
-        Ok(E2State {
-            plan: work::plan(&e.config),
-            config: e.config,
-            stage: e.stage,
-            sim: e.sim,
-            preparation: e.preparation,
-            units: e.units,
-            loading: e.loading,
-            replays: e.replays,
-        })
+        Ok(E2State::from_parts(work::plan(&e.config), e))
     }
     fn replot(dir: &Path, state: &E2State) -> Result<Vec<String>> {
         replot(dir, state)
@@ -632,6 +601,11 @@ pub fn describe(cfg: &E2Config) -> Vec<String> {
 }
 
 impl E2State {
+    /// The state of `plan` and the fields of the earlier layout.
+    fn from_parts(plan: Vec<Unit>, e: EarlierE2State) -> Self {
+        E2State { plan, config: e.config, stage: e.stage, sim: e.sim, preparation: e.preparation, units: e.units, loading: e.loading, replays: e.replays }
+    }
+
     /// A fresh state.
     pub fn new(config: E2Config) -> Self {
         let stage = if config.source.dir.is_some() { Stage::Replays } else { Stage::Preparing };

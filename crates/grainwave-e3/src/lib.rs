@@ -44,11 +44,11 @@ pub const EARLIER_TAG: &str = "experiment-e3";
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(try_from = "CarriedE3State")]
 pub struct E3State {
+    /// Its parameter sets, cases and response runs.
+    pub plan: Plan,
     /// The config (stored as its TOML text).
     #[serde(with = "grainwave_study::config::toml_text")]
     pub config: E3Config,
-    /// Its parameter sets, cases and response runs.
-    pub plan: Plan,
     /// Per case: its reference state is done.
     pub references_done: Vec<bool>,
     /// Per run: its response is done.
@@ -57,15 +57,13 @@ pub struct E3State {
     pub finished: bool,
 }
 
-/// [`E3State`] as decoded, before it is checked.
+/// [`E3State`] as decoded, before it is checked: its plan, then the fields of the earlier layout.
+/// Checkpoints are bincode, which writes a struct's fields in order with no markers, so the
+/// nested struct reads the same bytes as [`E3State`]'s flat fields.
 #[derive(Deserialize)]
 struct CarriedE3State {
-    #[serde(with = "grainwave_study::config::toml_text")]
-    config: E3Config,
     plan: Plan,
-    references_done: Vec<bool>,
-    runs_done: Vec<bool>,
-    finished: bool,
+    rest: EarlierE3State,
 }
 
 impl TryFrom<CarriedE3State> for E3State {
@@ -73,16 +71,11 @@ impl TryFrom<CarriedE3State> for E3State {
     fn try_from(s: CarriedE3State) -> std::result::Result<Self, String> {
         let bad = |e: String| format!("the e3 plan it carries is inconsistent: {e}");
         s.plan.check_carried().map_err(bad)?;
-        if s.references_done.len() != s.plan.cases.len() || s.runs_done.len() != s.plan.runs.len() {
-            return Err(bad(format!(
-                "{} / {} done flags for {} cases / {} runs",
-                s.references_done.len(),
-                s.runs_done.len(),
-                s.plan.cases.len(),
-                s.plan.runs.len()
-            )));
+        let e = s.rest;
+        if e.references_done.len() != s.plan.cases.len() || e.runs_done.len() != s.plan.runs.len() {
+            return Err(bad(format!("{} / {} done flags for {} cases / {} runs", e.references_done.len(), e.runs_done.len(), s.plan.cases.len(), s.plan.runs.len())));
         }
-        Ok(E3State { config: s.config, plan: s.plan, references_done: s.references_done, runs_done: s.runs_done, finished: s.finished })
+        Ok(E3State { plan: s.plan, config: e.config, references_done: e.references_done, runs_done: e.runs_done, finished: e.finished })
     }
 }
 
@@ -202,9 +195,7 @@ impl grainwave_study::study::Protocol for E3Protocol {
     /// config file may not); the done flags must fit the plan.
     fn upgrade(tag: &str, file: &std::path::Path) -> Result<E3State> {
         let earlier: EarlierE3State = grainwave_core::checkpoint::load(file, tag)?;
-        let plan = Plan::new(&earlier.config);
-        let carried = CarriedE3State { config: earlier.config, plan, references_done: earlier.references_done, runs_done: earlier.runs_done, finished: earlier.finished };
-        E3State::try_from(carried).map_err(|reason| grainwave_study::ExperimentError::Resume { path: file.to_path_buf(), reason })
+        E3State::try_from(CarriedE3State { plan: Plan::new(&earlier.config), rest: earlier }).map_err(|reason| grainwave_study::ExperimentError::Resume { path: file.to_path_buf(), reason })
     }
 }
 

@@ -40,9 +40,9 @@ pub struct Entry {
     /// Validates and runs a config into the context's directory.
     pub run: fn(&ConfigSource, &mut RunContext<'_>) -> Result<RunSummary>,
     /// Continues the run of directory `dir` from its checkpoint file.
-    pub resume: fn(&Path, &Path, &mut RunContext<'_>) -> Result<RunSummary>,
+    pub resume: fn(&Path, &Path, &str, &mut RunContext<'_>) -> Result<RunSummary>,
     /// Re-makes the plots of directory `dir` from its checkpoint file.
-    pub plot: fn(&Path, &Path) -> Result<Vec<String>>,
+    pub plot: fn(&Path, &Path, &str) -> Result<Vec<String>>,
     /// Decodes checkpoint bytes as this protocol's state: the error message, if refused.
     pub decode: fn(&[u8]) -> Option<String>,
     /// Runs, in a worker process, the units of the run whose state (checkpoint bytes) the
@@ -107,25 +107,24 @@ fn run_with<P: Protocol>(src: &ConfigSource, ctx: &mut RunContext<'_>) -> Result
     finish::<P>(&mut state, ctx)
 }
 
-/// The state in checkpoint `file`: the current layout, or an earlier one through
-/// [`Protocol::upgrade`].
-fn load<P: Protocol>(file: &Path) -> Result<P::State> {
-    let (_, tag) = checkpoint_tag(file)?;
-    if tag != P::TAG && P::EARLIER_TAGS.contains(&tag.as_str()) {
-        return P::upgrade(&tag, file);
+/// The state in checkpoint `file`, whose content tag `tag` the dispatch has read: the current
+/// layout, or an earlier one through [`Protocol::upgrade`].
+fn load<P: Protocol>(file: &Path, tag: &str) -> Result<P::State> {
+    if tag != P::TAG && P::EARLIER_TAGS.contains(&tag) {
+        return P::upgrade(tag, file);
     }
     load_state(file, P::TAG)
 }
 
-fn resume_with<P: Protocol>(dir: &Path, file: &Path, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
-    let mut state: P::State = load::<P>(file)?;
+fn resume_with<P: Protocol>(dir: &Path, file: &Path, tag: &str, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
+    let mut state: P::State = load::<P>(file, tag)?;
     belongs_to(dir, P::config(&state))?;
     ctx.log(&format!("resuming from {}", file.display()));
     finish::<P>(&mut state, ctx)
 }
 
-fn plot_with<P: Protocol>(dir: &Path, file: &Path) -> Result<Vec<String>> {
-    let state: P::State = load::<P>(file)?;
+fn plot_with<P: Protocol>(dir: &Path, file: &Path, tag: &str) -> Result<Vec<String>> {
+    let state: P::State = load::<P>(file, tag)?;
     P::replot(dir, &state)
 }
 
@@ -245,7 +244,7 @@ impl Registry {
         for stale in grainwave_core::checkpoint::remove_stale_temporaries(dir) {
             ctx.log(&format!("removed the temporary file {} left by an interrupted write", stale.display()));
         }
-        (self.by_tag(dir, &tag, "is not a protocol state")?.resume)(dir, &file, ctx)
+        (self.by_tag(dir, &tag, "is not a protocol state")?.resume)(dir, &file, &tag, ctx)
     }
 
     /// A worker process's whole part in a distributed run (an MPI rank ≠ 0): waits for the
@@ -276,7 +275,7 @@ impl Registry {
             ExperimentError::Resume { path, reason } => ExperimentError::Plot { path, reason },
             e => e,
         })?;
-        (self.by_tag(dir, &tag, "has no plots")?.plot)(dir, &file)
+        (self.by_tag(dir, &tag, "has no plots")?.plot)(dir, &file, &tag)
     }
 
     /// The protocol whose run directory `dir` is: by the `experiment` key of its

@@ -553,10 +553,7 @@ fn ctrl_c_is_honoured_whatever_the_preparation_chunk() {
     let cfg = fixture("e1-check-every-2e32.toml");
     let mut child = spawn(&["run", cfg.to_str().unwrap(), "--out", dir.to_str().unwrap()]);
     // once the sample's preparation has begun (its directory exists), interrupt
-    let start = std::time::Instant::now();
-    while !dir.join("samples").exists() && start.elapsed().as_secs() < 60 {
-        std::thread::sleep(std::time::Duration::from_millis(50));
-    }
+    crate::wait_for(&dir.join("samples"), std::time::Duration::from_secs(60));
     std::thread::sleep(std::time::Duration::from_millis(500));
     signal(&child, "-INT");
     let (code, err) = wait_at_most(&mut child, std::time::Duration::from_secs(30), "an interrupted preparation");
@@ -574,13 +571,9 @@ fn a_run_killed_at_once_resumes_and_a_directory_without_a_checkpoint_says_so() {
     let d = dir.to_str().unwrap();
     let cfg = fixture("e2-small.toml");
     let mut child = spawn(&["run", cfg.to_str().unwrap(), "--out", d]);
-    let start = std::time::Instant::now();
-    while !dir.join("checkpoint.gwck").exists() && start.elapsed().as_secs() < 60 {
-        std::thread::sleep(std::time::Duration::from_millis(10));
-    }
+    crate::wait_for(&dir.join("checkpoint.gwck"), std::time::Duration::from_secs(60));
     signal(&child, "-KILL");
     let _ = child.wait();
-    assert!(dir.join("checkpoint.gwck").exists(), "no checkpoint within 60 s");
     let (code, err) = gw(&["resume", d]);
     assert_eq!(code, 0, "{err}");
     assert!(dir.join("summary.json").exists());

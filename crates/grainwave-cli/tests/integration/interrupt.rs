@@ -5,6 +5,7 @@
 
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Stdio};
+use crate::wait_for;
 use std::time::{Duration, Instant};
 
 const BIN: &str = env!("CARGO_BIN_EXE_grainwave");
@@ -29,14 +30,6 @@ fn start(dir: &Path) -> Child {
         .stderr(Stdio::piped())
         .spawn()
         .expect("the program starts")
-}
-
-fn wait_for(path: &Path, limit: Duration) {
-    let t = Instant::now();
-    while !path.exists() {
-        assert!(t.elapsed() < limit, "{} did not appear", path.display());
-        std::thread::sleep(Duration::from_millis(20));
-    }
 }
 
 fn resume(dir: &Path) {
@@ -103,7 +96,16 @@ fn sigint_then_resume_gives_the_same_bits_and_sigkill_too() {
     // SIGKILL between two periodic checkpoints: resume from the last one.
     let dir = out("sigkill");
     let mut child = start(&dir);
-    wait_for(&dir.join("checkpoint.gwck"), Duration::from_secs(60));
+    // the first checkpoint is the starting state, saved before any step; wait for the first
+    // periodic one, which replaces it
+    let ck = dir.join("checkpoint.gwck");
+    wait_for(&ck, Duration::from_secs(60));
+    let first = std::fs::metadata(&ck).unwrap().modified().unwrap();
+    let t = Instant::now();
+    while std::fs::metadata(&ck).and_then(|m| m.modified()).map_or(true, |m| m == first) {
+        assert!(t.elapsed() < Duration::from_secs(60), "no periodic checkpoint within 60 s");
+        std::thread::sleep(Duration::from_millis(20));
+    }
     std::thread::sleep(Duration::from_millis(300));
     child.kill().unwrap(); // SIGKILL
     let status = child.wait().unwrap();

@@ -41,6 +41,24 @@ impl<D: Dim> Simulation<D> {
         })
     }
 
+    /// Advances by `n` steps in pieces of at most [`super::INTERRUPT_POLL_STEPS`], asking `stop`
+    /// between pieces, so that a chunk length chosen in a config (`check_every` = 2³²) does not
+    /// make an interrupt wait for it. Returns false when `stop` said so before the `n` steps were
+    /// done; the steps taken stand, and the rest can be taken later with the same bits (steps do
+    /// not depend on how they are grouped).
+    pub fn steps_until(&mut self, n: u64, mut stop: impl FnMut() -> bool) -> Result<bool> {
+        let mut left = n;
+        while left > 0 {
+            let m = left.min(super::INTERRUPT_POLL_STEPS);
+            self.steps(m)?;
+            left -= m;
+            if left > 0 && stop() {
+                return Ok(false);
+            }
+        }
+        Ok(true)
+    }
+
     fn step_verlet(&mut self) -> Result<()> {
         let dt = self.dt;
         let h = 0.5 * dt;
