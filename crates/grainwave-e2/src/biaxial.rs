@@ -359,7 +359,8 @@ pub fn prepare(
 /// Switches friction on and sets up the loading: the top wall moves at ε̇ H₀, the right wall
 /// is a piston under p* × height.
 pub fn start_loading(sim: &mut Simulation<D2>, cfg: &E2Config) -> Result<Loading> {
-    sim.law = model::grain_law(&cfg.material, cfg.material.friction);
+    let acoustic_time = model::Units::of(sim, 1.0, cfg.material.normal_stiffness).acoustic_time;
+    sim.law = model::grain_law(&cfg.material, cfg.material.friction, acoustic_time);
     let (_, h) = model::box_size(sim);
     let t_star = sim.grains.total_mass().sqrt();
     let speed = cfg.loading.strain_rate / t_star * h * if cfg.loading.direction == Direction::Compression { 1.0 } else { -1.0 };

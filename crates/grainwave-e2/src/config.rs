@@ -93,6 +93,13 @@ pub struct MaterialConfig {
     pub rolling_stiffness: f64,
     /// Rolling friction μ_r: the rolling torque is capped at μ_r R* F_n.
     pub rolling_friction: f64,
+    /// Slip-activation time τ of the grain–grain friction [t_a] (0, the default: the Coulomb
+    /// cap of SPEC §6.1). τ > 0 is the friction law the published study proposes but does not
+    /// simulate (its Eq. 13): a contact's spring may exceed the Coulomb length μF_n/K_t and
+    /// relaxes back to it in a time τ, so contacts slide at loading time scales (≫ τ) and stick at
+    /// acoustic ones (≪ τ). It applies from the loading on (t_a is fixed by the prepared packing)
+    /// and in every replay; the preparation is frictionless. Not part of the canonical protocol.
+    pub slip_activation_time: f64,
     /// Absorbing walls (SPEC §6.7): the bottom, left and top walls get soft, damped contacts
     /// (stiffness K_n/√N, dashpot `absorbing_damping` √(m̄ K_n)); the pulse-emitting right wall stays
     /// stiff. The preparation compresses the gas with stiff walls, then relaxes the packing into
@@ -115,6 +122,7 @@ impl Default for MaterialConfig {
             friction: 0.2,
             rolling_stiffness: 1e-4,
             rolling_friction: 0.01,
+            slip_activation_time: 0.0,
             absorbing_walls: true,
             absorbing_damping: 0.85,
         }

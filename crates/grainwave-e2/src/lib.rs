@@ -339,6 +339,12 @@ pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
     non_negative(src, "material.friction", m.friction)?;
     non_negative(src, "material.rolling_stiffness", m.rolling_stiffness)?;
     non_negative(src, "material.rolling_friction", m.rolling_friction)?;
+    if !(m.slip_activation_time >= 0.0 && m.slip_activation_time <= 1e12) {
+        return Err(src.error_at_key(
+            "material.slip_activation_time",
+            format!("{} (allowed: a time τ in [0, 1e12] t_a; 0 is the Coulomb cap)", m.slip_activation_time),
+        ));
+    }
     positive(src, "material.absorbing_damping", m.absorbing_damping)?;
     let pc = &cfg.preparation;
     positive(src, "preparation.wall_mass", pc.wall_mass)?;

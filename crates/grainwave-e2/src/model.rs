@@ -90,12 +90,23 @@ pub fn box_size(sim: &Simulation<D2>) -> (f64, f64) {
 /// The grain–grain law: Hooke K_n, dashpot γ_n = 2ζ√(m* K_n) with ζ from the restitution,
 /// Cundall–Strack K_t = ratio × K_n with γ_t = ratio × γ_n, Coulomb μ = `friction` (0: no
 /// tangential force), rolling resistance k_r = `rolling_stiffness` K_n d̄² capped at μ_r R* F_n.
-pub fn grain_law(m: &MaterialConfig, friction: f64) -> ContactLaw {
+/// With `material.slip_activation_time` > 0 the tangential spring has that slip-activation time
+/// (× `acoustic_time`, t_a in engine units) instead of the plain Coulomb cap
+/// ([`Tangential::SlipActivation`]).
+pub fn grain_law(m: &MaterialConfig, friction: f64, acoustic_time: f64) -> ContactLaw {
     let zeta = critical_fraction_for_restitution(m.restitution).unwrap_or(0.0);
+    let stiffness = m.tangential_stiffness_ratio * m.normal_stiffness;
+    let activation_time = m.slip_activation_time * acoustic_time;
     ContactLaw {
         normal: NormalElastic::Hooke { stiffness: m.normal_stiffness },
         damping: NormalDamping::CriticalFraction { zeta },
-        tangential: if friction > 0.0 { Tangential::Linear { stiffness: m.tangential_stiffness_ratio * m.normal_stiffness } } else { Tangential::None },
+        tangential: if friction <= 0.0 {
+            Tangential::None
+        } else if activation_time > 0.0 {
+            Tangential::SlipActivation { stiffness, activation_time }
+        } else {
+            Tangential::Linear { stiffness }
+        },
         tangential_damping: TangentialDamping::FractionOfNormal { ratio: m.tangential_damping_ratio },
         friction,
         rolling: if m.rolling_stiffness > 0.0 {
@@ -109,7 +120,7 @@ pub fn grain_law(m: &MaterialConfig, friction: f64) -> ContactLaw {
 
 /// The grain–wall law: the same normal spring and dashpot, frictionless.
 pub fn wall_law(m: &MaterialConfig) -> ContactLaw {
-    let mut law = grain_law(m, 0.0);
+    let mut law = grain_law(m, 0.0, 0.0);
     law.rolling = Rolling::None;
     law
 }
@@ -186,7 +197,7 @@ pub fn build_gas(pk: &PackingConfig, m: &MaterialConfig, pc: &PreparationConfig,
     let l_star = (solid / 0.84).sqrt();
     let g = pc.gravity * l_star / total_mass;
     let gravity = glam::DVec2::new(-g / std::f64::consts::SQRT_2, -g / std::f64::consts::SQRT_2);
-    SimulationBuilder::new(grains, domain, grain_law(m, 0.0)).gravity(gravity).dt_fraction(pc.dt_fraction).seed(seed).build()
+    SimulationBuilder::new(grains, domain, grain_law(m, 0.0, 0.0)).gravity(gravity).dt_fraction(pc.dt_fraction).seed(seed).build()
 }
 
 /// An extra pressure on the right wall, p(t) = p*[1 + f(t)] (SPEC §6.4); time measured from

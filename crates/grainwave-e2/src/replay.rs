@@ -284,7 +284,7 @@ pub fn apply_single(rc: &ReplayConfig, sim: &mut Simulation<D2>, drive: &mut Dri
             sim.refresh_forces()
         }
         Modification::Friction => {
-            sim.law = model::grain_law(material, rc.friction);
+            sim.law = model::grain_law(material, rc.friction, u.acoustic_time);
             sim.refresh_forces()
         }
         Modification::WallStop => {

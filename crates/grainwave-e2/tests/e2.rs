@@ -599,7 +599,7 @@ fn lattice_with_walls(columns: usize, per_column: usize, delta: f64, absorbing: 
     }
     let k = 2000.0;
     let material = MaterialConfig { restitution: 1.0, friction: 0.0, rolling_stiffness: 0.0, normal_stiffness: k, ..Default::default() };
-    let law = model::grain_law(&material, 0.0);
+    let law = model::grain_law(&material, 0.0, 0.0);
     let wall = model::wall_law(&material);
     // each boundary grain has two neighbours at ±30° in the next column: their x-forces sum to
     // √3 K δ, balanced by a wall overlap of √3 δ (K/k_w times more on a softer wall)
@@ -724,6 +724,35 @@ fn bad_e2_configs_name_the_key_the_value_and_what_is_allowed() {
     check("[[replays]]\nmodification = \"incremental\"\namplitudes = [0.0]", "replays[0].amplitudes", "non-zero");
     check("[[replays]]\nmodification = \"incremental\"\nsteps_per_period = 2", "replays[0].steps_per_period", "> π");
     check("[[replays]]\nmodification = \"incremental\"\nbranches = \"sometimes\"", "branches", "incremental");
+    check("[material]\nslip_activation_time = -1.0", "material.slip_activation_time", "[0, 1e12] t_a");
+    check("[material]\nslip_activation_time = nan", "material.slip_activation_time", "[0, 1e12] t_a");
+}
+
+/// `material.slip_activation_time` (in t_a) gives the loading's grain–grain law the
+/// slip-activation time τ × t_a of the prepared packing (the preparation stays frictionless);
+/// without it the law is the Coulomb one, and the loadings differ once contacts slide.
+#[test]
+fn slip_activation_time_reaches_the_loading_law_in_acoustic_times() {
+    let run = |extra: &str, name: &str| {
+        let out = tmp(name);
+        let text = format!(
+            "experiment = \"e2\"\nseed = 3\n[packing]\ncolumns = 10\nrows = 10\n[material]\n{extra}\n[loading]\nstrain_rate = 0.005\nfinal_strain = 1e-4\ncheckpoint_strain = 5e-5\nsample_every = 5\n"
+        );
+        let src = ConfigSource::from_text("slip e2", &text);
+        let mut rep = SilentReporter;
+        let mut ctx = RunContext::new(&out, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
+        crate::REGISTRY.run(&src, &mut ctx).unwrap();
+        load_checkpoint(&out, -1).unwrap()
+    };
+    let with = run("slip_activation_time = 2.5", "slip-on");
+    let without = run("", "slip-off");
+    let t_a = with.units.acoustic_time;
+    assert!(t_a > 0.0);
+    assert_eq!(with.sim.law.tangential, Tangential::SlipActivation { stiffness: 0.5 * 2000.0, activation_time: 2.5 * t_a });
+    assert_eq!(without.sim.law.tangential, Tangential::Linear { stiffness: 0.5 * 2000.0 });
+    // same preparation (frictionless, the same packing): the same units to the bit
+    assert_eq!(with.units, without.units);
+    assert_ne!(with.sim.state_hash(), without.sim.state_hash());
 }
 
 /// Records, for each progress report, the stage it came in and whether the preparation had
@@ -1156,7 +1185,7 @@ fn affine_sliding_drive_agrees_with_the_contact_law() {
     use grainwave_core::snapshot::{ContactRecord, Counterpart};
     let material = MaterialConfig { restitution: 1.0, tangential_damping_ratio: 0.0, rolling_stiffness: 0.0, ..MaterialConfig::default() };
     let mu = 0.2;
-    let law = model::grain_law(&material, mu);
+    let law = model::grain_law(&material, mu, 0.0);
     let (r, xi, dt) = (0.5, 1e-3, 1e-4);
     let k_n = material.normal_stiffness;
     let cases: [[[f64; 2]; 2]; 5] = [[[-1.0, 0.0], [0.0, 0.0]], [[1.0, 0.0], [0.0, 0.0]], [[0.0, 0.0], [0.0, -1.0]], [[0.0, 0.5], [0.5, 0.0]], [[1.2, 0.0], [0.0, -1.0]]];

@@ -34,7 +34,7 @@ pub use damping::{
 pub use kinematics::{pair_kinematics, wall_kinematics, Kinematics};
 pub use normal::{NormalElastic, NormalResponse};
 pub use params::{ContactParams, Partner, PRESETS};
-pub use parts::{HertzMindlin, HookeCundallStrack, LawParts, Specialized, WithRolling};
+pub use parts::{HertzMindlin, HookeCundallStrack, HookeSlipActivation, LawParts, Specialized, WithRolling};
 pub use rolling::{Rolling, Twisting};
 pub use tangential::{HistoryValue, Tangential, TangentialDamping, TangentialHistory};
 pub(crate) use coulomb::coulomb_cap_lanes;
@@ -134,7 +134,7 @@ pub(crate) fn evaluate_parts<D: Dim, P: LawParts>(law: &P, kin: &Kinematics<D>, 
     let mut sliding = false;
     let f_t = match tangential {
         Tangential::None => D::Vector::ZERO,
-        Tangential::Linear { .. } | Tangential::Mindlin { .. } => {
+        Tangential::Linear { .. } | Tangential::Mindlin { .. } | Tangential::SlipActivation { .. } => {
             let gamma_t = law.tangential_damping().coefficient_lanes(kin.m_eff, k_t, gamma_n);
             let mut rotated = into_tangent_plane(state.spring.0, n);
             if let Tangential::Mindlin { rescale_on_unloading: true, .. } = tangential {
@@ -294,6 +294,16 @@ impl ContactLaw {
         match self.tangential {
             Tangential::None => {}
             Tangential::Linear { stiffness } => require_positive(&format!("{field}.tangential_stiffness"), stiffness)?,
+            Tangential::SlipActivation { stiffness, activation_time } => {
+                require_positive(&format!("{field}.tangential_stiffness"), stiffness)?;
+                if !(activation_time > 0.0 && activation_time.is_finite()) {
+                    return Err(CoreError::invalid(
+                        format!("{field}.slip_activation_time"),
+                        activation_time,
+                        "a finite time τ > 0 (0 is the Coulomb cap: leave the key out or set 0)",
+                    ));
+                }
+            }
             Tangential::Mindlin { effective_shear_modulus, .. } => {
                 require_positive(&format!("{field}.shear_modulus"), effective_shear_modulus)?
             }

@@ -70,6 +70,11 @@ pub struct ContactParams {
     pub friction: Option<f64>,
     /// Rescale the stored Mindlin force by k_t(new)/k_t(old) when the overlap decreases (default false).
     pub mindlin_rescale: Option<bool>,
+    /// Slip-activation time τ (Hooke; time, ≥ 0, default 0): the spring's excess over the
+    /// Coulomb length μF_n/k_t relaxes in a time τ instead of being cut at once, so contacts
+    /// slide at time scales ≫ τ and stick at shorter ones (the friction law proposed in the
+    /// E2 study, docs/engine.md); 0 is the Coulomb cap, bit for bit.
+    pub slip_activation_time: Option<f64>,
     /// Rolling stiffness k_r; rolling resistance is on when given.
     pub rolling_stiffness: Option<f64>,
     /// Rolling damping γ_r, default 0.
@@ -157,6 +162,11 @@ impl ContactParams {
                 forbid("normal_damping", self.normal_damping, "use `damping_fraction` (fraction of critical damping)")?;
                 forbid("normal_damping_rate", self.normal_damping_rate, "use `damping_fraction` or `tsuji_restitution`")?;
                 forbid("tangential_damping_rate", self.tangential_damping_rate, "use `damping_fraction` or `tsuji_restitution`")?;
+                forbid(
+                    "slip_activation_time",
+                    self.slip_activation_time,
+                    "the slip-activation law is defined for the linear tangential spring (hooke_cundall_strack)",
+                )?;
                 if self.tsuji_restitution.is_none() {
                     forbid(
                         "tangential_damping_ratio",
@@ -234,6 +244,15 @@ impl ContactParams {
                         format!("a ratio that makes k_t = ratio × normal_stiffness a finite, normal number (here {k_t:?})"),
                     ));
                 }
+                // τ = 0 (or absent) is the Coulomb cap itself: today's law, not a limit of the other
+                let tau = match self.slip_activation_time {
+                    None => None,
+                    Some(t) if t == 0.0 => None,
+                    Some(t) if t > 0.0 && t.is_finite() => Some(t),
+                    Some(t) => {
+                        return Err(CoreError::invalid(key("slip_activation_time"), t, "a finite time τ ≥ 0 (0: the Coulomb cap)"));
+                    }
+                };
                 let given: Vec<&str> = [
                     ("restitution", self.restitution.is_some()),
                     ("normal_damping", self.normal_damping.is_some()),
@@ -302,7 +321,11 @@ impl ContactParams {
                 ContactLaw {
                     normal: NormalElastic::Hooke { stiffness: k_n },
                     damping,
-                    tangential: if friction > 0.0 { Tangential::Linear { stiffness: ratio * k_n } } else { Tangential::None },
+                    tangential: match (friction > 0.0, tau) {
+                        (false, _) => Tangential::None,
+                        (true, None) => Tangential::Linear { stiffness: ratio * k_n },
+                        (true, Some(activation_time)) => Tangential::SlipActivation { stiffness: ratio * k_n, activation_time },
+                    },
                     tangential_damping,
                     friction,
                     rolling,

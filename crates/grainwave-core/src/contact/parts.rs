@@ -80,6 +80,18 @@ pub struct HookeCundallStrack {
     pub(crate) friction: f64,
 }
 
+/// [`HookeCundallStrack`] with the slip-activation time τ of [`Tangential::SlipActivation`]:
+/// the `hooke_cundall_strack` preset with `slip_activation_time` > 0.
+#[derive(Clone, Copy, Debug)]
+pub struct HookeSlipActivation {
+    pub(crate) normal_stiffness: f64,
+    pub(crate) tangential_stiffness: f64,
+    pub(crate) activation_time: f64,
+    pub(crate) damping: NormalDamping,
+    pub(crate) tangential_damping: TangentialDamping,
+    pub(crate) friction: f64,
+}
+
 macro_rules! common_parts {
     () => {
         #[inline(always)]
@@ -125,6 +137,18 @@ impl LawParts for HookeCundallStrack {
     #[inline(always)]
     fn tangential(&self) -> Tangential {
         Tangential::Linear { stiffness: self.tangential_stiffness }
+    }
+    common_parts!();
+}
+
+impl LawParts for HookeSlipActivation {
+    #[inline(always)]
+    fn normal(&self) -> NormalElastic {
+        NormalElastic::Hooke { stiffness: self.normal_stiffness }
+    }
+    #[inline(always)]
+    fn tangential(&self) -> Tangential {
+        Tangential::SlipActivation { stiffness: self.tangential_stiffness, activation_time: self.activation_time }
     }
     common_parts!();
 }
@@ -183,6 +207,10 @@ pub enum Specialized {
     HertzMindlinRolling(WithRolling<HertzMindlin>),
     /// [`HookeCundallStrack`] with rolling resistance (E2's law).
     HookeCundallStrackRolling(WithRolling<HookeCundallStrack>),
+    /// See [`HookeSlipActivation`].
+    HookeSlipActivation(HookeSlipActivation),
+    /// [`HookeSlipActivation`] with rolling resistance (E2's law with a slip-activation time).
+    HookeSlipActivationRolling(WithRolling<HookeSlipActivation>),
     /// Anything else (twisting resistance, no friction, rescaled Mindlin, mixed parts):
     /// evaluated through [`ContactLaw`] itself.
     General(ContactLaw),
@@ -212,6 +240,13 @@ impl ContactLaw {
                 match r {
                     None => Specialized::HookeCundallStrack(law),
                     Some((stiffness, damping, friction)) => Specialized::HookeCundallStrackRolling(WithRolling { law, stiffness, damping, friction }),
+                }
+            }
+            (NormalElastic::Hooke { stiffness: normal_stiffness }, Tangential::SlipActivation { stiffness: tangential_stiffness, activation_time }, r) => {
+                let law = HookeSlipActivation { normal_stiffness, tangential_stiffness, activation_time, damping, tangential_damping, friction };
+                match r {
+                    None => Specialized::HookeSlipActivation(law),
+                    Some((stiffness, damping, friction)) => Specialized::HookeSlipActivationRolling(WithRolling { law, stiffness, damping, friction }),
                 }
             }
             _ => Specialized::General(*self),
@@ -275,8 +310,13 @@ mod tests {
         let mut hooke_rolling = hooke_e.clone();
         hooke_rolling.rolling_stiffness = Some(50.0);
         hooke_rolling.rolling_friction = Some(0.01);
+        // the slip-activation time on both Hooke variants (τ = 10 steps of the test's Δt)
+        let mut hooke_slip = hooke.clone();
+        hooke_slip.slip_activation_time = Some(1e-2);
+        let mut hooke_rolling_slip = hooke_rolling.clone();
+        hooke_rolling_slip.slip_activation_time = Some(1e-2);
         let mut checked = 0;
-        for p in [hertz, hooke, hertz_zeta, hooke_e, hertz_rolling, hooke_rolling] {
+        for p in [hertz, hooke, hertz_zeta, hooke_e, hertz_rolling, hooke_rolling, hooke_slip, hooke_rolling_slip] {
             let law = p.build(Partner::Grain, "contact").unwrap();
             let v3 = |rng: &mut ChaCha8Rng| DVec3::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5);
             let mk3 = |rng: &mut ChaCha8Rng| (DVec3::new(0.9 + 0.1 * rng.random::<f64>(), 0.2 * rng.random::<f64>(), 0.1), v3(rng), v3(rng), v3(rng) * 10f64.powf(7.0 * rng.random::<f64>() - 3.0));
@@ -301,11 +341,19 @@ mod tests {
                     same_bits::<D3, _>(&s, &law, mk3);
                     same_bits::<D2, _>(&s, &law, mk2);
                 }
+                Specialized::HookeSlipActivation(s) => {
+                    same_bits::<D3, _>(&s, &law, mk3);
+                    same_bits::<D2, _>(&s, &law, mk2);
+                }
+                Specialized::HookeSlipActivationRolling(s) => {
+                    same_bits::<D3, _>(&s, &law, mk3);
+                    same_bits::<D2, _>(&s, &law, mk2);
+                }
                 Specialized::General(_) => panic!("{law:?} should be specialised"),
             }
             checked += 1;
         }
-        assert_eq!(checked, 6);
+        assert_eq!(checked, 8);
         // twisting resistance keeps the general path
         let mut p = ContactParams::preset("hooke_cundall_strack");
         p.normal_stiffness = Some(1e4);

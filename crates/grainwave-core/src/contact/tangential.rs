@@ -64,7 +64,7 @@ impl Tangential {
     pub fn read<V: VectorOps>(&self, h: TangentialHistory<V>) -> HistoryValue<V> {
         match self {
             Tangential::None => HistoryValue::None,
-            Tangential::Linear { .. } => HistoryValue::Displacement(h.0),
+            Tangential::Linear { .. } | Tangential::SlipActivation { .. } => HistoryValue::Displacement(h.0),
             Tangential::Mindlin { .. } => HistoryValue::Force(h.0),
         }
     }
@@ -75,12 +75,12 @@ impl Tangential {
     pub fn history<V: VectorOps>(&self, value: HistoryValue<V>) -> Result<TangentialHistory<V>> {
         match (self, value) {
             (Tangential::None, HistoryValue::None) => Ok(TangentialHistory::ZERO),
-            (Tangential::Linear { .. }, HistoryValue::Displacement(s)) => Ok(TangentialHistory(s)),
+            (Tangential::Linear { .. } | Tangential::SlipActivation { .. }, HistoryValue::Displacement(s)) => Ok(TangentialHistory(s)),
             (Tangential::Mindlin { .. }, HistoryValue::Force(f)) => Ok(TangentialHistory(f)),
             (law, value) => {
                 let allowed = match law {
                     Tangential::None => "none (the law has no tangential part)",
-                    Tangential::Linear { .. } => "a displacement (the linear law stores its spring elongation)",
+                    Tangential::Linear { .. } | Tangential::SlipActivation { .. } => "a displacement (the linear law stores its spring elongation)",
                     Tangential::Mindlin { .. } => "a force (the Mindlin law stores its elastic tangential force)",
                 };
                 Err(CoreError::InvalidParameter {
@@ -99,7 +99,7 @@ impl Tangential {
     pub fn elastic_force<V: VectorOps>(&self, h: TangentialHistory<V>) -> V {
         match *self {
             Tangential::None => V::ZERO,
-            Tangential::Linear { stiffness } => h.0 * stiffness,
+            Tangential::Linear { stiffness } | Tangential::SlipActivation { stiffness, .. } => h.0 * stiffness,
             Tangential::Mindlin { .. } => h.0,
         }
     }
@@ -126,6 +126,23 @@ pub enum Tangential {
         /// (default off: the stored force is kept, as in the plain incremental law).
         rescale_on_unloading: bool,
     },
+    /// Linear spring with a slip-activation time τ (the E2 paper's proposed law, its Eq. 13):
+    /// the spring elongation D_t obeys
+    ///
+    /// Ḋ_t = v_t − Θ(|D_t| − D_tᶜ) (D_t − D_tᶜ)/τ,  D_tᶜ = μ F_n/K_t (along D_t),
+    ///
+    /// so a contact may hold more than μ F_n for a time of order τ: it slides at loading time
+    /// scales (≫ τ) and sticks at acoustic ones (≪ τ). τ → 0 is the Coulomb cap of
+    /// [`Tangential::Linear`]. Integrated by backward Euler over each step (unconditionally
+    /// stable, exact steady slide D_t = D_tᶜ + v_t τ; see [`spring_step`]). History: the
+    /// spring D_t (a length), as the linear law. (Appended last: the encoding of the other
+    /// variants, and so of every earlier checkpoint, is unchanged.)
+    SlipActivation {
+        /// K_t (force/length).
+        stiffness: f64,
+        /// τ (time), > 0.
+        activation_time: f64,
+    },
 }
 
 impl Tangential {
@@ -141,7 +158,7 @@ impl Tangential {
     pub(crate) fn stiffness_lanes<R: Real>(&self, xi: R, r_eff: R) -> R {
         match *self {
             Tangential::None => R::splat(0.0),
-            Tangential::Linear { stiffness } => R::splat(stiffness),
+            Tangential::Linear { stiffness } | Tangential::SlipActivation { stiffness, .. } => R::splat(stiffness),
             Tangential::Mindlin { effective_shear_modulus, .. } => R::splat(8.0 * effective_shear_modulus) * (r_eff * xi).sqrt(),
         }
     }
@@ -164,7 +181,7 @@ impl Tangential {
         let (mut kept, mut trial) = ([zero; 3], [zero; 3]);
         match *self {
             Tangential::None => kept = rotated,
-            Tangential::Linear { .. } => {
+            Tangential::Linear { .. } | Tangential::SlipActivation { .. } => {
                 for c in 0..N {
                     kept[c] = rotated[c] + v_t[c] * R::splat(dt);
                     trial[c] = kept[c] * k_t + v_t[c] * gamma_t;
@@ -189,7 +206,7 @@ impl Tangential {
         let mut h = [R::splat(0.0); 3];
         match *self {
             Tangential::None => {}
-            Tangential::Linear { stiffness } => {
+            Tangential::Linear { stiffness } | Tangential::SlipActivation { stiffness, .. } => {
                 for c in 0..N {
                     h[c] = f[c] / R::splat(stiffness);
                 }
@@ -271,7 +288,23 @@ pub(crate) fn spring_step<R: Real, const N: usize>(
     if R::branch_unless(sliding) {
         return (f, kept, sliding);
     }
-    let history = select3::<R>(sliding, law.history_for_force_lanes::<R, N>(f), kept);
+    let at_cap = law.history_for_force_lanes::<R, N>(f);
+    if let Tangential::SlipActivation { activation_time, .. } = *law {
+        // Eq. 13 by backward Euler over the step: with x = |D_t| − D_tᶜ the excess over the
+        // history that holds the Coulomb force, x_new = x_old + v_t Δt − (Δt/τ) x_new, i.e.
+        // x_new = w x_trial with w = τ/(τ + Δt) (x_trial = x_old + v_t Δt, the excess of the
+        // incremented spring). Steady sliding keeps x = v_t τ exactly; τ → 0 gives w = 0, the
+        // Coulomb cap. The force is the capped force plus the same fraction of the trial
+        // force's excess (F = k_t D_t + γ_t v_t, linear in D_t).
+        let w = R::splat(activation_time / (activation_time + dt));
+        let (mut history, mut force) = ([R::splat(0.0); 3], [R::splat(0.0); 3]);
+        for c in 0..N {
+            history[c] = at_cap[c] + w * (kept[c] - at_cap[c]);
+            force[c] = f[c] + w * (trial[c] - f[c]);
+        }
+        return (select3::<R>(sliding, force, f), select3::<R>(sliding, history, kept), sliding);
+    }
+    let history = select3::<R>(sliding, at_cap, kept);
     (f, history, sliding)
 }
 

@@ -1040,6 +1040,8 @@ impl<D: Dim> Simulation<D> {
                 Specialized::HookeCundallStrack(law) => cross_pairs_windowed(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0, kernels),
                 Specialized::HertzMindlinRolling(law) => cross_pairs_windowed(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0, kernels),
                 Specialized::HookeCundallStrackRolling(law) => cross_pairs_windowed(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0, kernels),
+                Specialized::HookeSlipActivation(law) => cross_pairs_windowed(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0, kernels),
+                Specialized::HookeSlipActivationRolling(law) => cross_pairs_windowed(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0, kernels),
                 Specialized::General(law) => cross_pairs::<D, ContactLaw>(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0),
             }
         };
@@ -1073,6 +1075,8 @@ impl<D: Dim> Simulation<D> {
                 Specialized::HookeCundallStrack(law) => blocks_pass_windowed(&law, &inp, cross, &fin, 0..blocks, h, g, kernels),
                 Specialized::HertzMindlinRolling(law) => blocks_pass_windowed(&law, &inp, cross, &fin, 0..blocks, h, g, kernels),
                 Specialized::HookeCundallStrackRolling(law) => blocks_pass_windowed(&law, &inp, cross, &fin, 0..blocks, h, g, kernels),
+                Specialized::HookeSlipActivation(law) => blocks_pass_windowed(&law, &inp, cross, &fin, 0..blocks, h, g, kernels),
+                Specialized::HookeSlipActivationRolling(law) => blocks_pass_windowed(&law, &inp, cross, &fin, 0..blocks, h, g, kernels),
                 Specialized::General(law) => blocks_pass::<D, ContactLaw>(&law, &inp, cross, &fin, 0..blocks, h, g),
             }
         };

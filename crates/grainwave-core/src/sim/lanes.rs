@@ -9,7 +9,7 @@
 //! fused multiply–add), so the result is bitwise that of the general kernel (tested on whole
 //! runs).
 
-use crate::contact::{clamped_normal_force_lanes, contact_loads_lanes, coulomb_cap_lanes, into_tangent_plane_lanes, pair_kinematics_lanes, spring_step, HertzMindlin, HookeCundallStrack, LawParts, NormalDamping, NormalResponse, Rolling, TangentialDamping, WithRolling};
+use crate::contact::{clamped_normal_force_lanes, contact_loads_lanes, coulomb_cap_lanes, into_tangent_plane_lanes, pair_kinematics_lanes, spring_step, HertzMindlin, HookeCundallStrack, HookeSlipActivation, LawParts, NormalDamping, NormalResponse, Rolling, TangentialDamping, WithRolling};
 use crate::real::dot;
 use crate::dim::{Dim, VectorOps};
 
@@ -116,6 +116,7 @@ pub(super) trait WindowLaw: LawParts {
 }
 impl WindowLaw for HertzMindlin {}
 impl WindowLaw for HookeCundallStrack {}
+impl WindowLaw for HookeSlipActivation {}
 impl<L: WindowLaw> WindowLaw for WithRolling<L> {}
 
 /// Normal and tangential damping coefficients, resolved at compile time for the combinations of

@@ -13,5 +13,6 @@ mod equilibrium;
 mod force_blocks;
 mod periodic;
 mod shear;
+mod slip_activation;
 mod sort;
 mod tangential;
