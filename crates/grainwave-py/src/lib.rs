@@ -35,5 +35,6 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(linear::moduli, m)?)?;
     m.add_function(wrap_pyfunction!(linear::modal_pulse, m)?)?;
     m.add_function(wrap_pyfunction!(linear::direct_pulse, m)?)?;
+    m.add_function(wrap_pyfunction!(linear::incremental_pulse, m)?)?;
     Ok(())
 }

@@ -110,3 +110,109 @@ def test_modal_and_direct_pulses_agree(settle):
         gl.modal_pulse(s, 0, 2, [0.0, 0.2, 0.1])
     with pytest.raises(ValueError, match="wall index 7"):
         gl.modal_pulse(s, 0, 7, t)
+
+
+@pytest.fixture
+def pile(settle):
+    """The settled frictional pile of the pulse test above (floor = wall 0, sides 1 and 2): some
+    of its contacts are at the Coulomb limit."""
+    s = grainwave.Simulation(settle)
+    s.step(12000)
+    return s
+
+
+def test_incremental_pulse_is_positively_homogeneous(pile):
+    t = np.linspace(0.0, 1.0, 101)
+    one = gl.incremental_pulse(pile, 0, t, amplitude=1.0, detector_wall=2)
+    counts = one["counts"]
+    assert counts["contacts"] > 0
+    if counts["at_limit"] == 0:
+        pytest.fail(f"the pile has no contact at the Coulomb limit ({counts}): the test would not test the branch rule")
+    assert one["history"]["contact"].size >= counts["at_limit"]
+    assert one["velocity"].shape == (t.size, one["grain_ids"].size, 2)
+    assert np.abs(one["velocity"]).max() > 0 and np.abs(one["signal"]).max() > 0
+    # degree one: a power of two scales every operation exactly, branch decisions included
+    two = gl.incremental_pulse(pile, 0, t, amplitude=2.0, detector_wall=2)
+    np.testing.assert_array_equal(two["velocity"], 2.0 * one["velocity"])
+    np.testing.assert_array_equal(two["signal"], 2.0 * one["signal"])
+    np.testing.assert_array_equal(two["history"]["slip_steps"], one["history"]["slip_steps"])
+    # ... but not odd: the other sign pushes other contacts on, so −1 is not −(+1)
+    minus = gl.incremental_pulse(pile, 0, t, amplitude=-1.0, detector_wall=2)
+    assert one["counts"]["slipped"] + minus["counts"]["slipped"] > 0
+    scale = np.abs(one["velocity"]).max()
+    assert np.abs(minus["velocity"] + one["velocity"]).max() > 1e-6 * scale
+    assert not np.array_equal(minus["history"]["slip_steps"], one["history"]["slip_steps"])
+    # with every contact sticking the network is linear: −1 is exactly −(+1), and never slips
+    stick = gl.incremental_pulse(pile, 0, t, amplitude=1.0, branches="stick", detector_wall=2)
+    stick_minus = gl.incremental_pulse(pile, 0, t, amplitude=-1.0, branches="stick", detector_wall=2)
+    np.testing.assert_array_equal(stick_minus["velocity"], -stick["velocity"])
+    assert stick["counts"]["slipped"] == 0 and stick["slipping"].max() == 0
+    # the amplitude-independent numbers agree between the amplitudes
+    assert one["steps"] == two["steps"] == minus["steps"] and one["max_step"] == minus["max_step"]
+
+
+def test_incremental_pulse_without_slip_is_the_linear_pulse(pile):
+    # "stick" (and "free") are the bilateral networks of sliding = "stick" ("free"): the force on
+    # the right wall after the floor's kick, against the exact mode sum of the same network (an
+    # independent method: eigenvectors, no time stepping). The incremental integrator is velocity
+    # Verlet (2nd order), so the difference falls by ≈ 4 when the steps per period double.
+    t = np.linspace(0.0, 0.5, 51)
+    for rule in ("stick", "free"):
+        modal = gl.modal_pulse(pile, 0, 2, t, sliding=rule)
+        scale = np.abs(modal["signal"]).max()
+        assert scale > 0
+        errors = []
+        for spp in (200.0, 400.0):
+            inc = gl.incremental_pulse(pile, 0, t, branches=rule, detector_wall=2, wall_damping=False, steps_per_period=spp)
+            errors.append(np.abs(inc["signal"] - modal["signal"]).max() / scale)
+        assert errors[1] < 2e-3, (rule, errors)
+        assert 3.0 < errors[0] / errors[1] < 5.0, (rule, errors)
+
+
+def test_incremental_pulse_of_a_piston_and_by_duration(pile):
+    # the floor as a piston of mass M = 5 kicked by the impulse 1: it starts at 1/M and obeys
+    # M q̈ = −F_sig with F_sig its own normal load increment (the detector signal of the same
+    # wall, which counts its displacement q) — checked by the trapezoid rule between samples
+    # (34 per shortest period: error ≈ 4e-4 of the largest change)
+    mass = 5.0
+    a = gl.incremental_pulse(pile, 0, duration=0.2, sample_interval=0.0005, piston_mass=mass, detector_wall=0)
+    t, f, q, qdot = a["times"], a["signal"], a["piston_displacement"], a["piston_velocity"]
+    assert t.size == 401 and t[-1] == pytest.approx(0.2)
+    assert qdot[0] == 1.0 / mass and q[0] == 0.0
+    dv = np.diff(qdot)
+    np.testing.assert_allclose(dv, -0.5 * (f[1:] + f[:-1]) * np.diff(t) / mass, rtol=0, atol=5e-3 * np.abs(dv).max())
+    dq = np.diff(q)
+    np.testing.assert_allclose(dq, 0.5 * (qdot[1:] + qdot[:-1]) * np.diff(t), rtol=0, atol=5e-3 * np.abs(dq).max())
+    # the samples by duration are those by times
+    b = gl.incremental_pulse(pile, 0, t, piston_mass=mass, detector_wall=0)
+    np.testing.assert_array_equal(b["velocity"], a["velocity"])
+    assert a["steps"] > 0 and a["wall_seconds"] >= 0.0
+
+
+def test_incremental_pulse_bad_arguments_are_named(pile):
+    t = [0.0, 0.1]
+    cases = [
+        (dict(branches="slide"), r'branches = "slide" \(allowed: "incremental", "stick", "free", "slip"\)'),
+        (dict(amplitude=float("nan")), r"amplitude = NaN \(allowed: a finite number\)"),
+        (dict(piston_mass=-1.0), r'piston_mass = -1 \(allowed: None, "state" or a finite mass > 0\)'),
+        (dict(piston_mass="wall"), r'piston_mass = "wall"'),
+        (dict(piston_mass="state"), r'piston_mass = "state": the wall 0'),
+        (dict(detector_wall=3), r"detector_wall = 3 \(allowed: a wall index 0 to 2"),
+        (dict(steps_per_period=3.0), r"steps_per_period = 3 \(allowed: a number > π"),
+        (dict(mobilisation_tolerance=1.0), r"mobilisation_tolerance = 1 \(allowed: a number in \[0, 1\)"),
+        (dict(strips=0), r"strips = 0 \(allowed: an integer ≥ 1\)"),
+        (dict(fit_range=(0.9, 0.1)), r"fit_range = \(0.9, 0.1\)"),
+    ]
+    for kwargs, message in cases:
+        with pytest.raises(ValueError, match=message):
+            gl.incremental_pulse(pile, 0, t, **kwargs)
+    with pytest.raises(ValueError, match=r"wall = 5 \(allowed: a wall index 0 to 2"):
+        gl.incremental_pulse(pile, 5, t)
+    with pytest.raises(ValueError, match=r"times: entry \[0\] = -0.1 is before the pulse"):
+        gl.incremental_pulse(pile, 0, [-0.1, 0.0])
+    with pytest.raises(ValueError, match=r"times = None"):
+        gl.incremental_pulse(pile, 0)
+    with pytest.raises(ValueError, match=r"sample_interval = 0"):
+        gl.incremental_pulse(pile, 0, duration=1.0, sample_interval=0)
+    with pytest.raises(ValueError, match=r"duration = 1.0, sample_interval = None \(allowed: None when times is given\)"):
+        gl.incremental_pulse(pile, 0, t, duration=1.0)

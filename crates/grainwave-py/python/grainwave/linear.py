@@ -10,11 +10,16 @@ grain by grain in the order of ``grain_ids``, each grain its d translations then
 * ``rattlers``: "keep" or "remove" (grains with fewer force-carrying contacts than needed);
 * ``sliding``: "stick" (keep k_t of sliding contacts) or "free" (k_t = 0 there);
 * ``rolling``: include rolling/twisting springs when the contact law has them.
+
+:func:`incremental_pulse` is the piecewise-linear network of ``grainwave_linear::incremental``
+instead: contacts at the Coulomb limit slip or stick by the sign of the increment (docs/python.md,
+"Incremental pulses").
 """
 
 from __future__ import annotations
 
-from typing import Any, Dict
+import math
+from typing import Any, Dict, Optional, Sequence, Union
 
 import numpy as np
 
@@ -78,3 +83,78 @@ def direct_pulse(sim, source_wall: int, detector_wall: int, times, initial_condi
     """The same pulse by direct integration of M ü = −D u with a 4th-order symplectic scheme
     (``steps_per_period`` steps per shortest period): ``signal``, ``steps``, ``max_step``."""
     return _native.direct_pulse(sim, source_wall, detector_wall, times, initial_condition, strength, prestress, rattlers, sliding, rolling, steps_per_period)
+
+
+def _number(x) -> Optional[float]:
+    """``x`` as a float, None when it is not a real number."""
+    if isinstance(x, (bool, str, bytes)):
+        return None
+    try:
+        return float(x)
+    except (TypeError, ValueError):
+        return None
+
+
+def incremental_pulse(
+    sim,
+    wall: int,
+    times=None,
+    amplitude: float = 1.0,
+    branches: str = "incremental",
+    piston_mass: Union[None, float, str] = None,
+    detector_wall: Optional[int] = None,
+    rolling_cap: bool = True,
+    wall_damping: bool = True,
+    mobilisation_tolerance: float = 1e-6,
+    steps_per_period: float = 50.0,
+    strips: int = 128,
+    fit_range: Sequence[float] = (0.1, 0.9),
+    duration: Optional[float] = None,
+    sample_interval: Optional[float] = None,
+) -> Dict[str, Any]:
+    """The δ pulse of wall ``wall`` through the incremental (piecewise-linear) network of the
+    current state: every contact linearized, those at the Coulomb limit (|F_t| ≥ (1 −
+    ``mobilisation_tolerance``) μ F_n) following ``branches``: "incremental" (slip while the
+    increment pushes them on, stick once it unloads them), "stick", "free" (no tangential
+    stiffness) or "slip" (the slip branch both ways). Velocity Verlet with ``steps_per_period``
+    steps per shortest period; contact dashpots left out, constant wall dashpots kept when
+    ``wall_damping``.
+
+    The pulse at t = 0: with ``piston_mass`` None the walls stay fixed and the grains touching
+    ``wall`` get the impulse ``amplitude`` × s_i of :func:`direct_pulse`'s "impulse" condition
+    (``amplitude`` = h, length × time); with a mass (or "state": the wall's piston mass in the
+    simulation) the wall moves as a piston of that mass with the initial velocity ``amplitude``
+    / mass along its inward normal (``amplitude`` = the impulse, force × time). A positive
+    amplitude compresses. The response is positively homogeneous of degree one: +1 and −1 are
+    the exact small-amplitude limits of the two signs.
+
+    Samples at ``times`` (increasing, ≥ 0), or every ``sample_interval`` from 0 to ``duration``.
+    Returns ``times``; ``velocity`` (samples × grains × d, the grains' translational velocities
+    in the order of ``grain_ids``); ``positions`` and ``distance`` (from the wall) of the grains;
+    ``arrival`` (per grain, the sample time of the largest |v·n̂| along the wall's normal, NaN when
+    it never moves or peaks at the last sample) and ``fit`` (the strip fit of the E2 analysis:
+    ``strips`` strips, the third-earliest grain of each, centres within ``fit_range`` of the
+    largest distance; dict with ``speed``, ``intercept``, ``strips_used``, ``distance``,
+    ``time``; None when fewer than two strips or no positive speed); ``signal`` (the normal force
+    increment on ``detector_wall``, None without one); ``piston_displacement`` and
+    ``piston_velocity`` (None without a piston); ``slipping`` (contacts on the tangential slip
+    branch at each sample); ``counts`` (contacts, at_limit, at_rolling_cap, nearly_open_1e6, nearly_open_1e3,
+    mean_normal_force, unloaded, slipped); ``history`` (per contact at the limit: ``contact``,
+    grain ids ``i``, ``j`` (−1 − wall index for a wall), ``slip_steps``, ``switches``,
+    ``first_slip``, ``last_switch`` (NaN: never), ``slipping`` at the end); ``branches``,
+    ``steps``, ``max_step``, ``wall_seconds``."""
+    if times is None:
+        if duration is None or sample_interval is None:
+            raise ValueError("times = None (allowed: an increasing sequence of times ≥ 0, or duration and sample_interval both given)")
+        length, interval = _number(duration), _number(sample_interval)
+        if not (length is not None and math.isfinite(length) and length >= 0):
+            raise ValueError(f"duration = {duration!r} (allowed: a finite time ≥ 0)")
+        if not (interval is not None and math.isfinite(interval) and interval > 0):
+            raise ValueError(f"sample_interval = {sample_interval!r} (allowed: a finite time > 0)")
+        times = interval * np.arange(int(math.floor(length / interval * (1 + 1e-12))) + 1)
+    elif duration is not None or sample_interval is not None:
+        raise ValueError(f"duration = {duration!r}, sample_interval = {sample_interval!r} (allowed: None when times is given)")
+    fr = tuple(fit_range)
+    if len(fr) != 2:
+        raise ValueError(f"fit_range = {fit_range!r} (allowed: two fractions 0 ≤ a < b ≤ 1)")
+    return _native.incremental_pulse(sim, wall, times, amplitude, branches, piston_mass, detector_wall, rolling_cap, wall_damping, mobilisation_tolerance, steps_per_period, strips, fr)
