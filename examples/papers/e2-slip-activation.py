@@ -7,7 +7,7 @@ and figure, from the committed per-run data in docs/data/e2-slip-activation/.
     python3 examples/papers/e2-slip-activation.py --plot FILE.png # stress–strain and c(±) against τ (matplotlib)
     python3 examples/papers/e2-slip-activation.py --amplitude 1e-8
 
-Each run directory `<size>-tau<τ>` (and the τ = 0 reference of a size) holds summary.json and
+Each run directory `<size>-tau<τ>[-seed<N>]` (no suffix: seed 1; τ = 0 is the reference) holds summary.json and
 stress_strain.csv (the loading's strain checkpoints: strain_yy, stress_yy, stress_xx [p*],
 sliding). Pulse speeds c/v_a by SPEC §6.5's arrival (time of the maximum of |δv_x|, the headline)
 and by the first lobe (labelled); losses Δc/c₀ positive, c₀ the undeformed speed of the same
@@ -26,13 +26,26 @@ DEFINITIONS = {"maximum": "speed_maximum", "first lobe": "speed_first_lobe"}
 
 
 def runs(data=DATA):
-    """(size, τ, directory) of every run, sorted by size then τ."""
+    """(size, τ, seed, directory) of every run `<size>-tau<τ>[-seed<N>]` (no suffix: seed 1),
+    sorted by size, τ and seed."""
     out = []
     for d in os.listdir(data) if os.path.isdir(data) else []:
         if "-tau" in d and os.path.exists(os.path.join(data, d, "summary.json")):
-            size, tau = d.split("-tau", 1)
-            out.append((int(size), float(tau), os.path.join(data, d)))
+            size, rest = d.split("-tau", 1)
+            tau, _, seed = rest.partition("-seed")
+            out.append((int(size), float(tau), int(seed or 1), os.path.join(data, d)))
     return sorted(out)
+
+
+def stats(xs):
+    """(mean, SE, n) over the values that are not None."""
+    xs = [x for x in xs if x is not None]
+    n = len(xs)
+    if n == 0:
+        return None, None, 0
+    m = sum(xs) / n
+    se = math.sqrt(sum((x - m) ** 2 for x in xs) / (n - 1) / n) if n > 1 else None
+    return m, se, n
 
 
 def front(c):
@@ -91,22 +104,41 @@ def fmt(x, digits=3):
     return str(x)
 
 
+COLUMNS = [
+    ("σ_yy/σ_xx peak", ["peak_stress_ratio"]),
+    ("M_s loading end", ["loading_sliding"]),
+    ("M_s static", ["static_mobilised"]),
+    ("c static (+ / −)", ["static+", "static-"]),
+    ("sign gap static", ["static_sign_gap"]),
+    ("c deforming (+ / −)", ["deforming+", "deforming-"]),
+    ("sign gap deforming", ["deforming_sign_gap"]),
+    ("sliding loss (+ / −)", ["sliding+", "sliding-"]),
+    ("contact loss (+ / −)", ["contact_loss+", "contact_loss-"]),
+    ("wavelet static (+ / −)", ["static_wavelet+", "static_wavelet-"]),
+]
+
+
+def cell(values):
+    m, se, n = stats(values)
+    if m is None:
+        return "—"
+    digits = 0 if all(isinstance(v, int) for v in values if v is not None) else 3
+    return f"{m:.{digits}f}" + (f" ± {se:.{digits}f}" if se is not None else "")
+
+
 def table(amp, key, data=DATA):
-    rows = [row(size, tau, d, amp, key) for size, tau, d in runs(data)]
+    """Per (size, τ): mean ± SE over the packings (seeds) of each column."""
+    rows = [dict(row(size, tau, d, amp, key), seed=seed) for size, tau, seed, d in runs(data)]
     lines = [
-        f"|p_a| = {amp:g} t* (δ pulses), wavelets of peak 1e-6; speeds c/v_a by the {key.replace('speed_', '').replace('_', ' ')} arrival",
+        f"|p_a| = {amp:g} t* (δ pulses), wavelets of peak 1e-6; speeds c/v_a by the {key.replace('speed_', '').replace('_', ' ')} arrival; mean ± SE over the packings (n)",
         "",
-        "| N | τ [t_a] | σ_yy/σ_xx peak | M_s loading end | M_s static | c static (+ / −) | sign gap static | c deforming (+ / −) | sign gap deforming | sliding loss (+ / −) | contact loss (+ / −) | wavelet static (+ / −) |",
-        "|---|---|---|---|---|---|---|---|---|---|---|---|",
+        "| N | τ [t_a] | n | " + " | ".join(c for c, _ in COLUMNS) + " |",
+        "|" + "---|" * (3 + len(COLUMNS)),
     ]
-    for r in rows:
-        lines.append(
-            f"| {r['size']}² | {r['tau']:g} | {fmt(r['peak_stress_ratio'])} | {r['loading_sliding']} | {fmt(r['static_mobilised'])} "
-            f"| {fmt(r['static+'])} / {fmt(r['static-'])} | {fmt(r['static_sign_gap'])} "
-            f"| {fmt(r['deforming+'])} / {fmt(r['deforming-'])} | {fmt(r['deforming_sign_gap'])} "
-            f"| {fmt(r['sliding+'])} / {fmt(r['sliding-'])} | {fmt(r['contact_loss+'])} / {fmt(r['contact_loss-'])} "
-            f"| {fmt(r['static_wavelet+'])} / {fmt(r['static_wavelet-'])} |"
-        )
+    for size, tau in sorted({(r["size"], r["tau"]) for r in rows}):
+        group = [r for r in rows if r["size"] == size and r["tau"] == tau]
+        cells = [" / ".join(cell([r[k] for r in group]) for k in keys) for _, keys in COLUMNS]
+        lines.append(f"| {size}² | {tau:g} | {len(group)} | " + " | ".join(cells) + " |")
     return rows, "\n".join(lines)
 
 
@@ -116,9 +148,9 @@ def plot(path, amp, data=DATA):
     import matplotlib.pyplot as plt
     fig, (a1, a2) = plt.subplots(1, 2, figsize=(11, 4.2))
     rs = runs(data)
-    for size, tau, d in rs:
+    for size, tau, seed, d in rs:
         f = os.path.join(d, "stress_strain.csv")
-        if not os.path.exists(f):
+        if seed != 1 or not os.path.exists(f):
             continue
         pts = [(float(r["strain_yy"]), float(r["stress_yy"]) / float(r["stress_xx"])) for r in csv.DictReader(open(f)) if float(r["stress_xx"]) > 0]
         a1.plot([p[0] * 100 for p in pts], [p[1] for p in pts], label=f"{size}², τ = {tau:g} t_a", lw=1)
@@ -126,19 +158,20 @@ def plot(path, amp, data=DATA):
     a1.set_ylabel("σ_yy / σ_xx")
     a1.set_title("loading (compression)")
     a1.legend(fontsize=7)
-    for size in sorted({s for s, _, _ in rs}):
-        sub = [(t, d) for s, t, d in rs if s == size]
+    for size in sorted({r[0] for r in rs}):
+        taus = sorted({t for s, t, _, _ in rs if s == size})
         # τ = 0 drawn at the left edge of the log axis
-        tmin = min([t for t, _ in sub if t > 0] or [1.0]) / 10
+        tmin = min([t for t in taus if t > 0] or [1.0]) / 10
         for state, style in (("static", "-"), ("deforming", "--")):
             for sign, marker in (("+", "o"), ("-", "v")):
-                xs, ys = [], []
-                for t, d in sub:
-                    r = row(size, t, d, amp, "speed_maximum")
-                    if r[f"{state}{sign}"] is not None:
+                xs, ys, es = [], [], []
+                for t in taus:
+                    m, se, n = stats([row(size, t, d, amp, "speed_maximum")[f"{state}{sign}"] for s, tt, _, d in rs if s == size and tt == t])
+                    if m is not None:
                         xs.append(t if t > 0 else tmin)
-                        ys.append(r[f"{state}{sign}"])
-                a2.plot(xs, ys, style, marker=marker, label=f"{size}² {state} p_a {sign}", lw=1, ms=4)
+                        ys.append(m)
+                        es.append(se or 0.0)
+                a2.errorbar(xs, ys, yerr=es, fmt=style, marker=marker, label=f"{size}² {state} p_a {sign}", lw=1, ms=4, capsize=2)
     a2.set_xscale("log")
     a2.set_xlabel("τ [t_a] (leftmost point: τ = 0, the Coulomb law)")
     a2.set_ylabel("c / v_a (SPEC arrival)")
@@ -176,7 +209,7 @@ def main(argv):
         all_rows += rows
     if csv_out:
         with open(csv_out, "w", newline="") as f:
-            w = csv.DictWriter(f, fieldnames=["arrival"] + [k for k in all_rows[0] if k != "arrival"])
+            w = csv.DictWriter(f, fieldnames=["arrival", "size", "tau", "seed"] + [k for k in all_rows[0] if k not in ("arrival", "size", "tau", "seed")])
             w.writeheader()
             for r in all_rows:
                 w.writerow({k: ("" if v is None else v) for k, v in r.items()})
