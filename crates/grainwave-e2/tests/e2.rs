@@ -939,6 +939,8 @@ fn e2_paper_configs_pass_validation_and_follow_the_canonical_protocol() {
         let declared = text.lines().any(|l| l.starts_with("# deviation: loading at"));
         assert!(cfg.loading.strain_rate == 2e-5 || declared, "{name}: loading at {} /t*, not the published 2e-5, and no `# deviation: loading at` line", cfg.loading.strain_rate);
         assert!(cfg.material.absorbing_walls, "{name}");
+        // the slip-activation law is not the published one: a config using it says so
+        assert!(cfg.material.slip_activation_time == 0.0 || text.contains("beyond the published study"), "{name}: a slip-activation time without saying it goes beyond the published study");
         let find = |n: &str| cfg.replays.iter().find(|r| r.name.as_deref() == Some(n)).unwrap_or_else(|| panic!("{name}: no replay {n}"));
         // a config of one state only (e2-undeformed-64.toml) has no static-limit chain to check
         let Some(static_state) = cfg.static_limit.static_state.as_deref() else {
