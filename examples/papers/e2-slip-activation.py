@@ -12,6 +12,9 @@ stress_strain.csv (the loading's strain checkpoints: strain_yy, stress_yy, stres
 sliding). Pulse speeds c/v_a by SPEC §6.5's arrival (time of the maximum of |δv_x|, the headline)
 and by the first lobe (labelled); losses Δc/c₀ positive, c₀ the undeformed speed of the same
 amplitude and sign. "sign gap" = (c(+) − c(−))/c₀ of a state: the paper's sign dependence.
+Beside the static state's DEM speeds, its exact incremental limits (incremental.csv, the e2
+`incremental` replay with `source.dir` the run): the Coulomb branch rule at p_a → 0± (the τ = 0
+law's limit) and the all-stick network (the limit of pulses much shorter than τ).
 Standard library only (matplotlib for --plot).
 """
 import csv
@@ -88,6 +91,18 @@ def row(size, tau, d, amp, key):
         out[f"strain_rate{sign}"] = rel(c("static", a), c("deforming", a), c0)
         out[f"static_wavelet{sign}"] = c("static_wavelet", 1e-6 if sign == "+" else -1e-6)
         out[f"deforming_wavelet{sign}"] = c("deforming_wavelet", 1e-6 if sign == "+" else -1e-6)
+    # the exact incremental limits of the static state (docs/e2.md, "The incremental limit"):
+    # every contact at the Coulomb limit slipping while pushed on (the τ = 0 law's p_a → 0±), and
+    # every contact sticking (the limit of a pulse much shorter than τ)
+    inc = {}
+    f = os.path.join(d, "incremental.csv")
+    if os.path.exists(f):
+        for r in csv.DictReader(open(f)):
+            v = r[key]
+            inc[(r["replay"], float(r["amplitude"]))] = front(float(v)) if v else None
+    out["incremental+"] = inc.get(("incremental", 1.0))
+    out["incremental-"] = inc.get(("incremental", -1.0))
+    out["stick"] = inc.get(("stick", 1.0))
     c0 = out["undeformed+"]
     out["static_sign_gap"] = rel(out["static+"], out["static-"], c0)
     out["deforming_sign_gap"] = rel(out["deforming+"], out["deforming-"], c0)
@@ -110,6 +125,8 @@ COLUMNS = [
     ("M_s static", ["static_mobilised"]),
     ("c static (+ / −)", ["static+", "static-"]),
     ("sign gap static", ["static_sign_gap"]),
+    ("static, exact incremental limit: Coulomb rule (+ / −)", ["incremental+", "incremental-"]),
+    ("static, all-stick limit", ["stick"]),
     ("c deforming (+ / −)", ["deforming+", "deforming-"]),
     ("sign gap deforming", ["deforming_sign_gap"]),
     ("sliding loss (+ / −)", ["sliding+", "sliding-"]),
@@ -172,6 +189,13 @@ def plot(path, amp, data=DATA):
                         ys.append(m)
                         es.append(se or 0.0)
                 a2.errorbar(xs, ys, yerr=es, fmt=style, marker=marker, label=f"{size}² {state} p_a {sign}", lw=1, ms=4, capsize=2)
+        xs, ys = [], []
+        for t in taus:
+            m, _, _ = stats([row(size, t, d, amp, "speed_maximum")["stick"] for s, tt, _, d in rs if s == size and tt == t])
+            if m is not None:
+                xs.append(t if t > 0 else tmin)
+                ys.append(m)
+        a2.plot(xs, ys, ":", color="black", marker="s", ms=3, lw=1, label=f"{size}² static, exact all-stick limit")
     a2.set_xscale("log")
     a2.set_xlabel("τ [t_a] (leftmost point: τ = 0, the Coulomb law)")
     a2.set_ylabel("c / v_a (SPEC arrival)")
