@@ -457,7 +457,7 @@ fn check_names(src: &ConfigSource, cfg: &E3Config, plan: &Plan) -> Result<(), Co
             format!(
                 "{value:e} is written out as {} characters in the name `{}` of its unit's files, {} bytes (allowed: a value that keeps every name within {MAX_NAME_BYTES} bytes, e.g. with fewer digits)",
                 format!("{value}").len(),
-                grainwave_study::config::clip(name, 60),
+                grainwave_study::config::clip(name, 32),
                 name.len()
             ),
         )
