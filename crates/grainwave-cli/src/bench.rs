@@ -1,7 +1,7 @@
 //! `grainwave bench`: throughput on the LAMMPS benchmark packings, optionally with LAMMPS run
 //! back to back on the same case (see BENCHMARKS.md and docs/bench.md).
 
-use anyhow::{bail, Result};
+use anyhow::Result;
 use clap::Args;
 use grainwave_experiments::bench::{median, run_grainwave, run_lammps, write_results, BenchCase, BenchConfig, BenchResult, GrainOrder, LammpsCommand};
 use std::path::PathBuf;
@@ -87,7 +87,8 @@ fn parse_case(s: &str) -> std::result::Result<BenchCase, String> {
 /// Runs the benchmarks and prints one line per run, then the medians.
 pub fn run(args: &BenchArgs, quiet: bool) -> Result<()> {
     if !args.shear.is_finite() {
-        bail!("--shear must be a finite rate");
+        // a bad argument, like a bad config: exit code 2
+        return Err(crate::BadInput(format!("invalid value '{}' for '--shear <RATE>': not a finite rate (allowed: a finite engineering shear rate, 0 = static)", args.shear)).into());
     }
     let cases = if args.cases.is_empty() { vec![BenchCase::Hertz3d, BenchCase::Hooke3d, BenchCase::Hooke2d] } else { args.cases.clone() };
     let lammps = args.lammps.as_ref().map(|exe| LammpsCommand { executable: exe.clone(), processes: args.lammps_procs as usize });

@@ -310,6 +310,7 @@ fn run(cli: &Cli) -> Result<()> {
             let out = args.out.clone().unwrap_or_else(|| default_out(&args.config));
             // validate before touching the output directory: a refused config changes nothing there
             registry::check(&src).map_err(ExperimentError::from)?;
+            registry::check_inputs(&src).map_err(ExperimentError::from)?;
             let mode = if args.overwrite { UsedDirectory::Overwrite } else { UsedDirectory::Refuse };
             execute(cli.quiet, &out, mode, remote, |ctx| registry::run(&src, ctx))
         }
@@ -336,6 +337,7 @@ fn run(cli: &Cli) -> Result<()> {
         Command::Check { config } => {
             let src = ConfigSource::from_file(config).map_err(ExperimentError::from)?;
             let lines = registry::check(&src).map_err(ExperimentError::from)?;
+            registry::check_inputs(&src).map_err(ExperimentError::from)?;
             if !cli.quiet {
                 say!("{}: valid", config.display());
                 for l in lines {

@@ -447,6 +447,19 @@ pub fn plan(src: &ConfigSource, cfg: &E1Config) -> Result<Plan, ConfigError> {
         if c.grains.is_empty() {
             return Err(err(src, "chain.grains", "empty (allowed: at least one chain length)"));
         }
+        // the ranges of the engine: a stiffness is a modulus in [1e-100, 1e100] (the time step and
+        // every derived stiffness follow from it), the balls' radius 0.505 ℓ and mass within
+        // 1e±60 and 1e±100 (their ratios stay representable); beyond them every sample failed at
+        // its start, naming the engine's keys (`contact.normal_stiffness`, `grains.position`)
+        for (key, v, lo, hi, what) in [
+            ("chain.stiffness", c.stiffness, 1e-100, 1e100, "a stiffness"),
+            ("chain.mass", c.mass, 1e-100, 1e100, "a mass"),
+            ("chain.spacing", c.spacing, 1e-60, 1e60, "a spacing"),
+        ] {
+            if !(lo..=hi).contains(&v) {
+                return Err(err(src, key, format!("{v} (allowed: {what} in [{lo:e}, {hi:e}], within which the chain's derived values stay representable)")));
+            }
+        }
         let speed = c.spacing * (c.stiffness / c.mass).sqrt();
         for (si, &n) in c.grains.iter().enumerate() {
             if n < 2 {
@@ -476,6 +489,26 @@ pub fn plan(src: &ConfigSource, cfg: &E1Config) -> Result<Plan, ConfigError> {
     }
     if !(-1.0 < poisson && poisson < 0.5) {
         return Err(err(src, &format!("{}.poisson", kind.name()), format!("{poisson} (allowed: ν in (−1, 0.5))")));
+    }
+    // the time grid of each group ends at `end_time`, or `transits` × the height over the
+    // estimated speed: an infinite end (transits = 1e308) makes every time inf or NaN, and the
+    // run failed after computing, plotting signals with no finite point
+    for g in &groups {
+        let end = g.times.last().copied().unwrap_or(0.0);
+        if !(end.is_finite() && g.times.get(1).is_some_and(|&t| t > 0.0)) {
+            let (key, value) = match pu.end_time {
+                Some(t) => ("pulse.end_time", t),
+                None => ("pulse.transits", pu.transits),
+            };
+            return Err(err(
+                src,
+                key,
+                format!(
+                    "{value} makes the time grid of {} end at {end} (allowed: a value for which the {} times from 0 to the end are finite and increasing)",
+                    g.name, pu.time_samples
+                ),
+            ));
+        }
     }
     // groups ordered size-major, pressures inside; tasks sample-major
     let mut tasks = Vec::new();

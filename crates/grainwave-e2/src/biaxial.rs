@@ -325,11 +325,11 @@ pub fn prepare(
             return Ok(false);
         }
         if sim.time > pc.max_time * t_star {
-            return Err(CoreError::Inconsistent(format!(
+            // found only by running: a failure of the run (exit 1), not bad input
+            return Err(grainwave_study::ExperimentError::NotReached(format!(
                 "the preparation reached no equilibrium within {} t* (`preparation.max_time`): max |F| = {:.3e}, piston {:.3e} (tolerance `preparation.max_force` = {:.1e} p* d̄)",
                 pc.max_time, info.max_force, info.max_piston_force, pc.max_force
-            ))
-            .into());
+            )));
         }
         if last_save.elapsed().as_secs_f64() >= cfg.output.save_every {
             save(ctx, sim, info)?;

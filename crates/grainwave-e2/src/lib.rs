@@ -277,6 +277,9 @@ impl Protocol for E2Protocol {
     fn describe(spec: &E2Spec) -> Vec<String> {
         describe(&spec.config)
     }
+    fn check_inputs(src: &ConfigSource, spec: &E2Spec) -> Result<(), ConfigError> {
+        check_source(src, &spec.config)
+    }
     fn plan(spec: &E2Spec) -> Vec<Unit> {
         spec.units.clone()
     }
@@ -349,6 +352,9 @@ pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
     let pc = &cfg.preparation;
     positive(src, "preparation.wall_mass", pc.wall_mass)?;
     non_negative(src, "preparation.gravity", pc.gravity)?;
+    if cfg.source.dir.is_none() {
+        engine_values(src, &cfg)?;
+    }
     positive(src, "preparation.max_force", pc.max_force)?;
     positive(src, "preparation.max_time", pc.max_time)?;
     if pc.check_every == 0 {
@@ -364,6 +370,26 @@ pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
         return Err(src.error_at_key("loading.final_strain", format!("{} (allowed: a strain in (0, 0.5))", l.final_strain)));
     }
     non_negative(src, "loading.checkpoint_strain", l.checkpoint_strain)?;
+    if l.checkpoint_strain > 0.0 {
+        // one checkpoint per `checkpoint_strain` of the loading (5e-324: 4e319 of them, and the
+        // loading's bookkeeping of full and reference checkpoints failed after it ran)
+        let count = l.final_strain / l.checkpoint_strain;
+        if !count.is_finite() {
+            return Err(src.error_at_key(
+                "loading.checkpoint_strain",
+                format!("{}: final_strain / checkpoint_strain = {count} checkpoints (allowed: a strain that gives a finite number of checkpoints, at most 1e7)", l.checkpoint_strain),
+            ));
+        }
+        grainwave_study::limits::check(
+            src,
+            "loading.checkpoint_strain",
+            "strain checkpoints (final_strain / checkpoint_strain)",
+            count,
+            grainwave_study::limits::MAX_POINTS,
+            f64::INFINITY,
+            0.0,
+        )?;
+    }
     positive(src, "loading.reference_strain", l.reference_strain)?;
     if l.full_checkpoint_every == 0 {
         return Err(src.error_at_key("loading.full_checkpoint_every", "0 (allowed: at least 1; 1 keeps every checkpoint's state)"));
@@ -380,11 +406,42 @@ pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
     // names of the replays so far → their index: one lookup per `from`, so that checking n chained
     // replays takes n log n, not n² (30 000 chained replays took 80 s)
     let mut names: std::collections::BTreeMap<String, usize> = std::collections::BTreeMap::new();
+    // whether the top wall of each replay's end state is a piston: only a `top_piston` replay
+    // makes it one, and the replays `from` it keep it (the loading's top wall moves at a speed)
+    let mut top_piston: Vec<bool> = Vec::with_capacity(cfg.replays.len());
     for (k, r) in cfg.replays.iter().enumerate() {
         let key = |s: &str| format!("replays[{k}].{s}");
         let name = r.name.clone().unwrap_or(format!("r{k}"));
         if name.is_empty() || !name.chars().all(|c| c.is_ascii_alphanumeric() || c == '-' || c == '_') {
             return Err(src.error_at_key(&key("name"), format!("`{}` (allowed: letters, digits, `-`, `_`)", grainwave_study::config::clip(&name, grainwave_study::config::MAX_ECHO_CHARS))));
+        }
+        // the name is a directory, replays/<name>/, whose files have names of their own
+        if name.len() > MAX_REPLAY_NAME {
+            return Err(src.error_at_key(
+                &key("name"),
+                format!(
+                    "`{}`, {} characters (allowed: at most {MAX_REPLAY_NAME} letters, digits, `-`, `_`: the name becomes the directory replays/<name>/)",
+                    grainwave_study::config::clip(&name, 60),
+                    name.len()
+                ),
+            ));
+        }
+        let from_top_piston = match &r.from {
+            Some(from) => names.get(from).map_or(true, |&j| top_piston[j]),
+            None => false,
+        };
+        top_piston.push(r.modification == config::Modification::TopPiston || from_top_piston);
+        if r.modification == config::Modification::WallPulse && r.pulse_wall == config::PulseWall::Top && !from_top_piston {
+            return Err(src.error_at_key(
+                &key("pulse_wall"),
+                format!(
+                    "\"top\", but the top wall of the replay's start state ({}) is not a piston (allowed: with `from` a `top_piston` replay, or a replay started from one)",
+                    match &r.from {
+                        Some(f) => format!("the end of replay `{f}`"),
+                        None => "a checkpoint of the loading".to_string(),
+                    }
+                ),
+            ));
         }
         if names.contains_key(&name) {
             return Err(src.error_at_key(&key("name"), format!("`{name}` is used twice (each replay writes replays/<name>/)")));
@@ -564,6 +621,121 @@ pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
     }
     positive(src, "output.save_every", cfg.output.save_every)?;
     Ok(cfg)
+}
+
+/// The run a config with `source.dir` replays: a directory with strain checkpoints, holding
+/// the checkpoint of each replay that starts from one and the `final.gwck` of each replay of that
+/// run that one `from` names. Checked by `grainwave check` and before the run (a missing
+/// directory made every replay fail at its start); not by [`prepare`], so that a config stays
+/// valid before its source run is made.
+pub fn check_source(src: &ConfigSource, cfg: &E2Config) -> Result<(), ConfigError> {
+    let Some(dir) = &cfg.source.dir else { return Ok(()) };
+    let path = Path::new(dir);
+    let shown = grainwave_study::config::clip(dir, 100);
+    if !path.is_dir() {
+        return Err(src.error_at_key(
+            "source.dir",
+            format!("`{shown}` is not a directory (allowed: the output directory of an earlier e2 run, relative to the directory grainwave runs in)"),
+        ));
+    }
+    let present = biaxial::checkpoint_indices(path);
+    if present.is_empty() {
+        return Err(src.error_at_key(
+            "source.dir",
+            format!("`{shown}` holds no strain checkpoint (`checkpoints/ck-<index>.gwck`) (allowed: the output directory of an e2 run whose loading wrote checkpoints)"),
+        ));
+    }
+    let names: std::collections::BTreeSet<String> = cfg.replays.iter().enumerate().map(|(k, r)| r.name.clone().unwrap_or(format!("r{k}"))).collect();
+    for (k, r) in cfg.replays.iter().enumerate() {
+        match &r.from {
+            None if r.checkpoint >= 0 && !present.contains(&(r.checkpoint as u64)) => {
+                return Err(src.error_at_key(
+                    &format!("replays[{k}].checkpoint"),
+                    format!(
+                        "{} is not a checkpoint of `{shown}` (allowed: one of its {} checkpoints {}…{}, or −1 for the last)",
+                        r.checkpoint,
+                        present.len(),
+                        present[0],
+                        present[present.len() - 1]
+                    ),
+                ));
+            }
+            Some(from) if !names.contains(from) && !path.join("replays").join(from).join("final.gwck").is_file() => {
+                return Err(src.error_at_key(
+                    &format!("replays[{k}].from"),
+                    format!("`{from}` is neither a replay of this file nor a finished replay of `{shown}` (no replays/{from}/final.gwck there)"),
+                ));
+            }
+            _ => {}
+        }
+    }
+    Ok(())
+}
+
+/// Longest replay name [characters]: the name is the directory `replays/<name>/` (file systems
+/// take 255 bytes; a 300-character name failed after the loading had run).
+const MAX_REPLAY_NAME: usize = 200;
+
+/// The values the run gives the engine, derived from the config's: the contact laws (grain–grain
+/// with the friction, grain–wall, absorbing walls), the pistons' mass and the gravity of the
+/// preparation (`model::build_gas`). A value that makes one of them unrepresentable (a normal
+/// stiffness of 5e-324 makes the rolling stiffness 0, a wall mass of 1e308 an infinite piston
+/// mass) is refused at the key the file has, not at the engine's name of the derived value when
+/// the run starts.
+fn engine_values(src: &ConfigSource, cfg: &E2Config) -> Result<(), ConfigError> {
+    let m = &cfg.material;
+    // the engine's range of a modulus, from which every other stiffness and the time step follow
+    if !(m.normal_stiffness.is_finite() && (1e-100..=1e100).contains(&m.normal_stiffness)) {
+        return Err(src.error_at_key(
+            "material.normal_stiffness",
+            format!("{} (allowed: a finite number in [1e-100, 1e100] p* (stiffnesses derived from it must stay representable))", m.normal_stiffness),
+        ));
+    }
+    let p = &cfg.packing;
+    let n = (p.columns * p.rows) as f64;
+    // grain masses π R² with R in [(1 − a)/2, (1 + a)/2]: the total and mean mass lie between
+    let (light, heavy) = (std::f64::consts::FRAC_PI_4 * (1.0 - p.polydispersity).powi(2), std::f64::consts::FRAC_PI_4 * (1.0 + p.polydispersity).powi(2));
+    let laws = [
+        model::grain_law(m, m.friction, 1.0),
+        model::wall_law(m),
+        model::absorbing_wall_law(m, p.columns * p.rows, light),
+        model::absorbing_wall_law(m, p.columns * p.rows, heavy),
+    ];
+    for law in laws {
+        if let Err(grainwave_core::CoreError::InvalidParameter { field, value, allowed }) = law.validate("material") {
+            let (key, derived) = match field.trim_start_matches("material.") {
+                "normal_stiffness" => ("material.normal_stiffness", "the normal stiffness"),
+                "tangential_stiffness" => ("material.tangential_stiffness_ratio", "the tangential stiffness ratio × normal_stiffness"),
+                "slip_activation_time" => ("material.slip_activation_time", "the slip-activation time"),
+                "tangential_damping_ratio" => ("material.tangential_damping_ratio", "the tangential damping ratio"),
+                "rolling_stiffness" => ("material.rolling_stiffness", "the rolling stiffness rolling_stiffness × normal_stiffness"),
+                "rolling_friction" => ("material.rolling_friction", "the rolling friction"),
+                "normal_damping" => ("material.absorbing_damping", "the absorbing walls' dashpot absorbing_damping × √(m̄ normal_stiffness)"),
+                "damping_fraction" => ("material.restitution", "the damping fraction of the restitution"),
+                "friction" => ("material.friction", "the friction"),
+                _ => ("material", "a contact parameter"),
+            };
+            return Err(src.error_at_key(key, format!("makes {derived} {value} (allowed: values for which it is {allowed})")));
+        }
+    }
+    // the pistons' mass `wall_mass` M* and the preparation's gravity `gravity` p* L*/M*
+    for total in [n * light, n * heavy] {
+        let mass = cfg.preparation.wall_mass * total;
+        if !(mass.is_finite() && mass > 0.0) {
+            return Err(src.error_at_key(
+                "preparation.wall_mass",
+                format!("{} makes the pistons' mass wall_mass × M* = {mass} (M* ≈ {total:.4e}) (allowed: a ratio for which it is a finite number > 0)", cfg.preparation.wall_mass),
+            ));
+        }
+        let g = cfg.preparation.gravity * (total / 0.84).sqrt() / total;
+        if !g.is_finite() {
+            return Err(src.error_at_key(
+                "preparation.gravity",
+                format!("{} makes the gravity {g} in engine units (allowed: a value for which it is finite)", cfg.preparation.gravity),
+            ));
+        }
+    }
+    Ok(())
 }
 
 /// Lines of `grainwave check` for a valid `e2` config.

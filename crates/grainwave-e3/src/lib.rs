@@ -162,6 +162,7 @@ impl grainwave_study::study::Protocol for E3Protocol {
     fn validate(src: &ConfigSource) -> Result<E3Spec, ConfigError> {
         let config = prepare(src)?;
         let plan = Plan::new(&config);
+        check_names(src, &config, &plan)?;
         Ok(E3Spec { config, plan })
     }
     fn describe(spec: &E3Spec) -> Vec<String> {
@@ -278,6 +279,7 @@ pub fn prepare(src: &ConfigSource) -> Result<E3Config, ConfigError> {
     }
     // load
     let l = &cfg.load;
+    let fo = &cfg.first_opening;
     if matches!(cfg.mode, Mode::Slab | Mode::Sweep | Mode::Superposition) {
         if l.forces.is_empty() {
             return Err(src.error_at_key("load.forces", "empty (allowed: one or more forces > 0)"));
@@ -290,6 +292,34 @@ pub fn prepare(src: &ConfigSource) -> Result<E3Config, ConfigError> {
         if sorted.windows(2).any(|w| w[0] == w[1]) {
             return Err(src.error_at_key("load.forces", format!("{:?} repeats a force (each force is one run)", l.forces)));
         }
+        // a response run stops at the tolerances `response_max_acceleration` × F and (kinetic
+        // energy) × min(F, 1)²: both must be representable numbers > 0, or every run fails at
+        // its start after the reference states are computed
+        let mut forces: Vec<(&str, f64)> = l.forces.iter().map(|&f| ("load.forces", f)).collect();
+        if fo.bisection && matches!(cfg.mode, Mode::Slab | Mode::Sweep) {
+            forces.extend(fo.bracket.iter().map(|&f| ("first_opening.bracket", f)));
+        }
+        let ra = r.response_max_acceleration;
+        let ke = r.kinetic_energy_per_grain.unwrap_or(1e-13);
+        for (key, f) in forces {
+            let tolerance = ra * f;
+            if tolerance.is_infinite() {
+                return Err(src.error_at_key(
+                    "relaxation.response_max_acceleration",
+                    format!("{ra} (allowed: a tolerance whose product with every force is finite; × {f} m̄g gives {tolerance})"),
+                ));
+            }
+            if !(tolerance >= f64::MIN_POSITIVE && ke * f.min(1.0).powi(2) >= f64::MIN_POSITIVE) {
+                return Err(src.error_at_key(
+                    key,
+                    format!(
+                        "{f} (allowed: forces whose stopping tolerances stay representable: `relaxation.response_max_acceleration` × F = {tolerance} and the kinetic energy limit × min(F, 1)² = {} must be ≥ {:e})",
+                        ke * f.min(1.0).powi(2),
+                        f64::MIN_POSITIVE
+                    ),
+                ));
+            }
+        }
     }
     if !l.angle.is_finite() || l.angle.abs() >= 90.0 {
         return Err(src.error_at_key("load.angle", format!("{} (allowed: degrees from the downward vertical in (−90, 90))", l.angle)));
@@ -298,7 +328,6 @@ pub fn prepare(src: &ConfigSource) -> Result<E3Config, ConfigError> {
         return Err(src.error_at_key("load.torque", format!("{} (allowed: a finite torque)", l.torque)));
     }
     positive(src, "load.ramp_time", l.ramp_time)?;
-    let fo = &cfg.first_opening;
     if table.contains_key("first_opening") && !matches!(cfg.mode, Mode::Slab | Mode::Sweep) {
         return Err(src.error_at_key("first_opening", format!("`[first_opening]` applies to modes `slab` and `sweep` only (this file's mode is `{}`)", cfg.mode.name())));
     }
@@ -324,6 +353,13 @@ pub fn prepare(src: &ConfigSource) -> Result<E3Config, ConfigError> {
     }
     for w in &rc.widths {
         positive(src, "response.widths", *w)?;
+    }
+    // each width is a column of the response tables (`dsigma_w<width>`): one width twice would
+    // fail writing them, after every run is computed
+    for (k, w) in rc.widths.iter().enumerate() {
+        if rc.widths[..k].contains(w) {
+            return Err(src.error_at_key(&format!("response.widths[{k}]"), format!("{w} appears twice in {:?} (allowed: distinct widths: each is a column of the response tables)", rc.widths)));
+        }
     }
     positive(src, "response.profile_step", rc.profile_step)?;
     positive(src, "response.stress_width", rc.stress_width)?;
@@ -384,6 +420,19 @@ pub fn prepare(src: &ConfigSource) -> Result<E3Config, ConfigError> {
         for x in &lt.tangential_ratios {
             non_negative(src, "lattice.tangential_ratios", *x)?;
         }
+        // the scan's criterion r at each ratio (outputs.rs, `lattice_outputs`): tangential
+        // stiffnesses x k_n, and r itself, must be finite, or the run failed plotting it
+        let r = |h: [f64; 2], o: [f64; 2]| grainwave_linear::lattice::SpringNetwork::triangular(lt.spacing, (h[0], h[1]), (o[0], o[1])).moduli().r();
+        for (k, &x) in lt.tangential_ratios.iter().enumerate() {
+            let with = r([lt.horizontal[0], x * lt.horizontal[0]], [lt.oblique[0], x * lt.oblique[0]]);
+            let without = r([0.0, 0.0], [lt.oblique[0], x * lt.oblique[0]]);
+            if !((x * lt.horizontal[0]).is_finite() && (x * lt.oblique[0]).is_finite() && with.is_finite() && without.is_finite()) {
+                return Err(src.error_at_key(
+                    &format!("lattice.tangential_ratios[{k}]"),
+                    format!("{x} gives the criterion r = {with} (horizontal bonds as given), {without} (open) (allowed: ratios for which x × k_n and r are finite)"),
+                ));
+            }
+        }
     }
     // units
     let u = &cfg.units;
@@ -391,6 +440,50 @@ pub fn prepare(src: &ConfigSource) -> Result<E3Config, ConfigError> {
         positive(src, k, v)?;
     }
     Ok(cfg)
+}
+
+/// Longest file name a unit writes (bytes): the limit of common file systems (`NAME_MAX`).
+const MAX_NAME_BYTES: usize = 255;
+
+/// The values of a set or a run are written out in full in its directory and file names
+/// (`units/L4xM8_d0_mu0.5_kt0.8_s1/F5.partial.gwck`): a value such as 5e-324 or 1e308 (hundreds
+/// of digits) makes a name the file system refuses, and every unit fails at its start. Refused
+/// here at the key of the value, the names of every config that ran before are unchanged.
+fn check_names(src: &ConfigSource, cfg: &E3Config, plan: &Plan) -> Result<(), ConfigError> {
+    let sweep = cfg.mode == Mode::Sweep;
+    let refuse = |key: &str, value: f64, name: &str| {
+        src.error_at_key(
+            key,
+            format!(
+                "{value:e} is written out as {} characters in the name `{}` of its unit's files, {} bytes (allowed: a value that keeps every name within {MAX_NAME_BYTES} bytes, e.g. with fewer digits)",
+                format!("{value}").len(),
+                grainwave_study::config::clip(name, 32),
+                name.len()
+            ),
+        )
+    };
+    for g in &plan.groups {
+        for &c in &g.cases {
+            let name = &plan.cases[c].label;
+            if name.len() > MAX_NAME_BYTES {
+                let parts = [
+                    (if cfg.mode == Mode::Pile { "pile.delta" } else if sweep && !cfg.sweep.deltas.is_empty() { "sweep.deltas" } else { "slab.delta" }, g.delta),
+                    (if sweep && !cfg.sweep.frictions.is_empty() { "sweep.frictions" } else { "material.friction" }, g.friction),
+                    (if sweep && !cfg.sweep.stiffness_ratios.is_empty() { "sweep.stiffness_ratios" } else { "material.tangential_stiffness_ratio" }, g.ratio),
+                ];
+                let (key, value) = parts.into_iter().max_by_key(|(_, v)| format!("{v}").len()).expect("three parts");
+                return Err(refuse(key, value, name));
+            }
+        }
+    }
+    // a run's longest file: `<run>.partial.gwck`
+    for r in plan.runs.iter().take(cfg.load.forces.len() * 3) {
+        let name = format!("{}.partial.gwck", r.label);
+        if name.len() > MAX_NAME_BYTES {
+            return Err(refuse("load.forces", r.force, &name));
+        }
+    }
+    Ok(())
 }
 
 /// Lines of `grainwave check` for a valid `e3` config.

@@ -48,6 +48,12 @@ pub fn check(src: &ConfigSource) -> Result<Vec<String>, ConfigError> {
     REGISTRY.check(src)
 }
 
+/// Checks what a valid config names outside itself (an e2 `source.dir`): `grainwave check` and
+/// `run` refuse a missing input before anything is computed.
+pub fn check_inputs(src: &ConfigSource) -> Result<(), ConfigError> {
+    REGISTRY.check_inputs(src)
+}
+
 /// The units of work of a run of a config ([`grainwave_study::study::Protocol::plan`]): what a
 /// driver of the scheduler lists and places.
 pub fn plan(src: &ConfigSource) -> Result<Vec<Unit>, ConfigError> {

@@ -311,7 +311,9 @@ pub fn parse_data(text: &str, source: &str) -> Result<LammpsData> {
             continue;
         }
         let words: Vec<&str> = line.split_whitespace().collect();
-        if words[0].chars().next().is_some_and(|c| c.is_ascii_alphabetic()) {
+        // a section keyword starts with a letter; `nan` and `inf` do too, but are numbers of a
+        // header line (`nan 0 0 xy xz yz` was taken for a section and its tilt dropped)
+        if words[0].chars().next().is_some_and(|c| c.is_ascii_alphabetic()) && words[0].parse::<f64>().is_err() {
             section = Some((no, raw.to_string()));
             break;
         }
@@ -332,6 +334,10 @@ pub fn parse_data(text: &str, source: &str) -> Result<LammpsData> {
             }
             [_, _, "xy", "xz", "yz"] => {
                 tilt = [number(0)?, number(1)?, number(2)?];
+                // a NaN tilt was dropped without a word (the box came out untilted)
+                if let Some(t) = tilt.iter().position(|t| !t.is_finite()) {
+                    return Err(err(no, format!("tilt factor {} = {} (allowed: finite tilt factors `xy xz yz`)", ["xy", "xz", "yz"][t], tilt[t])));
+                }
                 triclinic = true;
             }
             ["atom", "types"] | ["extra", "bond", "per", "atom"] | ["extra", "special", "per", "atom"] => {}
@@ -467,6 +473,10 @@ pub fn parse_data(text: &str, source: &str) -> Result<LammpsData> {
     for (no, id, v) in velocities {
         let k = order.binary_search_by_key(&id, |e| e.0).map_err(|_| err(no, format!("velocity of unknown atom id {id}")))?;
         let k = order[k].1;
+        // named here: the engine's refusal quoted the atom's position and velocity, not the spin
+        if let Some(c) = v.iter().position(|x| !x.is_finite()) {
+            return Err(err(no, format!("atom {id} has {} = {} (allowed: finite velocities and angular velocities)", ["vx", "vy", "vz", "wx", "wy", "wz"][c], v[c])));
+        }
         data.vel[k] = [v[0], v[1], v[2]];
         data.omega[k] = [v[3], v[4], v[5]];
     }

@@ -219,6 +219,30 @@ fn build_dim<D: Dim>(src: &ConfigSource, cfg: &SimulationConfig) -> Result<Simul
             }
             other => core(other),
         })?;
+        // a function the engine interpolates must stay finite between its values (a speed table
+        // from 1e308 to −1e308 has an infinite slope: the wall went to NaN and the run ended
+        // "normally", failing only when it drew the grains), and a piston's acceleration
+        // |force| / mass must be finite (mass 1e-300 under 1e300)
+        let (function, sub) = match &wall.motion {
+            WallMotion::Velocity { speed } => (Some(speed), "speed"),
+            WallMotion::Piston { force, .. } => (Some(force), if wc.force.is_none() && wc.pressure.is_some() { "pressure" } else { "force" }),
+            _ => (None, ""),
+        };
+        if let Some(f) = function {
+            let (largest, steepest) = extent(f);
+            if !steepest.is_finite() {
+                return Err(err(src, &key(sub), format!("values whose differences overflow ({steepest}) (allowed: a function whose values and the differences between them are finite)")));
+            }
+            if let WallMotion::Piston { mass, .. } = wall.motion {
+                if !(largest / mass).is_finite() {
+                    return Err(err(
+                        src,
+                        &key("mass"),
+                        format!("{mass}: the piston's acceleration |{sub}| / mass reaches {} (allowed: a mass for which it is finite)", largest / mass),
+                    ));
+                }
+            }
+        }
         domain = domain.with_wall(wall);
     }
 
@@ -237,6 +261,27 @@ fn build_dim<D: Dim>(src: &ConfigSource, cfg: &SimulationConfig) -> Result<Simul
             return Err(err(src, "placement.region_max", format!("{:?} must exceed region_min {:?} on every axis", rmax, rmin)));
         }
     }
+    // a region reaching behind a wall may place grains there, which the engine refuses (naming
+    // the grain and the wall): the key to blame is the bound that crosses the wall
+    let crosses = |low: bool| {
+        domain.walls.iter().any(|w| {
+            (0..D::D).any(|k| {
+                let n = w.normal.get(k);
+                if low {
+                    n > 0.0 && rmin.get(k) < w.position.get(k)
+                } else {
+                    n < 0.0 && rmax.get(k) > w.position.get(k)
+                }
+            })
+        })
+    };
+    let behind_key = if pc.region_min.is_some() && crosses(true) {
+        "placement.region_min"
+    } else if pc.region_max.is_some() && crosses(false) {
+        "placement.region_max"
+    } else {
+        "placement"
+    };
     if !(pc.speed.is_finite() && pc.speed >= 0.0) {
         return Err(err(src, "placement.speed", format!("{} (allowed: a finite speed ≥ 0)", pc.speed)));
     }
@@ -320,12 +365,29 @@ fn build_dim<D: Dim>(src: &ConfigSource, cfg: &SimulationConfig) -> Result<Simul
             err(src, &format!("integration.{field}"), format!("{value} (allowed: {allowed})"))
         }
         CoreError::InitialOverlap { .. } => err(src, "integration.max_initial_overlap", e.to_string()),
+        CoreError::Inconsistent(m) if m.contains("is behind wall") => {
+            err(src, behind_key, format!("{m} (allowed: a placement region in front of every wall, within the domain's walls)"))
+        }
         _ => core(e),
     })?;
     Ok(sim)
 }
 
 /// Multiplies a time function by a constant.
+/// The largest |value| of `f` and the largest difference between two of its values that the
+/// engine interpolates between (inf when that difference overflows).
+fn extent(f: &TimeFunction) -> (f64, f64) {
+    match f {
+        TimeFunction::Constant { value } => (value.abs(), 0.0),
+        TimeFunction::Ramp { from, to, .. } => (from.abs().max(to.abs()), (to - from).abs()),
+        TimeFunction::CosineStop { value, .. } => (value.abs(), value.abs()),
+        TimeFunction::Table { values, .. } => (
+            values.iter().fold(0.0, |m, v| m.max(v.abs())),
+            values.windows(2).fold(0.0, |m, w| m.max((w[1] - w[0]).abs())),
+        ),
+    }
+}
+
 fn scale(f: TimeFunction, c: f64) -> TimeFunction {
     match f {
         TimeFunction::Constant { value } => TimeFunction::Constant { value: value * c },

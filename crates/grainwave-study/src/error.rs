@@ -50,6 +50,11 @@ pub enum ExperimentError {
         /// One line per failure: unit and reason.
         failures: Vec<String>,
     },
+    /// A stage of the run did not reach its goal within the limits the config gives it (the
+    /// preparation found no equilibrium within its time limit): found only by running, a failure
+    /// of the run (exit code 1), not of its input. The message names the limit's key.
+    #[error("{0}")]
+    NotReached(String),
     /// Another process is running in the output directory (it holds the directory's lock).
     #[error("`{}` is in use by another grainwave process ({holder}); wait for it to end or give another output directory", .dir.display())]
     Busy {

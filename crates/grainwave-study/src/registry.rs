@@ -35,6 +35,9 @@ pub struct Entry {
     pub schema: fn() -> serde_json::Value,
     /// Shape check, validation and the description `grainwave check` prints.
     pub check: fn(&ConfigSource) -> Result<Vec<String>, ConfigError>,
+    /// Shape check, validation and the check of the inputs the config names outside itself
+    /// ([`Protocol::check_inputs`]).
+    pub inputs: fn(&ConfigSource) -> Result<(), ConfigError>,
     /// Shape check, validation and the units of work of the run ([`Protocol::plan`]).
     pub plan: fn(&ConfigSource) -> Result<Vec<Unit>, ConfigError>,
     /// Validates and runs a config into the context's directory.
@@ -75,6 +78,11 @@ fn check_with<P: Protocol>(src: &ConfigSource) -> Result<Vec<String>, ConfigErro
     Ok(P::describe(&P::validate(src)?))
 }
 
+fn inputs_with<P: Protocol>(src: &ConfigSource) -> Result<(), ConfigError> {
+    crate::config::check_shapes(src, cached_schema(P::NAME, schema::<P>))?;
+    P::check_inputs(src, &P::validate(src)?)
+}
+
 fn plan_with<P: Protocol>(src: &ConfigSource) -> Result<Vec<Unit>, ConfigError> {
     crate::config::check_shapes(src, cached_schema(P::NAME, schema::<P>))?;
     Ok(P::plan(&P::validate(src)?))
@@ -103,7 +111,9 @@ fn finish<P: Protocol>(state: &mut P::State, ctx: &mut RunContext<'_>) -> Result
 
 fn run_with<P: Protocol>(src: &ConfigSource, ctx: &mut RunContext<'_>) -> Result<RunSummary> {
     crate::config::check_shapes(src, cached_schema(P::NAME, schema::<P>))?;
-    let mut state = P::start(P::validate(src)?);
+    let spec = P::validate(src)?;
+    P::check_inputs(src, &spec)?;
+    let mut state = P::start(spec);
     finish::<P>(&mut state, ctx)
 }
 
@@ -146,6 +156,7 @@ pub const fn entry<P: Protocol>() -> Entry {
         reference: P::REFERENCE,
         schema: schema::<P>,
         check: check_with::<P>,
+        inputs: inputs_with::<P>,
         plan: plan_with::<P>,
         run: run_with::<P>,
         resume: resume_with::<P>,
@@ -219,6 +230,12 @@ impl Registry {
         (self.experiment(src)?.check)(src)
     }
 
+    /// Checks what a valid config names outside itself ([`Protocol::check_inputs`]): `grainwave
+    /// check` and `run` call it after [`Registry::check`].
+    pub fn check_inputs(&self, src: &ConfigSource) -> Result<(), ConfigError> {
+        (self.experiment(src)?.inputs)(src)
+    }
+
     /// The units of work of a run of a config ([`Protocol::plan`]): what a driver of the
     /// scheduler lists and places.
     pub fn plan(&self, src: &ConfigSource) -> Result<Vec<Unit>, ConfigError> {
@@ -275,7 +292,24 @@ impl Registry {
             ExperimentError::Resume { path, reason } => ExperimentError::Plot { path, reason },
             e => e,
         })?;
-        (self.by_tag(dir, &tag, "has no plots")?.plot)(dir, &file, &tag)
+        match (self.by_tag(dir, &tag, "has no plots")?.plot)(dir, &file, &tag) {
+            // a run that has not finished (interrupted, or still running) has not written the
+            // data its plots are drawn from: say so, as bad input (exit 2), rather than
+            // "cannot write the outputs … No such file" (exit 1)
+            Err(ExperimentError::Output(e))
+                if !dir.join(crate::outputs::SUMMARY_FILE).exists() && !dir.join(crate::protocol::FAILED_FILE).exists() =>
+            {
+                Err(ExperimentError::Plot {
+                    path: dir.to_path_buf(),
+                    reason: format!(
+                        "the run has not finished (no {}: interrupted, or still running), so the data of its plots is not there yet ({e}); `grainwave resume {}` finishes it and draws them",
+                        crate::outputs::SUMMARY_FILE,
+                        dir.display()
+                    ),
+                })
+            }
+            other => other,
+        }
     }
 
     /// The protocol whose run directory `dir` is: by the `experiment` key of its

@@ -56,6 +56,14 @@ pub trait Protocol: 'static {
     fn validate(src: &ConfigSource) -> Result<Self::Spec, ConfigError>;
     /// What `grainwave check` prints about a valid spec.
     fn describe(spec: &Self::Spec) -> Vec<String>;
+    /// Checks what a valid spec names outside the file (the directory of an earlier run it
+    /// starts from…): called by `grainwave check` and before a run computes anything, so that a
+    /// missing input is refused as a config error (exit 2) instead of failing the run; not by
+    /// [`Protocol::validate`] (a config stays valid, and its plan listable, before the run it
+    /// names has been made). The default has nothing to check.
+    fn check_inputs(_src: &ConfigSource, _spec: &Self::Spec) -> Result<(), ConfigError> {
+        Ok(())
+    }
     /// The units of work of a run of `spec` ([`crate::work::Unit`]: stable ids, declared inputs),
     /// in the order of aggregation; the same list the run gives its scheduler, so that a generic
     /// driver (another process, MPI ranks, Python) can list and place them.

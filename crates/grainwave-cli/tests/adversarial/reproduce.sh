@@ -99,3 +99,17 @@ row "LAMMPS file with a bad line (bench)" bash -c "mkdir -p $W/lmp-bad && printf
 sed 's/^\[placement\]/[placement]\nmethod = "lattice"\nspacing = 0.5/' $Q > $W/overlap.toml
 row "initial overlap: lattice spacing 0.5 d (check)" gw check $W/overlap.toml
 row "initial overlap: lattice spacing 0.5 d (run)" gw run $W/overlap.toml --out $W/ov
+# second probe (docs/hardening.md, "Second probe"): check = run, exit codes, messages
+for f in sim-not-before-nan e1-chain-tof-nan e3-lattice-horizontal-3 e3-bracket-3 sim-origin-outside-region \
+    e2-normal_stiffness-5e-324 e2-rolling_stiffness-1e308 e2-wall_mass-1e308 e2-gravity-1e308 e2-source-dir-missing \
+    e2-replay-name-300 e2-top-pulse-without-piston e2-checkpoint-strain-5e-324 e3-duplicate-widths e3-friction-5e-324 \
+    e3-forces-5e-324 e3-response-max-acceleration-1e308 e1-chain-stiffness-1e308 e1-chain-spacing-1e308 \
+    e1-transits-1e308 e3-lattice-tangential_ratios-1e308 sim-piston-tiny-mass-huge-force sim-velocity-table-1e308; do
+    row "$f (check)" gw check $ADV/$f.toml
+done
+row "e2 preparation without equilibrium (run)" gw run $ADV/e2-no-equilibrium.toml --out $W/noeq
+row "LAMMPS tilt xy = nan (bench)" gw bench hooke3d --dir $ADV/lmp-tilt-nan --steps 2
+row "LAMMPS angular velocity nan (bench)" gw bench hooke3d --dir $ADV/lmp-omega-nan --steps 2
+row "bench --shear nan" gw bench hooke3d --dir $ADV/lmp-tilt-nan --shear nan
+gw run $Q --out $W/unfinished >/dev/null 2>&1 && rm $W/unfinished/summary.json $W/unfinished/series.npz
+row "plot of an unfinished run" gw plot $W/unfinished

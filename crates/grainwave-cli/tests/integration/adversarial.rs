@@ -636,3 +636,169 @@ fn errors_name_the_key_the_file_has() {
     refused("sim-origin-1e17.toml", "domain.origin", "keeps its size");
     refused("sim-radius-1e-300.toml", "grains.size.radius", "between 1e-60 and 1e60");
 }
+
+// ---- check = run: what a run would refuse or fail on, known from the config, is refused by
+// `check` (exit 2, at the key the file has) — reproducers 17, 19–27, 30–32 of the second probe ----
+
+#[test]
+fn nan_is_refused_at_its_key_wherever_it_is() {
+    // before: `check` passed; a NaN slips through every range check (all comparisons are false)
+    refused("sim-not-before-nan.toml", "stop.not_before_time", "nan (allowed: a number");
+    refused("e1-chain-tof-nan.toml", "pulse.tof_heights[1]", "nan (allowed: a number");
+}
+
+#[test]
+fn a_fixed_length_list_of_another_length_is_refused() {
+    // before: [k_n, k_t, 7.0] was read as [k_n, k_t] without a word (a list of 1 was refused)
+    refused("e3-lattice-horizontal-3.toml", "lattice.horizontal", "a list of 3 values (allowed: exactly 2 values)");
+    refused("e3-bracket-3.toml", "first_opening.bracket", "a list of 3 values (allowed: exactly 2 values)");
+}
+
+#[test]
+fn e2_values_the_engine_would_refuse_are_refused_at_the_e2_key() {
+    // before: `check` 0, `run` 2 at start naming engine keys the file does not have
+    // (`contact.rolling_stiffness`, `walls[2].mass`, `gravity[0]`)
+    refused("e2-normal_stiffness-5e-324.toml", "material.normal_stiffness", "[1e-100, 1e100]");
+    refused("e2-rolling_stiffness-1e308.toml", "material.rolling_stiffness", "rolling stiffness");
+    refused("e2-wall_mass-1e308.toml", "preparation.wall_mass", "pistons' mass");
+    refused("e2-gravity-1e308.toml", "preparation.gravity", "gravity inf");
+}
+
+#[test]
+fn an_e2_source_directory_that_is_not_there_is_refused_by_check() {
+    // before: `check` 0; `run` failed every replay at its start (exit 1: "no checkpoint -1 in …")
+    refused("e2-source-dir-missing.toml", "source.dir", "is not a directory");
+    // a directory without strain checkpoints
+    let dir = out("empty-source");
+    std::fs::create_dir_all(&dir).unwrap();
+    let cfg = dir.join("c.toml");
+    let text = std::fs::read_to_string(fixture("e2-source-dir-missing.toml")).unwrap().replace("no-such-e2-run", dir.to_str().unwrap());
+    std::fs::write(&cfg, text).unwrap();
+    let (code, err) = gw(&["check", cfg.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("`source.dir`") && err.contains("holds no strain checkpoint"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn e2_replays_that_fail_after_the_loading_are_refused_by_check() {
+    // before: the packing was prepared and loaded, then the replay failed (exit 1)
+    refused("e2-replay-name-300.toml", "replays[0].name", "300 characters (allowed: at most 200");
+    refused("e2-top-pulse-without-piston.toml", "replays[0].pulse_wall", "is not a piston");
+    // before: the loading ran, then both replays failed on the checkpoints' bookkeeping
+    refused("e2-checkpoint-strain-5e-324.toml", "loading.checkpoint_strain", "finite number of checkpoints");
+}
+
+#[test]
+fn an_e2_preparation_without_equilibrium_is_a_run_failure_exit_1() {
+    // before: exit 2 ("inconsistent set-up"), as if the config were invalid; it is valid, and
+    // only the run finds that the preparation reaches no equilibrium in `preparation.max_time`
+    let (code, err, dir) = run_fixture("e2-no-equilibrium.toml");
+    assert_eq!(code, 1, "{err}");
+    assert!(err.contains("no equilibrium") && err.contains("`preparation.max_time`"), "{err}");
+    assert!(!err.contains("inconsistent set-up"), "{err}");
+    marked_failed(&dir, "the preparation reached no equilibrium");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn e3_values_that_fail_the_units_are_refused_by_check() {
+    // before: the reference states and runs were computed, then every run failed writing its
+    // table ("CSV column `dsigma_w2` appears twice")
+    refused("e3-duplicate-widths.toml", "response.widths[1]", "appears twice");
+    // before: every unit failed at its start ("File name too long": 5e-324 written out in full)
+    refused("e3-friction-5e-324.toml", "material.friction", "within 255 bytes");
+    // before: every response run failed at its start with `stop.max_acceleration` (no e3 key)
+    refused("e3-forces-5e-324.toml", "load.forces", "stopping tolerances");
+    refused("e3-response-max-acceleration-1e308.toml", "relaxation.response_max_acceleration", "finite");
+}
+
+#[test]
+fn an_e1_chain_the_engine_cannot_build_is_refused_by_check() {
+    // before: every sample failed at its start naming `contact.normal_stiffness`, `grains.position`
+    refused("e1-chain-stiffness-1e308.toml", "chain.stiffness", "[1e-100, 1e100]");
+    refused("e1-chain-spacing-1e308.toml", "chain.spacing", "[1e-60, 1e60]");
+}
+
+#[test]
+fn values_that_failed_the_output_stage_are_refused_by_check() {
+    // before: the computation ran, then the plots failed (exit 1, the work lost)
+    refused("e1-transits-1e308.toml", "pulse.transits", "time grid");
+    refused("e3-lattice-tangential_ratios-1e308.toml", "lattice.tangential_ratios[0]", "criterion r");
+    refused("sim-piston-tiny-mass-huge-force.toml", "walls[3].mass", "acceleration");
+    refused("sim-velocity-table-1e308.toml", "walls[3].speed", "differences overflow");
+}
+
+#[test]
+fn a_placement_region_behind_a_wall_names_its_key() {
+    // before: "inconsistent set-up: grain id 1 … is behind wall `left`", no key
+    refused("sim-origin-outside-region.toml", "placement.region_min", "is behind wall `left`");
+}
+
+#[test]
+fn lammps_non_finite_tilt_and_spin_are_refused_naming_them() {
+    // before: a NaN tilt xy was dropped (the state hash of the untilted box, exit 0); a NaN
+    // angular velocity was refused quoting the finite position and velocity
+    for (dir, words) in [("lmp-tilt-nan", "tilt factor xy = NaN"), ("lmp-omega-nan", "atom 1 has wx = NaN")] {
+        let (code, err) = gw(&["bench", "--dir", fixture(dir).to_str().unwrap(), "hooke3d", "--steps", "2"]);
+        assert_eq!(code, 2, "{dir}: {err}");
+        assert!(err.contains(words), "{dir}: {err}");
+    }
+}
+
+// ---- one exit code per fault class (docs/hardening.md, "Exit codes") ----
+
+#[test]
+fn bad_arguments_and_unfinished_runs_are_input_errors_exit_2() {
+    // before: `bench --shear nan` exit 1
+    let (code, err) = gw(&["bench", "--dir", "/nonexistent", "hooke3d", "--shear", "nan"]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("--shear"), "{err}");
+    // before: `plot` of an unfinished run exit 1, "cannot write the outputs … series.npz: No such file"
+    let dir = out("unfinished-plot");
+    let (code, err) = gw(&["run", quick().to_str().unwrap(), "--out", dir.to_str().unwrap()]);
+    assert_eq!(code, 0, "{err}");
+    std::fs::remove_file(dir.join("summary.json")).unwrap();
+    std::fs::remove_file(dir.join("series.npz")).unwrap();
+    let (code, err) = gw(&["plot", dir.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(err.contains("has not finished") && err.contains("grainwave resume"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+// ---- messages: bounded, harmless for the terminal ----
+
+#[test]
+fn a_huge_unknown_key_or_a_huge_neighbouring_line_is_not_quoted_in_full() {
+    // before: 1 000 385 bytes (the unknown key quoted in full) and 4 000 422 bytes (the 4 MB line
+    // next to the error shown in the source excerpt)
+    let dir = out("huge-key");
+    std::fs::create_dir_all(&dir).unwrap();
+    let base = std::fs::read_to_string(quick()).unwrap();
+    let key = dir.join("key.toml");
+    // the last table of the file is `[output]`: the key is unknown there
+    std::fs::write(&key, format!("{base}\n{} = 1\n", "k".repeat(1 << 20))).unwrap();
+    let line = dir.join("line.toml");
+    std::fs::write(&line, format!("units = \"{}\"\nzz_bad = 1\n{base}", "u".repeat(4 << 20))).unwrap();
+    for cfg in [&key, &line] {
+        let (code, err) = gw(&["check", cfg.to_str().unwrap()]);
+        assert_eq!(code, 2, "{}", &err[..err.len().min(2000)]);
+        assert!(err.contains("unknown key"), "{}", &err[..err.len().min(2000)]);
+        assert!(err.len() < 2000, "{}: {} bytes of message", cfg.display(), err.len());
+    }
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
+#[test]
+fn control_characters_of_the_input_are_escaped_in_messages() {
+    // before: the ESC and BEL of a quoted key went raw to the terminal (recolouring it, setting its title)
+    let dir = out("control");
+    std::fs::create_dir_all(&dir).unwrap();
+    let cfg = dir.join("c.toml");
+    std::fs::write(&cfg, format!("{}\n\"\\u001b[31mRED\\u001b]0;title\\u0007\" = 1\n", std::fs::read_to_string(quick()).unwrap())).unwrap();
+    // (in `[output]`, the file's last table: an unknown key, quoted in the message)
+    let (code, err) = gw(&["check", cfg.to_str().unwrap()]);
+    assert_eq!(code, 2, "{err}");
+    assert!(!err.contains('\u{1b}') && !err.contains('\u{7}'), "raw control characters in {err:?}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

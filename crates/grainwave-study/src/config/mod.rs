@@ -128,9 +128,11 @@ impl ConfigSource {
 
     fn error_at_span(&self, span: Option<Range<usize>>, key: Option<String>, message: String) -> ConfigError {
         let (line, column) = span.as_ref().map(|s| line_column(&self.text, s.start)).unwrap_or((0, 0));
-        // a message quotes values from the file: keep it readable whatever their size
-        let message = clip(&compact_numbers(&message), 5 * MAX_ECHO_CHARS);
-        ConfigError { file: self.name.clone(), line, column, key, message, span, text: self.text.clone() }
+        // a message quotes values from the file: keep it readable whatever their size, and
+        // harmless for the terminal whatever their characters
+        let message = escape_controls(&clip_keeping_lines(&compact_numbers(&message), 5 * MAX_ECHO_CHARS), true);
+        let key = key.map(|k| clip(&k, MAX_ECHO_CHARS));
+        ConfigError { file: escape_controls(&self.name, false), line, column, key, message, span, text: self.text.clone() }
     }
 }
 
@@ -173,11 +175,24 @@ impl miette::Diagnostic for ConfigError {
         Some(Box::new("grainwave::config"))
     }
     fn source_code(&self) -> Option<&dyn miette::SourceCode> {
-        // the excerpt shows whole lines: leave it out when the offending line is too long to quote
+        // the excerpt shows whole lines, the span's and one line either side: leave it out when
+        // one of them is too long to quote (a 4 MB value next to the error) or holds control
+        // characters (escape sequences would act on the terminal)
         let long_line = self.span.as_ref().is_some_and(|s| {
-            let start = self.text[..s.start.min(self.text.len())].rfind('\n').map_or(0, |k| k + 1);
-            let end = self.text[s.start.min(self.text.len())..].find('\n').map_or(self.text.len(), |k| s.start + k);
-            end - start > 2 * MAX_ECHO_CHARS || s.end.saturating_sub(s.start) > 2 * MAX_ECHO_CHARS
+            let text = self.text.as_str();
+            let at = s.start.min(text.len());
+            let to = s.end.clamp(at, text.len());
+            // back to the start of the line before, on to the end of the line after
+            let mut start = text[..at].rfind('\n').map_or(0, |k| k + 1);
+            if start > 0 {
+                start = text[..start - 1].rfind('\n').map_or(0, |k| k + 1);
+            }
+            let mut end = text[to..].find('\n').map_or(text.len(), |k| to + k);
+            if end < text.len() {
+                end = text[end + 1..].find('\n').map_or(text.len(), |k| end + 1 + k);
+            }
+            s.end.saturating_sub(s.start) > 2 * MAX_ECHO_CHARS
+                || text[start..end].split('\n').any(|l| l.len() > 2 * MAX_ECHO_CHARS || l.chars().any(|c| c.is_control() && c != '\t' && c != '\r'))
         });
         if self.span.is_some() && !long_line {
             Some(self.text.as_ref() as &String)
@@ -296,6 +311,13 @@ pub fn check_shapes(src: &ConfigSource, schema: &serde_json::Value) -> Result<()
     fn walk(src: &ConfigSource, value: &toml::Value, schema: &J, root: &J, path: &str) -> Result<(), ConfigError> {
         let allowed = types(schema, root);
         let s = resolve(schema, root);
+        // NaN is no key's value (every comparison with it is false, so a range check lets it
+        // through, and the run then never converges or stops where it should)
+        if let toml::Value::Float(x) = value {
+            if x.is_nan() && !path.is_empty() {
+                return Err(src.error_at_key(path, "nan (allowed: a number; NaN is not a value of any key)"));
+            }
+        }
         if !allowed.is_empty() {
             let scalar = ["number", "integer", "string", "boolean"];
             if let toml::Value::Array(_) = value {
@@ -361,6 +383,21 @@ pub fn check_shapes(src: &ConfigSource, schema: &serde_json::Value) -> Result<()
                 }
             }
             toml::Value::Array(a) => {
+                // a list of fixed length (`[k_n, k_t]`): serde reads the first values and drops
+                // the rest without a word; refuse a list of another length at its key
+                let min = s.get("minItems").and_then(J::as_u64);
+                let max = s.get("maxItems").and_then(J::as_u64);
+                let n = a.len() as u64;
+                if min.is_some_and(|m| n < m) || max.is_some_and(|m| n > m) {
+                    let allowed = match (min, max) {
+                        (Some(lo), Some(hi)) if lo == hi => format!("exactly {lo}"),
+                        (Some(lo), Some(hi)) => format!("{lo} to {hi}"),
+                        (Some(lo), None) => format!("at least {lo}"),
+                        (None, Some(hi)) => format!("at most {hi}"),
+                        (None, None) => unreachable!("a bound was broken"),
+                    };
+                    return Err(src.error_at_key(path, format!("a list of {n} values (allowed: {allowed} values)")));
+                }
                 if let Some(items) = s.get("items") {
                     for (i, v) in a.iter().enumerate() {
                         walk(src, v, items, root, &format!("{path}[{i}]"))?;
@@ -378,8 +415,37 @@ pub fn check_shapes(src: &ConfigSource, schema: &serde_json::Value) -> Result<()
 /// Longest quotation of a value from the file in an error message [characters].
 pub const MAX_ECHO_CHARS: usize = 200;
 
-/// `text` cut to `max` characters, with a note of how much was left out.
+/// `text` cut to `max` characters, with a note of how much was left out, and its control
+/// characters escaped ([`escape_controls`]).
 pub fn clip(text: &str, max: usize) -> String {
+    match text.char_indices().nth(max) {
+        None => escape_controls(text, false),
+        Some((cut, _)) => format!("{}… ({} more bytes)", escape_controls(&text[..cut], false), text.len() - cut),
+    }
+}
+
+/// `text` with its control characters written as escapes (`\u{1b}`, `\u{7}`, and `\n`, `\t`,
+/// `\r`): a message quotes text from a file, and raw escape sequences would recolour the
+/// terminal or set its title. Line breaks are kept when `keep_newlines` (a message of several
+/// lines) and escaped otherwise (a quoted name or value).
+pub fn escape_controls(text: &str, keep_newlines: bool) -> String {
+    if !text.chars().any(|c| c.is_control() && !(keep_newlines && c == '\n')) {
+        return text.to_string();
+    }
+    let mut out = String::with_capacity(text.len() + 8);
+    for c in text.chars() {
+        match c {
+            '\n' if keep_newlines => out.push(c),
+            c if c.is_control() => out.extend(c.escape_default()),
+            c => out.push(c),
+        }
+    }
+    out
+}
+
+/// [`clip`] without escaping the line breaks of a message of several lines (the other control
+/// characters are escaped by the caller).
+fn clip_keeping_lines(text: &str, max: usize) -> String {
     match text.char_indices().nth(max) {
         None => text.to_string(),
         Some((cut, _)) => format!("{}… ({} more bytes)", &text[..cut], text.len() - cut),
@@ -615,6 +681,47 @@ mod tests {
         let src = ConfigSource::from_text("t.toml", "a = 1e308\n");
         let e = src.error_at_key("a", format!("{} (allowed: a finite number < 1)", 1e308_f64));
         assert!(e.message.starts_with("1e308 (allowed"), "{}", e.message);
+    }
+
+    #[test]
+    fn quotes_are_clipped_and_control_characters_escaped() {
+        assert_eq!(escape_controls("a\u{1b}[31mb\u{7}", false), "a\\u{1b}[31mb\\u{7}");
+        assert_eq!(escape_controls("one\ntwo\tx", true), "one\ntwo\\tx");
+        assert_eq!(escape_controls("one\ntwo", false), "one\\ntwo");
+        let c = clip(&format!("\u{1b}{}", "k".repeat(1000)), 10);
+        assert!(c.starts_with("\\u{1b}kkkkkkkkk… (991 more bytes)"), "{c}");
+        // a config error escapes and clips its key, and leaves out an excerpt with a control
+        // character or a long line near the error
+        let src = ConfigSource::from_text("t.toml", format!("a = \"{}\"\nb = 1\n\"\u{1b}x\" = 2\n", "u".repeat(5000)));
+        let e = src.error_at_key("\u{1b}x", "unknown key `\u{1b}x`");
+        assert!(!e.to_string().contains('\u{1b}') && e.to_string().contains("\\u{1b}x"), "{e}");
+        assert!(miette::Diagnostic::source_code(&e).is_none());
+        let e = src.error_at_key("b", "bad");
+        assert!(miette::Diagnostic::source_code(&e).is_none(), "the 5000-byte line before `b` would be quoted");
+        let src = ConfigSource::from_text("t.toml", "a = 1\nb = 2\nc = 3\n");
+        assert!(miette::Diagnostic::source_code(&src.error_at_key("b", "bad")).is_some());
+    }
+
+    #[test]
+    fn nan_and_lists_of_another_fixed_length_are_refused_at_their_key() {
+        #[derive(serde::Deserialize, schemars::JsonSchema)]
+        #[allow(dead_code)]
+        struct T {
+            pair: [f64; 2],
+            x: f64,
+            list: Vec<f64>,
+        }
+        let schema = serde_json::to_value(schemars::schema_for!(T)).unwrap();
+        let ok = ConfigSource::from_text("t.toml", "pair = [1.0, 2.0]\nx = inf\nlist = [1.0, 2.0, 3.0]\n");
+        check_shapes(&ok, &schema).unwrap();
+        let long = ConfigSource::from_text("t.toml", "pair = [1.0, 2.0, 3.0]\nx = 1.0\nlist = []\n");
+        let e = check_shapes(&long, &schema).unwrap_err();
+        assert_eq!(e.key.as_deref(), Some("pair"));
+        assert!(e.message.contains("a list of 3 values (allowed: exactly 2 values)"), "{e}");
+        let nan = ConfigSource::from_text("t.toml", "pair = [1.0, 2.0]\nx = 1.0\nlist = [1.0, nan]\n");
+        let e = check_shapes(&nan, &schema).unwrap_err();
+        assert_eq!(e.key.as_deref(), Some("list[1]"));
+        assert!(e.message.starts_with("nan (allowed: a number"), "{e}");
     }
 
     #[test]
