@@ -17,6 +17,17 @@ pub enum Counterpart {
     Wall(u32),
 }
 
+impl Counterpart {
+    /// The counterpart as one signed number, as tables write it: a grain's id (≥ 0), or
+    /// −1 − k for wall k (< 0).
+    pub fn signed_id(self) -> i64 {
+        match self {
+            Counterpart::Grain(id) => i64::from(id),
+            Counterpart::Wall(w) => -1 - i64::from(w),
+        }
+    }
+}
+
 /// One contact as seen by analysis: geometry, forces, stiffnesses and sliding flag.
 ///
 /// Conventions: `normal` n̂ points from grain i to its counterpart; `branch` is the vector from

@@ -122,11 +122,7 @@ pub fn incremental_replay(sim: &Simulation<D2>, drive: &Drive, rc: &ReplayConfig
         .iter()
         .map(|h| {
             let c = &snapshot.contacts[h.contact];
-            let j = match c.j {
-                grainwave_core::snapshot::Counterpart::Grain(id) => id as i64,
-                grainwave_core::snapshot::Counterpart::Wall(w) => -1 - w as i64,
-            };
-            (c.i, j)
+            (c.i, c.j.signed_id())
         })
         .collect();
     let info = IncrementalInfo { branches: rc.branches.rule().name().into(), counts, history: p.history().to_vec(), pairs, steps: p.steps(), dt: p.max_step(), impulse };

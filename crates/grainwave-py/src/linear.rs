@@ -320,7 +320,6 @@ struct IncrementalRun {
 fn incremental_run<D: Dim>(s: &grainwave_experiments::engine::Simulation<D>, setup: &IncrementalSetup, times: &[f64]) -> PyResult<IncrementalRun> {
     use grainwave_experiments::engine::core::dim::VectorOps;
     use grainwave_experiments::engine::core::domain::WallMotion;
-    use grainwave_experiments::engine::core::snapshot::Counterpart;
     let snapshot = s.snapshot();
     let walls = &snapshot.domain.walls;
     let wall = &walls[setup.wall];
@@ -398,11 +397,7 @@ fn incremental_run<D: Dim>(s: &grainwave_experiments::engine::Simulation<D>, set
         .iter()
         .map(|h| {
             let c = &snapshot.contacts[h.contact];
-            let j = match c.j {
-                Counterpart::Grain(id) => i64::from(id),
-                Counterpart::Wall(w) => -1 - w as i64,
-            };
-            (i64::from(c.i), j)
+            (i64::from(c.i), c.j.signed_id())
         })
         .collect();
     Ok(IncrementalRun {
