@@ -156,6 +156,27 @@ pub fn critical_fraction_for_restitution(e: f64) -> Option<f64> {
     Some(0.5 * (lo + hi))
 }
 
+/// Normal and tangential damping coefficients γ_n, γ_t of a law: its own damping parts (the pair
+/// `(NormalDamping, TangentialDamping)`, which matches on them at every contact), or the same
+/// formulas resolved at compile time for the presets' combinations (`sim::lanes`).
+pub(crate) trait Dampers: Copy {
+    /// γ_n from m*, k_n and the secant stiffness (as `NormalDamping::coefficient`).
+    fn normal<R: Real>(&self, m_eff: R, k_n: R, secant: R) -> R;
+    /// γ_t (as `TangentialDamping::coefficient`).
+    fn tangential<R: Real>(&self, m_eff: R, k_t: R, gamma_n: R) -> R;
+}
+
+impl Dampers for (NormalDamping, super::TangentialDamping) {
+    #[inline(always)]
+    fn normal<R: Real>(&self, m_eff: R, k_n: R, secant: R) -> R {
+        self.0.coefficient_lanes(m_eff, k_n, secant)
+    }
+    #[inline(always)]
+    fn tangential<R: Real>(&self, m_eff: R, k_t: R, gamma_n: R) -> R {
+        self.1.coefficient_lanes(m_eff, k_t, gamma_n)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -27,6 +27,7 @@ mod rolling;
 mod tangential;
 
 pub use coulomb::coulomb_cap;
+pub(crate) use damping::Dampers;
 pub use damping::{
     clamped_contact_time, clamped_restitution, critical_fraction_for_restitution, textbook_critical_fraction, tsuji_alpha,
     NormalDamping,
@@ -42,7 +43,7 @@ pub(crate) use damping::clamped_normal_force_lanes;
 pub(crate) use kinematics::{into_tangent_plane_lanes, pair_kinematics_lanes};
 pub(crate) use tangential::spring_step;
 
-use crate::real::{by_len, from_lanes, to_lanes, Real, Vec3};
+use crate::real::{from_lanes, to_lanes, Real, Vec3};
 
 use crate::dim::{Dim, VectorOps};
 use crate::error::{require_non_negative, require_positive, CoreError, Result};
@@ -109,74 +110,160 @@ pub struct ContactOutput<D: Dim> {
     pub sliding: bool,
 }
 
-/// Rotates `v` into the plane perpendicular to `n`, preserving its length
-/// ([`into_tangent_plane_lanes`] on one lane).
-#[inline]
-fn into_tangent_plane<V: VectorOps>(v: V, n: V) -> V {
-    from_lanes(by_len!(V, into_tangent_plane_lanes(to_lanes(v), to_lanes(n))))
+/// The inputs of a contact law for one contact per lane: the kinematics it reads (as
+/// [`Kinematics`]) and the pair's stored history (as [`ContactState`]); components past the
+/// dimension unused.
+#[derive(Clone, Copy)]
+pub(crate) struct LawIn<R> {
+    /// Unit normal n̂ from i towards j (towards the wall for wall contacts).
+    pub normal: Vec3<R>,
+    /// Overlap ξ > 0, R*, m*.
+    pub overlap: R,
+    pub r_eff: R,
+    pub m_eff: R,
+    /// Relative normal velocity (negative while approaching) and tangential velocity of j
+    /// relative to i at the contact point.
+    pub v_n: R,
+    pub v_t: Vec3<R>,
+    /// Relative rolling angular velocity (`ROT` components) and twist rate: read only by laws
+    /// with rolling or twisting resistance.
+    pub w_roll: Vec3<R>,
+    pub w_twist: R,
+    /// Stored tangential history, rolling spring θ_r, twist spring φ.
+    pub spring: Vec3<R>,
+    pub rolling: Vec3<R>,
+    pub twist: R,
+    /// Overlap at the last evaluation (read only by the Mindlin law that rescales on unloading).
+    pub was: R,
 }
 
-/// Evaluates a contact law given by its parts (see [`LawParts`]): the general kernel, and the
-/// reference for the engine's specialised kernels (`sim::lanes::contact`). Both are assembled
-/// from the same lane-generic parts — [`NormalElastic::response_lanes`],
-/// [`NormalDamping::coefficient_lanes`], [`Tangential::stiffness_lanes`],
-/// [`TangentialDamping::coefficient_lanes`], the spring step `spring_step` (increment,
-/// Coulomb cap, history kept) and the rotation into the tangent plane — run here on one lane (`f64`), so both give the same bits.
+/// What a contact law gives for one contact per lane: the forces on grain i and the history to
+/// store (unchanged for the parts the law does not have).
+#[derive(Clone, Copy)]
+pub(crate) struct LawOut<R: Real> {
+    /// F_n ≥ 0 (elastic + damping, clamped), k_n = dF_el/dξ, k_t.
+    pub normal_force: R,
+    pub normal_stiffness: R,
+    pub tangential_stiffness: R,
+    /// F_t on i, and where the Coulomb cap was reached.
+    pub tangential_force: Vec3<R>,
+    pub sliding: R::Mask,
+    /// Rolling plus twisting resistance torque M_r on i.
+    pub torque: Vec3<R>,
+    /// The histories to store: tangential, rolling, twist.
+    pub spring: Vec3<R>,
+    pub rolling: Vec3<R>,
+    pub twist: R,
+}
+
+/// The contact law, written once: one contact per lane, for every lane type — the general kernel
+/// ([`evaluate_parts`], one lane) and the engine's window and fused kernels
+/// (`sim::lanes::contact`) all run this sequence, so they give the same bits:
+///
+/// 1. normal: F_n = max(0, F_el(ξ) − γ_n v_n);
+/// 2. tangential: the history rotated into the tangent plane (rescaled by √(ξ/ξ_old) on
+///    unloading for the Mindlin law that asks for it), the spring step of the law (increment,
+///    trial force, Coulomb cap at μF_n, history kept);
+/// 3. rolling: θ_r rotated into the tangent plane (3D) plus w_r Δt, trial k_r θ_r + γ_r w_r,
+///    capped at μ_r R* F_n, the spring reset to M_r/k_r where capped;
+/// 4. twisting: φ + w_tw Δt, trial k_tw φ + γ_tw w_tw, capped at μ_tw R* F_n, added about n̂.
+///
+/// `damp` gives γ_n and γ_t (the law's own damping parts, or the same formulas resolved at
+/// compile time for the presets). Every `match` on a part folds away for a law whose parts are
+/// constants of its type ([`LawParts`]).
+#[inline(always)]
+pub(crate) fn law_lanes<R: Real, const DIM: usize, const ROT: usize, P: LawParts, Q: Dampers>(law: &P, damp: Q, x: &LawIn<R>, dt: f64) -> LawOut<R> {
+    let zero = R::splat(0.0);
+    let n = x.normal;
+    let NormalResponse { force: f_el, stiffness: k_n, secant } = law.normal().response_lanes(x.overlap, x.r_eff);
+    let gamma_n = damp.normal(x.m_eff, k_n, secant);
+    let f_n = clamped_normal_force_lanes(f_el, gamma_n, x.v_n);
+    let tangential = law.tangential();
+    let k_t = tangential.stiffness_lanes(x.overlap, x.r_eff);
+
+    let (tangential_force, spring, sliding) = if let Tangential::None = tangential {
+        ([zero; 3], x.spring, zero.gt(zero))
+    } else {
+        let gamma_t = damp.tangential(x.m_eff, k_t, gamma_n);
+        let mut rotated = into_tangent_plane_lanes::<R, DIM>(x.spring, n);
+        if let Tangential::Mindlin { rescale_on_unloading: true, .. } = tangential {
+            // k_t ∝ √ξ: where the overlap decreased (ξ_old > 0 and ξ < ξ_old) the stored force
+            // × √(ξ/ξ_old), elsewhere × 1 (the same bits)
+            let one = R::splat(1.0);
+            let scale = R::select(x.was.gt(x.overlap), (x.overlap / x.was).sqrt(), one);
+            let scale = R::select(x.was.gt(zero), scale, one);
+            for c in 0..DIM {
+                rotated[c] = rotated[c] * scale;
+            }
+        }
+        let cap = R::splat(law.friction()) * f_n;
+        spring_step::<R, DIM>(&tangential, rotated, x.v_t, k_t, gamma_t, dt, cap)
+    };
+
+    let (mut torque, mut rolling) = ([zero; 3], x.rolling);
+    if let Rolling::SpringDashpot { stiffness, damping, friction } = law.rolling() {
+        let stored = if ROT == 3 { into_tangent_plane_lanes::<R, 3>(x.rolling, n) } else { x.rolling };
+        let (k_r, gamma_r, dt) = (R::splat(stiffness), R::splat(damping), R::splat(dt));
+        let (mut theta, mut trial) = ([zero; 3], [zero; 3]);
+        for c in 0..ROT {
+            theta[c] = stored[c] + x.w_roll[c] * dt;
+            trial[c] = theta[c] * k_r + x.w_roll[c] * gamma_r;
+        }
+        let (m, slid) = coulomb_cap_lanes::<R, ROT>(trial, R::splat(friction) * x.r_eff * f_n);
+        for c in 0..ROT {
+            rolling[c] = R::select(slid, m[c] / k_r, theta[c]);
+        }
+        torque = m;
+    }
+
+    let mut twist = x.twist;
+    if let Twisting::SpringDashpot { stiffness, damping, friction } = law.twisting() {
+        let (k_tw, gamma_tw) = (R::splat(stiffness), R::splat(damping));
+        let phi = x.twist + x.w_twist * R::splat(dt);
+        let trial = phi * k_tw + x.w_twist * gamma_tw;
+        let (m, slid) = coulomb_cap_lanes::<R, 1>([trial, zero, zero], R::splat(friction) * x.r_eff * f_n);
+        twist = R::select(slid, m[0] / k_tw, phi);
+        // M_r += m n̂ (`Dim::about_normal`: zero in 2D, still added)
+        for c in 0..ROT {
+            torque[c] = torque[c] + if ROT == 3 { n[c] * m[0] } else { zero };
+        }
+    }
+    LawOut { normal_force: f_n, normal_stiffness: k_n, tangential_stiffness: k_t, tangential_force, sliding, torque, spring, rolling, twist }
+}
+
+/// Evaluates a contact law given by its parts (see [`LawParts`]) on one contact: [`law_lanes`]
+/// on one lane (`f64`) with the law's own damping parts. The general kernel of the engine, and
+/// the reference its specialised kernels are tested against.
 #[inline(always)]
 pub(crate) fn evaluate_parts<D: Dim, P: LawParts>(law: &P, kin: &Kinematics<D>, state: &mut ContactState<D>, dt: f64) -> ContactOutput<D> {
-    let n = kin.normal;
-    let NormalResponse { force: f_el, stiffness: k_n, secant } = law.normal().response_lanes(kin.overlap, kin.r_eff);
-    let gamma_n = law.damping().coefficient_lanes(kin.m_eff, k_n, secant);
-    let f_n = clamped_normal_force_lanes(f_el, gamma_n, kin.v_n);
-
-    let tangential = law.tangential();
-    let k_t = tangential.stiffness_lanes(kin.overlap, kin.r_eff);
-    let mut sliding = false;
-    let f_t = match tangential {
-        Tangential::None => D::Vector::ZERO,
-        Tangential::Linear { .. } | Tangential::Mindlin { .. } | Tangential::SlipActivation { .. } => {
-            let gamma_t = law.tangential_damping().coefficient_lanes(kin.m_eff, k_t, gamma_n);
-            let mut rotated = into_tangent_plane(state.spring.0, n);
-            if let Tangential::Mindlin { rescale_on_unloading: true, .. } = tangential {
-                if state.overlap > 0.0 && kin.overlap < state.overlap {
-                    // k_t ∝ √ξ
-                    rotated *= (kin.overlap / state.overlap).sqrt();
-                }
-            }
-            let cap = law.friction() * f_n;
-            let (f, history, slid) = by_len!(D::Vector, spring_step(&tangential, to_lanes(rotated), to_lanes(kin.v_t), k_t, gamma_t, dt, cap));
-            sliding = slid;
-            state.spring = TangentialHistory(from_lanes(history));
-            from_lanes(f)
-        }
+    let x = LawIn {
+        normal: to_lanes(kin.normal),
+        overlap: kin.overlap,
+        r_eff: kin.r_eff,
+        m_eff: kin.m_eff,
+        v_n: kin.v_n,
+        v_t: to_lanes(kin.v_t),
+        w_roll: to_lanes(kin.w_roll),
+        w_twist: kin.w_twist,
+        spring: to_lanes(state.spring.0),
+        rolling: to_lanes(state.rolling),
+        twist: state.twist,
+        was: state.overlap,
     };
-
-    let mut m_r = match law.rolling() {
-        Rolling::None => D::AngVector::ZERO,
-        Rolling::SpringDashpot { stiffness, damping, friction } => {
-            let theta = into_tangent_plane_ang::<D>(state.rolling, n) + kin.w_roll * dt;
-            let trial = theta * stiffness + kin.w_roll * damping;
-            let (m, slid) = coulomb_cap(trial, friction * kin.r_eff * f_n);
-            state.rolling = if slid { m / stiffness } else { theta };
-            m
-        }
-    };
-    if let Twisting::SpringDashpot { stiffness, damping, friction } = law.twisting() {
-        let phi = state.twist + kin.w_twist * dt;
-        let trial = phi * stiffness + kin.w_twist * damping;
-        let (m, slid) = coulomb_cap(trial, friction * kin.r_eff * f_n);
-        state.twist = if slid { m / stiffness } else { phi };
-        m_r += D::about_normal(m, n);
-    }
+    let damp = (law.damping(), law.tangential_damping());
+    let o = if D::D == 2 { law_lanes::<f64, 2, 1, P, _>(law, damp, &x, dt) } else { law_lanes::<f64, 3, 3, P, _>(law, damp, &x, dt) };
+    state.spring = TangentialHistory(from_lanes(o.spring));
+    state.rolling = from_lanes(o.rolling);
+    state.twist = o.twist;
     state.overlap = kin.overlap;
-    state.sliding = sliding;
+    state.sliding = o.sliding;
     ContactOutput {
-        normal_force: f_n,
-        tangential_force: f_t,
-        rolling_torque: m_r,
-        normal_stiffness: k_n,
-        tangential_stiffness: k_t,
-        sliding,
+        normal_force: o.normal_force,
+        tangential_force: from_lanes(o.tangential_force),
+        rolling_torque: from_lanes(o.torque),
+        normal_stiffness: o.normal_stiffness,
+        tangential_stiffness: o.tangential_stiffness,
+        sliding: o.sliding,
     }
 }
 
@@ -340,13 +427,4 @@ impl ContactLaw {
         }
         Ok(())
     }
-}
-
-/// Same as `into_tangent_plane` for angular vectors (3D); the identity in 2D.
-#[inline]
-fn into_tangent_plane_ang<D: Dim>(theta: D::AngVector, n: D::Vector) -> D::AngVector {
-    if D::ROT == 1 {
-        return theta;
-    }
-    from_lanes(into_tangent_plane_lanes::<f64, 3>(to_lanes(theta), to_lanes(n)))
 }

@@ -9,7 +9,7 @@
 //! fused multiply–add), so the result is bitwise that of the general kernel (tested on whole
 //! runs).
 
-use crate::contact::{clamped_normal_force_lanes, contact_loads_lanes, coulomb_cap_lanes, into_tangent_plane_lanes, pair_kinematics_lanes, spring_step, HertzMindlin, HookeCundallStrack, HookeSlipActivation, LawParts, NormalDamping, NormalResponse, Rolling, TangentialDamping, WithRolling};
+use crate::contact::{contact_loads_lanes, law_lanes, pair_kinematics_lanes, HertzMindlin, LawIn, HookeCundallStrack, HookeSlipActivation, LawParts, NormalDamping, Rolling, TangentialDamping, WithRolling};
 use crate::real::dot;
 use crate::dim::{Dim, VectorOps};
 
@@ -119,25 +119,7 @@ impl WindowLaw for HookeCundallStrack {}
 impl WindowLaw for HookeSlipActivation {}
 impl<L: WindowLaw> WindowLaw for WithRolling<L> {}
 
-/// Normal and tangential damping coefficients, resolved at compile time for the combinations of
-/// the presets (the general [`Dampers`] matches on the parts at every contact).
-pub(super) trait Dampers: Copy {
-    /// γ_n from m*, k_n and the secant stiffness (as `NormalDamping::coefficient`).
-    fn normal<R: Real>(&self, m_eff: R, k_n: R, secant: R) -> R;
-    /// γ_t (as `TangentialDamping::coefficient`).
-    fn tangential<R: Real>(&self, m_eff: R, k_t: R, gamma_n: R) -> R;
-}
-
-impl Dampers for (NormalDamping, TangentialDamping) {
-    #[inline(always)]
-    fn normal<R: Real>(&self, m_eff: R, k_n: R, secant: R) -> R {
-        self.0.coefficient_lanes(m_eff, k_n, secant)
-    }
-    #[inline(always)]
-    fn tangential<R: Real>(&self, m_eff: R, k_t: R, gamma_n: R) -> R {
-        self.1.coefficient_lanes(m_eff, k_t, gamma_n)
-    }
-}
+pub(crate) use crate::contact::Dampers;
 
 /// The damping parts of a preset combination, each a constant variant (their `match` folds
 /// away): the formulas are those of `NormalDamping::coefficient_lanes` and
@@ -332,66 +314,49 @@ fn lanes<const DIM: usize, const ROT: usize, L: WindowLaw, P: Dampers>(law: &L, 
     }
 }
 
-/// The specialised contact law on touching contacts, branch-free: exactly the floating-point
-/// operations of [`evaluate_parts`](crate::contact::evaluate_parts) in the same order.
+/// The specialised contact law on touching contacts, branch-free: the pair kinematics, the one
+/// statement of the law ([`law_lanes`], which the general kernel runs on one lane) and the loads.
 #[inline(always)]
 pub(super) fn contact<R: Real, const DIM: usize, const ROT: usize, L: WindowLaw, P: Dampers>(law: &L, damp: P, x: &ContactIn<R>, dt: f64) -> ContactOut<R> {
     let zero = R::splat(0.0);
     let k = pair_kinematics_lanes::<R, DIM, ROT>(x.r, x.dist2, x.rad_i, x.rad_j, x.v_rel, x.w_i, x.w_j);
-    let (n, overlap, r_eff) = (k.normal, k.overlap, k.r_eff);
+    let n = k.normal;
     let m_eff = match x.m_eff {
         Some(m) => m,
         None => x.mass_i * x.mass_j / (x.mass_i + x.mass_j),
     };
-
-    // normal force (clamped) and stiffnesses
-    let NormalResponse { force: f_el, stiffness: k_n, secant } = law.normal().response_lanes(overlap, r_eff);
-    let gamma_n = damp.normal(m_eff, k_n, secant);
-    let f_n = clamped_normal_force_lanes(f_el, gamma_n, k.v_n);
-    let tangential = law.tangential();
-    let k_t = tangential.stiffness_lanes(overlap, r_eff);
-    let gamma_t = damp.tangential(m_eff, k_t, gamma_n);
-
-    // history into the tangent plane, increment, Coulomb cap, history kept
-    let rotated = into_tangent_plane_lanes::<R, DIM>(x.spring, n);
-    let cap = R::splat(law.friction()) * f_n;
-    let (f, new_spring, sliding) = spring_step::<R, DIM>(&tangential, rotated, k.v_t, k_t, gamma_t, dt, cap);
-
-    // rolling resistance (as `evaluate_parts`): θ_r rotated into the tangent plane (3D) plus
-    // w_r Δt, with w_r = (ω_j − ω_i) less its twist component; trial torque k_r θ_r + γ_r w_r,
-    // capped at μ_r R* F_n, the spring reset to M_r / k_r where capped
-    let (mut m_r, mut new_rolling) = ([zero; 3], [zero; 3]);
-    if let Rolling::SpringDashpot { stiffness, damping, friction } = law.rolling() {
-        let mut w = [zero; 3];
+    // w_r = ω_j − ω_i less its twist component (`Dim::ang_perp`), for laws with rolling
+    // resistance (the kernels' laws have no twisting resistance)
+    let mut w_roll = [zero; 3];
+    if law.rolls() {
         for c in 0..ROT {
-            w[c] = x.w_j[c] - x.w_i[c];
+            w_roll[c] = x.w_j[c] - x.w_i[c];
         }
-        let (w_roll, stored) = if ROT == 3 {
-            let twist = dot::<R, 3>(w, n);
-            let mut perp = [zero; 3];
+        if ROT == 3 {
+            let twist = dot::<R, 3>(w_roll, n);
             for c in 0..3 {
-                perp[c] = w[c] - n[c] * twist;
+                w_roll[c] = w_roll[c] - n[c] * twist;
             }
-            (perp, into_tangent_plane_lanes::<R, 3>(x.rolling, n))
-        } else {
-            (w, x.rolling)
-        };
-        let (k_r, gamma_r, dt) = (R::splat(stiffness), R::splat(damping), R::splat(dt));
-        let (mut theta, mut trial) = ([zero; 3], [zero; 3]);
-        for c in 0..ROT {
-            theta[c] = stored[c] + w_roll[c] * dt;
-            trial[c] = theta[c] * k_r + w_roll[c] * gamma_r;
         }
-        let (m, slid) = coulomb_cap_lanes::<R, ROT>(trial, R::splat(friction) * k.r_eff * f_n);
-        for c in 0..ROT {
-            new_rolling[c] = R::select(slid, m[c] / k_r, theta[c]);
-        }
-        m_r = m;
     }
-
+    let input = LawIn {
+        normal: n,
+        overlap: k.overlap,
+        r_eff: k.r_eff,
+        m_eff,
+        v_n: k.v_n,
+        v_t: k.v_t,
+        w_roll,
+        w_twist: zero,
+        spring: x.spring,
+        rolling: x.rolling,
+        twist: zero,
+        was: zero,
+    };
+    let o = law_lanes::<R, DIM, ROT, L, P>(law, damp, &input, dt);
     // forces and torques (M_r = 0 without rolling resistance: adding the zero keeps the bits)
-    let (force, torque_i, torque_j) = contact_loads_lanes::<R, DIM, ROT>(n, f, f_n, k.lever_i, k.lever_j, m_r);
-    ContactOut { overlap, sliding, new_spring, new_rolling, force, torque_i, torque_j }
+    let (force, torque_i, torque_j) = contact_loads_lanes::<R, DIM, ROT>(n, o.tangential_force, o.normal_force, k.lever_i, k.lever_j, o.torque);
+    ContactOut { overlap: k.overlap, sliding: o.sliding, new_spring: o.spring, new_rolling: o.rolling, force, torque_i, torque_j }
 }
 
 /// Copies a vector into lane `k`.
