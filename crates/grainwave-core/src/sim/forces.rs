@@ -603,6 +603,52 @@ fn path(level: u8) -> Path {
     Path::Portable
 }
 
+/// Phase A of the force pass (cross-block pairs) for a law given by its type
+/// ([`lanes::with_law`]): the window or fused kernels of a specialised law, the general kernel
+/// otherwise.
+struct CrossPairs<'a, 'h, D: Dim> {
+    inp: &'a Inputs<'a, D>,
+    vel: &'a [D::Vector],
+    omega: &'a [D::AngVector],
+    cross: &'a CrossIndex<D>,
+    blocks: usize,
+    h: History<'h, D>,
+    out: &'a mut [CrossForce<D>],
+    path: Path,
+}
+
+impl<D: Dim> lanes::WithLaw for CrossPairs<'_, '_, D> {
+    type Out = ForceStats;
+    fn special<L: WindowLaw>(self, law: &L) -> ForceStats {
+        cross_pairs_windowed(law, self.inp, self.vel, self.omega, self.cross, 0..self.blocks, self.h, self.out, 0, self.path)
+    }
+    fn general(self, law: &ContactLaw) -> ForceStats {
+        cross_pairs::<D, ContactLaw>(law, self.inp, self.vel, self.omega, self.cross, 0..self.blocks, self.h, self.out, 0)
+    }
+}
+
+/// Phase B of the force pass (blocks, each grain completed as soon as its pairs are summed) for
+/// a law given by its type ([`lanes::with_law`]).
+struct BlocksPass<'a, 'h, D: Dim> {
+    inp: &'a Inputs<'a, D>,
+    cross: &'a CrossIndex<D>,
+    fin: &'a Finish<'a, D>,
+    blocks: usize,
+    h: History<'h, D>,
+    g: Grain<'h, D>,
+    path: Path,
+}
+
+impl<D: Dim> lanes::WithLaw for BlocksPass<'_, '_, D> {
+    type Out = ForceStats;
+    fn special<L: WindowLaw>(self, law: &L) -> ForceStats {
+        blocks_pass_windowed(law, self.inp, self.cross, self.fin, 0..self.blocks, self.h, self.g, self.path)
+    }
+    fn general(self, law: &ContactLaw) -> ForceStats {
+        blocks_pass::<D, ContactLaw>(law, self.inp, self.cross, self.fin, 0..self.blocks, self.h, self.g)
+    }
+}
+
 /// Phase A with a window kernel.
 #[allow(clippy::too_many_arguments)]
 fn cross_pairs_windowed<D: Dim, L: WindowLaw>(
@@ -1035,15 +1081,7 @@ impl<D: Dim> Simulation<D> {
             ForceStats::new()
         } else {
             let h = History::of_parts(&mut list.spring, &mut list.overlap, &mut list.sliding, &mut list.rolling, &mut list.twist);
-            match specialized {
-                Specialized::HertzMindlin(law) => cross_pairs_windowed(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0, kernels),
-                Specialized::HookeCundallStrack(law) => cross_pairs_windowed(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0, kernels),
-                Specialized::HertzMindlinRolling(law) => cross_pairs_windowed(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0, kernels),
-                Specialized::HookeCundallStrackRolling(law) => cross_pairs_windowed(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0, kernels),
-                Specialized::HookeSlipActivation(law) => cross_pairs_windowed(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0, kernels),
-                Specialized::HookeSlipActivationRolling(law) => cross_pairs_windowed(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0, kernels),
-                Specialized::General(law) => cross_pairs::<D, ContactLaw>(&law, &inp, vel, omega, cross, 0..blocks, h, &mut forces, 0),
-            }
+            lanes::with_law(specialized, CrossPairs { inp: &inp, vel, omega, cross, blocks, h, out: &mut forces, path: kernels })
         };
         cross.forces = forces;
 
@@ -1070,15 +1108,7 @@ impl<D: Dim> Simulation<D> {
         let pair_stats = if n == 0 {
             ForceStats::new()
         } else {
-            match specialized {
-                Specialized::HertzMindlin(law) => blocks_pass_windowed(&law, &inp, cross, &fin, 0..blocks, h, g, kernels),
-                Specialized::HookeCundallStrack(law) => blocks_pass_windowed(&law, &inp, cross, &fin, 0..blocks, h, g, kernels),
-                Specialized::HertzMindlinRolling(law) => blocks_pass_windowed(&law, &inp, cross, &fin, 0..blocks, h, g, kernels),
-                Specialized::HookeCundallStrackRolling(law) => blocks_pass_windowed(&law, &inp, cross, &fin, 0..blocks, h, g, kernels),
-                Specialized::HookeSlipActivation(law) => blocks_pass_windowed(&law, &inp, cross, &fin, 0..blocks, h, g, kernels),
-                Specialized::HookeSlipActivationRolling(law) => blocks_pass_windowed(&law, &inp, cross, &fin, 0..blocks, h, g, kernels),
-                Specialized::General(law) => blocks_pass::<D, ContactLaw>(&law, &inp, cross, &fin, 0..blocks, h, g),
-            }
+            lanes::with_law(specialized, BlocksPass { inp: &inp, cross, fin: &fin, blocks, h, g, path: kernels })
         };
         let stats = ForceStats::merge(ForceStats::merge(pair_stats, cross_stats), wall_stats);
 

@@ -9,7 +9,7 @@
 //! fused multiply–add), so the result is bitwise that of the general kernel (tested on whole
 //! runs).
 
-use crate::contact::{contact_loads_lanes, law_lanes, pair_kinematics_lanes, HertzMindlin, LawIn, HookeCundallStrack, HookeSlipActivation, LawParts, NormalDamping, Rolling, TangentialDamping, WithRolling};
+use crate::contact::{contact_loads_lanes, law_lanes, pair_kinematics_lanes, ContactLaw, HertzMindlin, LawIn, Specialized, HookeCundallStrack, HookeSlipActivation, LawParts, NormalDamping, Rolling, TangentialDamping, WithRolling};
 use crate::real::dot;
 use crate::dim::{Dim, VectorOps};
 
@@ -120,6 +120,33 @@ impl WindowLaw for HookeSlipActivation {}
 impl<L: WindowLaw> WindowLaw for WithRolling<L> {}
 
 pub(crate) use crate::contact::Dampers;
+
+/// Something run with a contact law as its type ([`with_law`]): a specialised law
+/// ([`WindowLaw`]) or the general [`ContactLaw`].
+pub(super) trait WithLaw {
+    type Out;
+    /// Runs with a law whose parts are constants of its type (the window and fused kernels).
+    fn special<L: WindowLaw>(self, law: &L) -> Self::Out;
+    /// Runs with the general law (its parts read at every contact).
+    fn general(self, law: &ContactLaw) -> Self::Out;
+}
+
+/// Runs `v` with the law of `specialized` as a type: the one place where the specialised
+/// compositions of the presets ([`Specialized`]) meet the kernels, so that a force pass is
+/// written once for every law.
+#[inline(always)]
+pub(super) fn with_law<V: WithLaw>(specialized: Specialized, v: V) -> V::Out {
+    match specialized {
+        Specialized::HertzMindlin(law) => v.special(&law),
+        Specialized::HookeCundallStrack(law) => v.special(&law),
+        Specialized::HertzMindlinRolling(law) => v.special(&law),
+        Specialized::HookeCundallStrackRolling(law) => v.special(&law),
+        Specialized::HookeSlipActivation(law) => v.special(&law),
+        Specialized::HookeSlipActivationRolling(law) => v.special(&law),
+        Specialized::General(law) => v.general(&law),
+    }
+}
+
 
 /// The damping parts of a preset combination, each a constant variant (their `match` folds
 /// away): the formulas are those of `NormalDamping::coefficient_lanes` and
