@@ -39,17 +39,22 @@ class _Tqdm:
         self._tqdm = tqdm
         self._steps = None
         self._units = None
+        self._first = 0
 
     def __call__(self, ev: Event) -> None:
         kind = ev["kind"]
         if kind == "stage":
             if self._steps is not None:
                 self._steps.close()
-            self._steps = self._tqdm(total=ev["total_steps"], desc=ev["name"], unit="step", leave=False, dynamic_ncols=True)
+            # `first_step`: a simulation's run_until/step starts from its current step count
+            first = ev.get("first_step") or 0
+            self._first = first
+            total = ev["total_steps"]
+            self._steps = self._tqdm(total=None if total is None else total - first, desc=ev["name"], unit="step", leave=False, dynamic_ncols=True)
         elif kind == "progress" and self._steps is not None:
             # update() redraws at most every `mininterval` (0.1 s): step reports can come every step
             self._steps.set_postfix(KE=f"{ev['kinetic_energy_per_grain']:.2e}", contacts=ev["contacts"], refresh=False)
-            self._steps.update(ev["step"] - self._steps.n)
+            self._steps.update(ev["step"] - self._first - self._steps.n)
         elif kind == "units":
             if self._units is None:
                 self._units = self._tqdm(total=ev["total"], desc="units", unit="unit", dynamic_ncols=True)
