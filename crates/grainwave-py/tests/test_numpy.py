@@ -192,3 +192,52 @@ def test_an_exception_of_the_progress_callback_stops_after_a_whole_step(settle):
     plain = grainwave.Simulation(settle)
     plain.step(n)
     assert plain.state_hash == sim.state_hash
+
+
+class _Bar:
+    """A stand-in for tqdm that records what a bar was asked to show."""
+
+    made = []
+
+    def __init__(self, total=None, desc=None, **kwargs):
+        self.total, self.desc, self.n = total, desc, 0
+        _Bar.made.append(self)
+
+    def update(self, k):
+        self.n += k
+
+    def set_postfix(self, **kwargs):
+        pass
+
+    def set_description(self, desc, refresh=True):
+        self.desc = desc
+
+    def close(self):
+        pass
+
+    @staticmethod
+    def write(text):
+        pass
+
+
+def test_progress_bars_show_what_the_run_reports(tmp_path, settle):
+    from grainwave import _progress
+    from test_errors import E1
+
+    # a study that counts units only (E1): no step bar stuck at 0, the units bar named by the stage
+    _Bar.made = []
+    bars = _progress._Tqdm(_Bar)
+    grainwave.run(E1, out=tmp_path / "e1", threads=1, progress=bars)
+    bars.close()
+    assert len(_Bar.made) == 1
+    units = _Bar.made[0]
+    assert units.desc.startswith("samples") and units.total == units.n == 1
+    # a simulation: a step bar from the step count it starts at to its limit
+    _Bar.made = []
+    bars = _progress._Tqdm(_Bar)
+    sim = grainwave.Simulation(settle)
+    sim.step(500)
+    sim.run_until(step_limit=3000, progress=bars)
+    bars.close()
+    (steps,) = _Bar.made
+    assert steps.desc == "run_until" and steps.total == 2500 and steps.n == 2500
