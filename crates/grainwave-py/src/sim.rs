@@ -232,13 +232,14 @@ fn load_any(path: &std::path::Path) -> grainwave_experiments::Result<AnySimulati
         }
         e2::biaxial::CHECKPOINT_TAG | e2::biaxial::COMPRESSED_TAG | e2::biaxial::REFERENCE_TAG => match e2::biaxial::read_checkpoint(&file)? {
             e2::biaxial::StoredCheckpoint::Full(ck) => Ok(AnySimulation::D2(ck.sim)),
-            e2::biaxial::StoredCheckpoint::Reference(r) => Err(grainwave_experiments::ExperimentError::Resume {
-                path: file.clone(),
+            e2::biaxial::StoredCheckpoint::Reference(r) => Err(gc::CoreError::Checkpoint {
+                path: file.display().to_string(),
                 reason: format!(
-                    "an E2 strain checkpoint kept as a reference (the state at step {} is regenerated from full checkpoint {} by the loading); load that full checkpoint (`ck-{:06}.gwck`) instead",
+                    "an E2 strain checkpoint kept as a reference (the state at step {} is regenerated from full checkpoint {} by the loading, which only the study runs); load that full checkpoint (`ck-{:06}.gwck`) instead",
                     r.step, r.base, r.base
                 ),
-            }),
+            }
+            .into()),
         },
         e3::work::REFERENCE_TAG => {
             let reference: e3::work::ReferenceResult = load(&file, &tag)?;

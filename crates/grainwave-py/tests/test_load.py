@@ -67,3 +67,31 @@ def test_an_e3_reference_state_gives_the_study_s_wall_loads(tmp_path):
     # the study sums the same contact forces (in another order): equal to rounding
     assert load[0][1] / weight == pytest.approx(case["floor_over_weight"], rel=1e-9)
     assert [load[1][0], -load[2][0]] == pytest.approx(case["side_wall_loads"], rel=1e-9)
+
+
+# a small E2 compression (64 disks, half a second): full strain checkpoints every fifth, the
+# ones between kept as references
+E2 = {
+    "experiment": "e2",
+    "seed": 1,
+    "packing": {"columns": 8, "rows": 8, "polydispersity": 0.2},
+    "material": {"normal_stiffness": 2000.0, "restitution": 0.92, "tangential_stiffness_ratio": 0.5, "tangential_damping_ratio": 0.5, "friction": 0.2},
+    "preparation": {"wall_mass": 0.01, "gravity": 0.01, "max_force": 1e-4},
+    "loading": {"direction": "compression", "strain_rate": 1e-3, "final_strain": 1e-4, "checkpoint_strain": 2e-5, "sample_every": 20},
+}
+
+
+def test_e2_strain_checkpoints_load_in_full_and_references_name_their_base(tmp_path):
+    r = grainwave.run(E2, out=tmp_path / "e2", threads=1)
+    index = r.tables["checkpoints/index"]
+    kinds = list(index["kind"])
+    assert "full" in kinds and "reference" in kinds, kinds
+    for k, kind in enumerate(kinds):
+        path = r.out / index["file"][k]
+        if kind == "full":
+            sim = grainwave.load(path)
+            # the state at that point of the loading: its step, all 64 disks
+            assert sim.step_count == index["step"][k] and len(sim) == 64
+        else:
+            with pytest.raises(ValueError, match=r"kept as a reference .* load that full checkpoint \(`ck-000000.gwck`\)"):
+                grainwave.load(path)
