@@ -241,3 +241,29 @@ def test_progress_bars_show_what_the_run_reports(tmp_path, settle):
     bars.close()
     (steps,) = _Bar.made
     assert steps.desc == "run_until" and steps.total == 2500 and steps.n == 2500
+
+
+def test_ctrl_c_stops_run_until_after_a_whole_step(settle):
+    import os
+    import signal
+
+    sim = grainwave.Simulation(settle)
+    sent = []
+
+    def press_ctrl_c(event):
+        # the signal Ctrl-C sends, delivered while the run goes on
+        if event["kind"] == "progress" and not sent:
+            sent.append(event["step"])
+            os.kill(os.getpid(), signal.SIGINT)
+
+    with pytest.raises(KeyboardInterrupt):
+        sim.run_until(step_limit=200_000, progress=press_ctrl_c)
+    n = sim.step_count
+    assert sent and 0 < n < 200_000
+    # a whole number of steps: the same bits as n steps, and it continues like an uncut run
+    plain = grainwave.Simulation(settle)
+    plain.step(n)
+    assert plain.state_hash == sim.state_hash
+    sim.run_until(step_limit=n + 1000)
+    plain.run_until(step_limit=n + 1000)
+    assert plain.state_hash == sim.state_hash

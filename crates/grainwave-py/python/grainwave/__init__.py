@@ -79,7 +79,7 @@ def load(path: PathLike) -> "Simulation":
     ``Simulation.save``, a ``simulation`` run's ``checkpoint.gwck`` or output directory, or a
     state a study stored — an E1 packing (``samples/<group>/s<seed>/packing.gwck``), an E2
     strain checkpoint stored in full (``checkpoints/ck-<k>.gwck``), an E3 reference state
-    (``references/….gwck``). The same as ``Simulation.load``."""
+    (``units/<case>/reference.gwck``). The same as ``Simulation.load``."""
     return Simulation.load(path)
 
 
