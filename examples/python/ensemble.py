@@ -23,7 +23,7 @@ if (out / "checkpoint.gwck").is_file() and not (out / "summary.json").is_file():
 else:
     result = grainwave.run(ROOT / "examples/e1-pulse-2d.toml", out=out, progress=True, overwrite=True)
 
-samples = result.tables["samples"]  # one row per sample: str columns (group, failure), float others
+samples = result.tables["samples"]  # one row per sample: str (group, failure), int (seed, grains), float others
 print(f"{len(samples['seed'])} samples; columns: {', '.join(samples)}")
 ok = samples["failure"] == ""
 for p in np.unique(samples["pressure"]):

@@ -11,7 +11,6 @@ grainwave-out/python-settle).
 """
 
 import sys
-import tomllib
 from pathlib import Path
 
 import numpy as np
@@ -22,8 +21,7 @@ ROOT = Path(__file__).resolve().parents[2]
 out = Path(sys.argv[1]) if len(sys.argv) > 1 else Path("grainwave-out/python-settle")
 out.mkdir(parents=True, exist_ok=True)
 
-with open(ROOT / "examples/settle-pile.toml", "rb") as f:
-    config = tomllib.load(f)
+config = grainwave.read_config(ROOT / "examples/settle-pile.toml")  # a dict, on any Python ≥ 3.9
 config["grains"]["count"] = 120
 config["domain"]["size"] = [12.0, 30.0]
 

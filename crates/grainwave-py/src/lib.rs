@@ -11,6 +11,7 @@
 //! for the same config (the same library calls, the same thread-count-independent engine).
 #![warn(missing_docs)]
 
+mod config;
 mod errors;
 mod linear;
 mod sim;
@@ -29,6 +30,8 @@ fn _native(m: &Bound<'_, PyModule>) -> PyResult<()> {
     m.add_function(wrap_pyfunction!(study::check, m)?)?;
     m.add_function(wrap_pyfunction!(study::run, m)?)?;
     m.add_function(wrap_pyfunction!(study::resume, m)?)?;
+    m.add_function(wrap_pyfunction!(config::read_config, m)?)?;
+    m.add_function(wrap_pyfunction!(config::_python_words, m)?)?;
     m.add_class::<sim::Simulation>()?;
     m.add_function(wrap_pyfunction!(linear::dynamical_matrix, m)?)?;
     m.add_function(wrap_pyfunction!(linear::modes, m)?)?;

@@ -3,7 +3,7 @@
 //! turned into the run's interrupt flag (the run finishes its current step, saves its state and
 //! raises `grainwave.Interrupted`).
 
-use crate::errors::{chain, config_error, experiment_error, RunError};
+use crate::errors::{chain, config_error, config_file_not_found, experiment_error, not_found, RunError};
 use grainwave_experiments::config::ConfigSource;
 use grainwave_experiments::protocol::{failure_of, Reporter, RunContext, UsedDirectory};
 use grainwave_experiments::registry::{self, RunSummary};
@@ -21,26 +21,65 @@ use std::time::Duration;
 const SIGNAL_POLL: Duration = Duration::from_millis(100);
 
 /// The config as the module receives it: a file (named in errors by its path) or TOML text
-/// (named `name`, e.g. "<dict>" or "<string>").
-pub fn source(path: Option<PathBuf>, name: &str, text: Option<String>) -> Result<ConfigSource, grainwave_experiments::config::ConfigError> {
+/// (named `name`, e.g. "<dict>" or "<string>"). A file that does not exist raises a
+/// `ConfigError` that is also a `FileNotFoundError`; other errors a `ConfigError`.
+pub fn source(py: Python<'_>, path: Option<PathBuf>, name: &str, text: Option<String>) -> PyResult<ConfigSource> {
     match path {
-        Some(p) => ConfigSource::from_file(&p),
+        Some(p) => ConfigSource::from_file(&p).map_err(|e| {
+            if !p.exists() && p.symlink_metadata().is_err() {
+                config_file_not_found(py, &e, &p)
+            } else {
+                config_error(py, &e)
+            }
+        }),
         None => Ok(ConfigSource::from_text(name, text.unwrap_or_default())),
+    }
+}
+
+/// While alive, the soft size limits are lifted (`allow_large=True`, the command line's
+/// `--allow-large`). The limits are a setting of the process: a count of the calls that lift
+/// them keeps them lifted until the last of those calls returns.
+pub struct AllowLarge(bool);
+
+static LIFTED: std::sync::Mutex<usize> = std::sync::Mutex::new(0);
+
+impl AllowLarge {
+    /// Lifts the limits when `on` (else does nothing).
+    pub fn new(on: bool) -> Self {
+        if on {
+            let mut n = LIFTED.lock().unwrap_or_else(|e| e.into_inner());
+            *n += 1;
+            grainwave_experiments::limits::set_allow_large(true);
+        }
+        AllowLarge(on)
+    }
+}
+
+impl Drop for AllowLarge {
+    fn drop(&mut self) {
+        if self.0 {
+            let mut n = LIFTED.lock().unwrap_or_else(|e| e.into_inner());
+            *n -= 1;
+            if *n == 0 {
+                grainwave_experiments::limits::set_allow_large(false);
+            }
+        }
     }
 }
 
 /// Validates a config; returns what `grainwave check` prints about it.
 #[pyfunction]
-#[pyo3(signature = (path, name, text))]
-pub fn check(py: Python<'_>, path: Option<PathBuf>, name: &str, text: Option<String>) -> PyResult<Vec<String>> {
-    let src = source(path, name, text).map_err(|e| config_error(py, &e))?;
+#[pyo3(signature = (path, name, text, allow_large=false))]
+pub fn check(py: Python<'_>, path: Option<PathBuf>, name: &str, text: Option<String>, allow_large: bool) -> PyResult<Vec<String>> {
+    let src = source(py, path, name, text)?;
+    let _lifted = AllowLarge::new(allow_large);
     py.detach(|| registry::check(&src)).map_err(|e| config_error(py, &e))
 }
 
 /// Validates and runs a config into `out`. Returns (report as JSON text, summary lines, output
 /// directory).
 #[pyfunction]
-#[pyo3(signature = (path, name, text, out, overwrite, threads, progress))]
+#[pyo3(signature = (path, name, text, out, overwrite, threads, progress, allow_large=false))]
 #[allow(clippy::too_many_arguments)]
 pub fn run(
     py: Python<'_>,
@@ -51,8 +90,10 @@ pub fn run(
     overwrite: bool,
     threads: Option<usize>,
     progress: Option<Bound<'_, PyAny>>,
+    allow_large: bool,
 ) -> PyResult<(String, Vec<String>, PathBuf)> {
-    let src = source(path, name, text).map_err(|e| config_error(py, &e))?;
+    let src = source(py, path, name, text)?;
+    let _lifted = AllowLarge::new(allow_large);
     // validate before touching the output directory: a refused config changes nothing there
     py.detach(|| registry::check(&src)).map_err(|e| config_error(py, &e))?;
     let mode = if overwrite { UsedDirectory::Overwrite } else { UsedDirectory::Refuse };
@@ -63,11 +104,16 @@ pub fn run(
 /// Continues the run of output directory `dir` from its checkpoint (`retry`: also a run that
 /// failed, after its cause was fixed).
 #[pyfunction]
-#[pyo3(signature = (dir, threads, progress, retry))]
-pub fn resume(py: Python<'_>, dir: PathBuf, threads: Option<usize>, progress: Option<Bound<'_, PyAny>>, retry: bool) -> PyResult<(String, Vec<String>, PathBuf)> {
-    if !dir.is_dir() {
-        return Err(PyValueError::new_err(format!("`{}` is not a directory (give the output directory of the run)", dir.display())));
+#[pyo3(signature = (dir, threads, progress, retry, allow_large=false))]
+pub fn resume(py: Python<'_>, dir: PathBuf, threads: Option<usize>, progress: Option<Bound<'_, PyAny>>, retry: bool, allow_large: bool) -> PyResult<(String, Vec<String>, PathBuf)> {
+    let text = format!("`{}` is not a directory (give the output directory of the run)", dir.display());
+    if !dir.exists() {
+        return Err(not_found(py, "PathNotFoundError", &dir, &text));
     }
+    if !dir.is_dir() {
+        return Err(PyValueError::new_err(text));
+    }
+    let _lifted = AllowLarge::new(allow_large);
     if let Some(why) = failure_of(&dir) {
         if !retry {
             let first = why.lines().next().unwrap_or("").to_string();
@@ -86,7 +132,7 @@ pub fn resume(py: Python<'_>, dir: PathBuf, threads: Option<usize>, progress: Op
 }
 
 /// What the run's reporter sends to the thread that holds the GIL.
-enum Event {
+pub(crate) enum Event {
     Stage(String, Option<u64>),
     Progress(Progress),
     Units(usize, usize),
@@ -112,7 +158,7 @@ impl Reporter for ChannelReporter {
 }
 
 /// The dict the progress callback receives for an event.
-fn event_dict<'py>(py: Python<'py>, e: &Event) -> PyResult<Bound<'py, PyDict>> {
+pub(crate) fn event_dict<'py>(py: Python<'py>, e: &Event) -> PyResult<Bound<'py, PyDict>> {
     let d = PyDict::new(py);
     match e {
         Event::Stage(name, total) => {

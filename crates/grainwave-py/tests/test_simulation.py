@@ -130,7 +130,7 @@ def test_bad_arrays_are_refused_with_the_reason_and_change_nothing(settle):
         sim.set_positions(np.zeros((40, 3)))
     with pytest.raises(ValueError, match=r"velocities: shape \(39, 2\) given"):
         sim.set_velocities(np.zeros((39, 2)))
-    bad = sim.positions
+    bad = sim.positions.copy()  # the property is read-only
     bad[5, 1] = np.nan
     with pytest.raises(ValueError, match=r"positions: entry \[5, 1\] is NaN \(allowed: finite numbers\)"):
         sim.set_positions(bad)
@@ -145,7 +145,7 @@ def test_bad_arrays_are_refused_with_the_reason_and_change_nothing(settle):
 
 def test_set_positions_moves_grains_and_makes_contacts(settle):
     sim = grainwave.Simulation(settle)
-    x = sim.positions
+    x = sim.positions.copy()  # the property is read-only
     r = sim.radii
     # put grain 1 against grain 0, overlapping by 1 % of the smaller radius
     x[1] = x[0] + np.array([r[0] + r[1] - 0.01 * min(r[0], r[1]), 0.0])

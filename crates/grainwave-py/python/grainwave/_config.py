@@ -39,17 +39,10 @@ def experiment_of(config: Any) -> Optional[str]:
     if isinstance(config, Mapping):
         e = config.get("experiment")
         return e if isinstance(e, str) else None
+    from . import _native
+
     try:
-        import tomllib  # Python ≥ 3.11
-    except ImportError:  # pragma: no cover - older Pythons: no default name from the text
-        return None
-    path, _, text = normalize(config)
-    try:
-        if path is not None:
-            with open(path, "rb") as f:
-                data = tomllib.load(f)
-        else:
-            data = tomllib.loads(text or "")
+        data = _native.read_config(*normalize(config))
     except Exception:
         return None
     e = data.get("experiment")

@@ -33,26 +33,44 @@ class _Lines:
 
 
 class _Tqdm:
-    """A bar of units of work (samples, replays…) and a bar of the steps of the current stage."""
+    """A bar of units of work (samples, replays…), named after the current stage, and a bar of
+    the steps of the current stage, opened at its first step report (a study whose stage only
+    counts units — an E1 ensemble — shows no step bar stuck at 0)."""
 
     def __init__(self, tqdm) -> None:
         self._tqdm = tqdm
         self._steps = None
         self._units = None
+        self._stage: Event = {}
 
     def __call__(self, ev: Event) -> None:
         kind = ev["kind"]
         if kind == "stage":
             if self._steps is not None:
                 self._steps.close()
-            self._steps = self._tqdm(total=ev["total_steps"], desc=ev["name"], unit="step", leave=False, dynamic_ncols=True)
-        elif kind == "progress" and self._steps is not None:
+                self._steps = None
+            self._stage = ev
+            if self._units is not None:
+                self._units.set_description(ev["name"], refresh=False)
+        elif kind == "progress":
+            if self._steps is None:
+                # `first_step`: a simulation's run_until/step starts from its current step count
+                first = self._stage.get("first_step") or 0
+                total = self._stage.get("total_steps")
+                self._first = first
+                self._steps = self._tqdm(
+                    total=None if total is None else total - first,
+                    desc=self._stage.get("name", "steps"),
+                    unit="step",
+                    leave=False,
+                    dynamic_ncols=True,
+                )
             # update() redraws at most every `mininterval` (0.1 s): step reports can come every step
             self._steps.set_postfix(KE=f"{ev['kinetic_energy_per_grain']:.2e}", contacts=ev["contacts"], refresh=False)
-            self._steps.update(ev["step"] - self._steps.n)
+            self._steps.update(ev["step"] - self._first - self._steps.n)
         elif kind == "units":
             if self._units is None:
-                self._units = self._tqdm(total=ev["total"], desc="units", unit="unit", dynamic_ncols=True)
+                self._units = self._tqdm(total=ev["total"], desc=self._stage.get("name", "units"), unit="unit", dynamic_ncols=True)
             self._units.total = ev["total"]
             self._units.update(ev["done"] - self._units.n)
         elif kind == "message":
