@@ -109,8 +109,12 @@ fn build_dim<D: Dim>(src: &ConfigSource, cfg: &SimulationConfig) -> Result<Simul
     let mut domain = Domain::new(origin, hi, periodic);
 
     // contact laws
-    if cfg.contact.preset.is_empty() {
-        return Err(err(src, "contact.preset", format!("missing (allowed: {})", grainwave_core::contact::PRESETS.join(", "))));
+    if cfg.contact.preset.is_empty() && !cfg.contact.has_families() {
+        return Err(err(
+            src,
+            "contact.preset",
+            format!("missing (allowed: {}; or the law by family, a table `[contact.normal]` with `law = \"hooke\"` or `\"hertz\"`)", grainwave_core::contact::PRESETS.join(", ")),
+        ));
     }
     let law = cfg.contact.build(Partner::Grain, "contact").map_err(core)?;
     let wall_base = overlay(&cfg.contact, &cfg.wall_contact);

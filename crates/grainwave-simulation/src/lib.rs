@@ -254,7 +254,8 @@ impl grainwave_study::study::Protocol for SimulationProtocol {
     const NAME: &'static str = "simulation";
     const TAG: &'static str = TAG;
     const REFERENCE: &'static str = "A general discrete-element run (see docs/simulation.md). The `[contact]` keys are those of the presets\n\
-         (docs/engine.md); `[wall_contact]` and `walls[].contact` take the same keys and replace the grain–grain values.";
+         or the family tables `[contact.normal]`, `[contact.damping]`, `[contact.tangential]`, `[contact.rolling]`,\n\
+         `[contact.twisting]` (docs/engine.md); `[wall_contact]` and `walls[].contact` take the same keys and replace the grain–grain values.";
     type Config = SimulationConfig;
     type Spec = Prepared;
     type State = SimulationState;

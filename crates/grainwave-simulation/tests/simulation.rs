@@ -213,6 +213,56 @@ fn the_resolved_config_reproduces_the_run() {
     assert_eq!(strip(results(&first)), strip(results(&second)));
 }
 
+/// `SMALL`'s grain–grain law written by family (docs/engine.md, "The contact law by family").
+fn small_by_family() -> String {
+    let text = SMALL.replace(
+        "[contact]\npreset = \"hooke_cundall_strack\"\nnormal_stiffness = 1.0e4\nrestitution = 0.5\nfriction = 0.3\n",
+        "[contact]\nfriction = 0.3\n\n[contact.normal]\nlaw = \"hooke\"\nstiffness = 1.0e4\n\n[contact.damping]\nlaw = \"restitution\"\nrestitution = 0.5\n\n[contact.tangential]\nlaw = \"linear\"\n",
+    );
+    assert_ne!(text, SMALL);
+    text
+}
+
+#[test]
+fn the_law_written_by_family_runs_the_bits_of_the_flat_keys() {
+    let (flat, by_family) = (out_dir("flat"), out_dir("family"));
+    run_text(SMALL, &flat).unwrap();
+    run_text(&small_by_family(), &by_family).unwrap();
+    // the resolved configs differ (each keeps its form); every other output is the same bits
+    let strip = |v: Vec<(String, Vec<u8>)>| v.into_iter().filter(|(f, _)| f != "config.resolved.toml").collect::<Vec<_>>();
+    assert_eq!(strip(results(&flat)), strip(results(&by_family)));
+    let resolved = std::fs::read_to_string(by_family.join("config.resolved.toml")).unwrap();
+    assert!(resolved.contains("[contact.normal]") && resolved.contains("law = \"hooke\""), "{resolved}");
+    // the resolved config of the family form reproduces the run too
+    let again = out_dir("family-again");
+    run_text(&resolved, &again).unwrap();
+    assert_eq!(strip(results(&by_family)), strip(results(&again)));
+}
+
+#[test]
+fn family_tables_are_checked_at_their_keys() {
+    let text = small_by_family();
+    // a value out of range: at the value, under the family's key
+    let e = check_err(&text.replace("stiffness = 1.0e4", "stiffness = -1.0e4"));
+    assert_eq!((e.line, e.column, e.key.as_deref()), (22, 13, Some("contact.normal.stiffness")), "{e}");
+    let e = check_err(&text.replace("restitution = 0.5", "restitution = 1.5"));
+    assert_eq!((e.line, e.key.as_deref()), (26, Some("contact.damping.restitution")), "{e}");
+    // a key the family's law does not have
+    let e = check_err(&text.replace("law = \"linear\"", "law = \"linear\"\nstifness_ratio = 0.3"));
+    assert_eq!((e.line, e.column), (30, 1), "{e}");
+    assert!(e.message.contains("unknown key `stifness_ratio`") && e.message.contains("did you mean `stiffness_ratio`?"), "{e}");
+    // an unknown law, with the laws of the family
+    let e = check_err(&text.replace("law = \"hooke\"", "law = \"hook\""));
+    assert_eq!(e.line, 21, "{e}");
+    assert!(e.message.contains("hook") && e.message.contains("hertz"), "{e}");
+    // one form per family
+    let e = check_err(&text.replace("friction = 0.3\n\n[contact.normal]", "friction = 0.3\nnormal_stiffness = 1.0e4\n\n[contact.normal]"));
+    assert_eq!(e.key.as_deref(), Some("contact.normal_stiffness"), "{e}");
+    assert!(e.message.contains("one form"), "{e}");
+    // the wall overrides of flat keys still apply to a law written by family (`friction = 0`,
+    // the floor's rolling resistance): the run of `the_law_written_by_family…` covers them
+}
+
 use grainwave_study::registry::{entry, Entry, Registry};
 
 static ONE: [Entry; 1] = [entry::<grainwave_simulation::SimulationProtocol>()];

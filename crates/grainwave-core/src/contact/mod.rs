@@ -19,6 +19,7 @@
 
 mod coulomb;
 mod damping;
+mod families;
 mod kinematics;
 mod normal;
 mod params;
@@ -34,6 +35,7 @@ pub use damping::{
 };
 pub use kinematics::{pair_kinematics, wall_kinematics, Kinematics};
 pub use normal::{NormalElastic, NormalResponse};
+pub use families::{DampingTable, NormalTable, ResistanceTable, TangentialTable};
 pub use params::{ContactParams, Partner, PRESETS};
 pub use parts::{HertzMindlin, HookeCundallStrack, HookeSlipActivation, LawParts, Specialized, WithRolling};
 pub use rolling::{Rolling, Twisting};

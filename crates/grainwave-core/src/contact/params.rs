@@ -1,5 +1,6 @@
 //! Named presets: the keyword table at the boundary between configs and contact laws.
 
+use super::families::{DampingTable, NormalTable, ResistanceTable, TangentialTable};
 use super::{ContactLaw, NormalDamping, NormalElastic, Rolling, Tangential, TangentialDamping, Twisting};
 use crate::error::{require_non_negative, require_positive, CoreError, Result};
 use serde::{Deserialize, Serialize};
@@ -87,6 +88,25 @@ pub struct ContactParams {
     pub twisting_damping: Option<f64>,
     /// Twisting friction μ_tw, default ∞ (no cap).
     pub twisting_friction: Option<f64>,
+    /// The normal law as a family table, `[contact.normal]` (`law = "hooke"` or `"hertz"`): the
+    /// family form of the law, in place of `preset` and the flat keys (docs/engine.md, "The
+    /// contact law by family"); required when any family table is given.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub normal: Option<NormalTable>,
+    /// The damping as a family table, `[contact.damping]` (`law = "none"`, `"restitution"`,
+    /// `"dashpot"`, `"critical_fraction"`, `"mass_proportional"` or `"tsuji"`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub damping: Option<DampingTable>,
+    /// The tangential law as a family table, `[contact.tangential]` (`law = "none"`, `"linear"`
+    /// or `"mindlin"`; default: the one of the normal law's composition).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub tangential: Option<TangentialTable>,
+    /// Rolling resistance as a family table, `[contact.rolling]` (`stiffness`, `damping`, `friction`).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rolling: Option<ResistanceTable>,
+    /// Twisting resistance (3D) as a family table, `[contact.twisting]`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub twisting: Option<ResistanceTable>,
 }
 
 /// Default Coulomb friction coefficient.
@@ -109,6 +129,12 @@ impl ContactParams {
 
     /// Builds the law for `partner`; `field` prefixes key names in errors (e.g. "contact").
     pub fn build(&self, partner: Partner, field: &str) -> Result<ContactLaw> {
+        if self.has_families() {
+            // the family form: read into the keys of the composition it names, reported under
+            // the families' key names
+            let (flat, renames) = self.lower_families(field)?;
+            return flat.build(partner, field).map_err(|e| super::families::rename_keys(e, field, &renames));
+        }
         let key = |k: &str| format!("{field}.{k}");
         let friction = self.friction.unwrap_or(DEFAULT_FRICTION);
         if !(friction >= 0.0) || friction.is_nan() {

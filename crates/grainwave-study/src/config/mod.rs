@@ -84,7 +84,14 @@ impl ConfigSource {
             }
             self.error_at_span(e.span(), None, message)
         })?;
-        let span = first.span();
+        let mut span = first.span();
+        // an unknown key of a table read as a tagged enum (`law = "…"`, e.g. `[contact.normal]`)
+        // is reported at the whole table: point at the key itself
+        if let (Some(s), Some(bad)) = (span.clone(), first.message().strip_prefix("unknown field `").and_then(|r| r.split('`').next())) {
+            if let Some(at) = key_line_in(&self.text, s, bad) {
+                span = Some(at..at + bad.len());
+            }
+        }
         let key = span.as_ref().and_then(|s| key_at(&doc, s.start));
         Err(self.error_at_span(span, key, improve_message(first.message())))
     }
@@ -494,6 +501,31 @@ pub fn line_column(text: &str, at: usize) -> (usize, usize) {
     let line = before.matches('\n').count() + 1;
     let col = before.rsplit('\n').next().map(|l| l.chars().count()).unwrap_or(0) + 1;
     (line, col)
+}
+
+/// Byte offset of the key `key` written at the start of a line (`key = …`) in the table that
+/// `within` reports (its span, or its header and the lines up to the next header), if exactly
+/// one line there does so.
+fn key_line_in(text: &str, within: Range<usize>, key: &str) -> Option<usize> {
+    let start = within.start.min(text.len());
+    let after_first = text[start..].find('\n').map_or(text.len(), |k| start + k + 1);
+    let next_header = text[after_first..].find("\n[").map_or(text.len(), |k| after_first + k + 1);
+    let end = within.end.min(text.len()).max(next_header);
+    let region = text.get(start..end)?;
+    let mut found = None;
+    let mut offset = start;
+    for line in region.split_inclusive('\n') {
+        let indent = line.len() - line.trim_start().len();
+        let rest = &line[indent..];
+        if rest.strip_prefix(key).is_some_and(|r| r.trim_start().starts_with('=')) {
+            if found.is_some() {
+                return None;
+            }
+            found = Some(offset + indent);
+        }
+        offset += line.len();
+    }
+    found
 }
 
 /// Adds a "did you mean" to serde's unknown-field and unknown-variant messages.

@@ -111,6 +111,11 @@ fn kind_of(v: &Value, root: &Value) -> String {
                             let fields: Vec<&str> = props.as_object().unwrap().keys().filter(|k| *k != "distribution").map(String::as_str).collect();
                             return format!("{{ distribution = \"{tag}\", {} }}", fields.join(", "));
                         }
+                        // a contact-law family table: `law` names the law, the other keys are its own
+                        if let Some(tag) = props.get("law").and_then(|t| t.get("const")).and_then(Value::as_str) {
+                            let fields: Vec<&str> = props.as_object().unwrap().keys().filter(|k| *k != "law").map(String::as_str).collect();
+                            return if fields.is_empty() { format!("{{ law = \"{tag}\" }}") } else { format!("{{ law = \"{tag}\", {} }}", fields.join(", ")) };
+                        }
                     }
                     kind_of(a, root)
                 })

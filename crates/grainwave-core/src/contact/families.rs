@@ -1,0 +1,521 @@
+//! The contact law written by family: `[contact.normal]`, `[contact.damping]`,
+//! `[contact.tangential]`, `[contact.rolling]`, `[contact.twisting]`, each naming its law
+//! (`law = "…"`) and that law's parameters, beside the flat keys of the presets
+//! ([`ContactParams`]), which every existing config keeps using.
+//!
+//! ```toml
+//! [contact]
+//! friction = 0.3
+//! [contact.normal]
+//! law = "hooke"
+//! stiffness = 1.0e4
+//! [contact.damping]
+//! law = "restitution"
+//! restitution = 0.8
+//! [contact.tangential]
+//! law = "linear"
+//! stiffness_ratio = 0.2857
+//! [contact.rolling]
+//! stiffness = 50.0
+//! friction = 0.01
+//! ```
+//!
+//! is the law of `preset = "hooke_cundall_strack"`, `normal_stiffness = 1.0e4`,
+//! `restitution = 0.8`, `tangential_stiffness_ratio = 0.2857`, `rolling_stiffness = 50.0`,
+//! `rolling_friction = 0.01`, to the bit: each family's table is read into the keys of the
+//! composition it names ([`ContactParams::lower_families`]), and the checks of those keys report
+//! under the family's own key names (`contact.normal.stiffness`, …). One form per family: a
+//! family given as a table may not also be given by flat keys, and `preset` (a whole law) goes
+//! with the flat form only. `friction` (the Coulomb coefficient μ) stays a key of `[contact]` in
+//! both forms, so that wall overrides such as `friction = 0` apply to either.
+
+use super::ContactParams;
+use crate::error::{CoreError, Result};
+use serde::{Deserialize, Serialize};
+
+/// The normal elastic law (`[contact.normal]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[serde(tag = "law", rename_all = "snake_case", deny_unknown_fields)]
+pub enum NormalTable {
+    /// Linear spring F_el = k_n ξ (the `hooke_cundall_strack` composition).
+    Hooke {
+        /// k_n [force/length].
+        stiffness: f64,
+    },
+    /// Hertz F_el = (4/3) E* √R* ξ^{3/2}, E* = E/(1 − ν²) per grain, E*/2 between two grains
+    /// (the `hertz_mindlin` composition).
+    Hertz {
+        /// Young's modulus E of the grains.
+        young: f64,
+        /// Poisson's ratio ν, default 0.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        poisson: Option<f64>,
+    },
+}
+
+/// The normal damping law and the tangential damping that goes with it (`[contact.damping]`).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[serde(tag = "law", rename_all = "snake_case", deny_unknown_fields)]
+pub enum DampingTable {
+    /// No damping.
+    None {},
+    /// A dashpot giving the restitution coefficient e of a binary collision exactly (Hooke).
+    Restitution {
+        /// e ∈ [e⁻², 1].
+        restitution: f64,
+        /// γ_t / γ_n, default ½.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        tangential_ratio: Option<f64>,
+        /// γ_t / m* instead of a ratio [1/time].
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        tangential_rate: Option<f64>,
+    },
+    /// A constant dashpot γ_n [force·time/length] (Hooke).
+    Dashpot {
+        /// γ_n.
+        coefficient: f64,
+        /// γ_t / γ_n, default ½.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        tangential_ratio: Option<f64>,
+        /// γ_t / m* instead of a ratio [1/time].
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        tangential_rate: Option<f64>,
+    },
+    /// A fraction ζ of critical damping, γ_n = 2ζ√(m* k_n), on both parts unless a tangential
+    /// ratio or rate is given (Hooke; Hertz: on both parts always).
+    CriticalFraction {
+        /// ζ ≥ 0.
+        fraction: f64,
+        /// γ_t / γ_n (Hooke).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        tangential_ratio: Option<f64>,
+        /// γ_t / m* [1/time] (Hooke).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        tangential_rate: Option<f64>,
+    },
+    /// γ_n = rate × m* [1/time] (Hooke; LAMMPS `gran/hooke/history`'s γ_n).
+    MassProportional {
+        /// γ_n / m*.
+        rate: f64,
+        /// γ_t / γ_n, default ½.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        tangential_ratio: Option<f64>,
+        /// γ_t / m* instead of a ratio [1/time].
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        tangential_rate: Option<f64>,
+    },
+    /// Tsuji damping from a restitution coefficient, γ_n = α(e)√(m* F_el/ξ).
+    Tsuji {
+        /// e ∈ [0, 1].
+        restitution: f64,
+        /// γ_t / γ_n, default 1 (Hertz) or ½ (Hooke).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        tangential_ratio: Option<f64>,
+    },
+}
+
+/// The tangential law (`[contact.tangential]`); the Coulomb coefficient is `contact.friction`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[serde(tag = "law", rename_all = "snake_case", deny_unknown_fields)]
+pub enum TangentialTable {
+    /// No tangential force (frictionless contacts: `friction` is then 0).
+    None {},
+    /// Linear Cundall–Strack spring k_t = ratio × k_n, capped at μF_n (Hooke normal law).
+    Linear {
+        /// k_t / k_n, default 2/7.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        stiffness_ratio: Option<f64>,
+        /// Slip-activation time τ ≥ 0 (0: the Coulomb cap), see docs/engine.md.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        slip_activation_time: Option<f64>,
+    },
+    /// Incremental Mindlin, G* = E/[2(1 + ν)(2 − ν)] per grain, from the Hertz normal law's E, ν.
+    Mindlin {
+        /// Rescale the stored force by k_t(new)/k_t(old) when the overlap decreases (default false).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        rescale_on_unloading: Option<bool>,
+    },
+}
+
+/// A resistance to relative rotation (`[contact.rolling]`, `[contact.twisting]`): a
+/// spring–dashpot capped at μ R* F_n.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[serde(deny_unknown_fields)]
+pub struct ResistanceTable {
+    /// Stiffness k [torque/angle].
+    pub stiffness: f64,
+    /// Damping γ, default 0.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub damping: Option<f64>,
+    /// Friction μ of the cap, default ∞ (no cap).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub friction: Option<f64>,
+}
+
+/// Where the flat keys of a family's law came from: (flat key, the family table's key).
+type Renames = Vec<(&'static str, String)>;
+
+impl ContactParams {
+    /// True when any family is given as a table.
+    pub fn has_families(&self) -> bool {
+        self.normal.is_some() || self.damping.is_some() || self.tangential.is_some() || self.rolling.is_some() || self.twisting.is_some()
+    }
+
+    /// The flat form of these parameters: each family table read into the keys of the
+    /// composition it names, and the names those keys must be reported under (`field` prefixes
+    /// them, e.g. `contact`). Parameters without family tables are returned as they are.
+    pub(crate) fn lower_families(&self, field: &str) -> Result<(ContactParams, Renames)> {
+        let mut p = self.clone();
+        let mut renames: Renames = Vec::new();
+        if !self.has_families() {
+            return Ok((p, renames));
+        }
+        let key = |k: &str| format!("{field}.{k}");
+        let both = |flat: &str, table: &str| {
+            CoreError::Inconsistent(format!(
+                "`{}` and the table `[{}]` both give the {table} law: write the family in one form",
+                key(flat),
+                key(table)
+            ))
+        };
+        let given = |flat: &[(&'static str, bool)], table: &str| -> Result<()> {
+            match flat.iter().find(|(_, g)| *g) {
+                Some((name, _)) => Err(both(name, table)),
+                None => Ok(()),
+            }
+        };
+        if !self.preset.is_empty() {
+            return Err(CoreError::Inconsistent(format!(
+                "`{}` names a whole law; with family tables (`[{}]`, …) leave it out and give `[{}]`",
+                key("preset"),
+                key("normal"),
+                key("normal")
+            )));
+        }
+        // normal: names the composition
+        let normal = self.normal.as_ref().ok_or_else(|| {
+            CoreError::invalid(key("normal"), "(missing)", "a table `[contact.normal]` with `law = \"hooke\"` or `law = \"hertz\"`, required with family tables")
+        })?;
+        given(&[("normal_stiffness", self.normal_stiffness.is_some()), ("young", self.young.is_some()), ("poisson", self.poisson.is_some())], "normal")?;
+        match normal {
+            NormalTable::Hooke { stiffness } => {
+                p.preset = "hooke_cundall_strack".into();
+                p.normal_stiffness = Some(*stiffness);
+                renames.push(("normal_stiffness", key("normal.stiffness")));
+            }
+            NormalTable::Hertz { young, poisson } => {
+                p.preset = "hertz_mindlin".into();
+                p.young = Some(*young);
+                p.poisson = *poisson;
+                renames.push(("young", key("normal.young")));
+                renames.push(("poisson", key("normal.poisson")));
+            }
+        }
+        let hooke = matches!(normal, NormalTable::Hooke { .. });
+        if let Some(d) = &self.damping {
+            given(
+                &[
+                    ("restitution", self.restitution.is_some()),
+                    ("normal_damping", self.normal_damping.is_some()),
+                    ("damping_fraction", self.damping_fraction.is_some()),
+                    ("normal_damping_rate", self.normal_damping_rate.is_some()),
+                    ("tsuji_restitution", self.tsuji_restitution.is_some()),
+                    ("tangential_damping_ratio", self.tangential_damping_ratio.is_some()),
+                    ("tangential_damping_rate", self.tangential_damping_rate.is_some()),
+                ],
+                "damping",
+            )?;
+            let (ratio, rate) = match d {
+                DampingTable::None {} => (None, None),
+                DampingTable::Restitution { restitution, tangential_ratio, tangential_rate } => {
+                    p.restitution = Some(*restitution);
+                    renames.push(("restitution", key("damping.restitution")));
+                    (*tangential_ratio, *tangential_rate)
+                }
+                DampingTable::Dashpot { coefficient, tangential_ratio, tangential_rate } => {
+                    p.normal_damping = Some(*coefficient);
+                    renames.push(("normal_damping", key("damping.coefficient")));
+                    (*tangential_ratio, *tangential_rate)
+                }
+                DampingTable::CriticalFraction { fraction, tangential_ratio, tangential_rate } => {
+                    p.damping_fraction = Some(*fraction);
+                    renames.push(("damping_fraction", key("damping.fraction")));
+                    (*tangential_ratio, *tangential_rate)
+                }
+                DampingTable::MassProportional { rate, tangential_ratio, tangential_rate } => {
+                    p.normal_damping_rate = Some(*rate);
+                    renames.push(("normal_damping_rate", key("damping.rate")));
+                    (*tangential_ratio, *tangential_rate)
+                }
+                DampingTable::Tsuji { restitution, tangential_ratio } => {
+                    p.tsuji_restitution = Some(*restitution);
+                    renames.push(("tsuji_restitution", key("damping.restitution")));
+                    (*tangential_ratio, None)
+                }
+            };
+            p.tangential_damping_ratio = ratio;
+            p.tangential_damping_rate = rate;
+            renames.push(("tangential_damping_ratio", key("damping.tangential_ratio")));
+            renames.push(("tangential_damping_rate", key("damping.tangential_rate")));
+        }
+        if let Some(t) = &self.tangential {
+            given(
+                &[
+                    ("tangential_stiffness_ratio", self.tangential_stiffness_ratio.is_some()),
+                    ("slip_activation_time", self.slip_activation_time.is_some()),
+                    ("mindlin_rescale", self.mindlin_rescale.is_some()),
+                ],
+                "tangential",
+            )?;
+            let wrong = |law: &str, needs: &str| {
+                CoreError::Inconsistent(format!(
+                    "`{}` = \"{law}\" needs the {needs} normal law (`{}`)",
+                    key("tangential.law"),
+                    key("normal.law")
+                ))
+            };
+            match t {
+                TangentialTable::None {} => {
+                    match self.friction {
+                        Some(mu) if mu != 0.0 => {
+                            return Err(CoreError::Inconsistent(format!(
+                                "`{}` = \"none\" has no tangential force, but `{}` = {mu}: leave friction out or set it to 0",
+                                key("tangential.law"),
+                                key("friction")
+                            )))
+                        }
+                        _ => p.friction = Some(0.0),
+                    }
+                }
+                TangentialTable::Linear { stiffness_ratio, slip_activation_time } => {
+                    if !hooke {
+                        return Err(wrong("linear", "Hooke (`law = \"hooke\"`)"));
+                    }
+                    p.tangential_stiffness_ratio = *stiffness_ratio;
+                    p.slip_activation_time = *slip_activation_time;
+                    renames.push(("tangential_stiffness_ratio", key("tangential.stiffness_ratio")));
+                    renames.push(("slip_activation_time", key("tangential.slip_activation_time")));
+                }
+                TangentialTable::Mindlin { rescale_on_unloading } => {
+                    if hooke {
+                        return Err(wrong("mindlin", "Hertz (`law = \"hertz\"`)"));
+                    }
+                    p.mindlin_rescale = *rescale_on_unloading;
+                    renames.push(("mindlin_rescale", key("tangential.rescale_on_unloading")));
+                }
+            }
+        }
+        for (name, table, stiffness, damping, friction) in [
+            ("rolling", &self.rolling, &mut p.rolling_stiffness, &mut p.rolling_damping, &mut p.rolling_friction),
+            ("twisting", &self.twisting, &mut p.twisting_stiffness, &mut p.twisting_damping, &mut p.twisting_friction),
+        ] {
+            let Some(r) = table else { continue };
+            if stiffness.is_some() || damping.is_some() || friction.is_some() {
+                let flat = if name == "rolling" { "rolling_stiffness" } else { "twisting_stiffness" };
+                return Err(both(flat, name));
+            }
+            *stiffness = Some(r.stiffness);
+            *damping = r.damping;
+            *friction = r.friction;
+        }
+        for (name, s, d, f) in [
+            ("rolling", "rolling_stiffness", "rolling_damping", "rolling_friction"),
+            ("twisting", "twisting_stiffness", "twisting_damping", "twisting_friction"),
+        ] {
+            let table = if name == "rolling" { &self.rolling } else { &self.twisting };
+            if table.is_some() {
+                renames.push((s, key(&format!("{name}.stiffness"))));
+                renames.push((d, key(&format!("{name}.damping"))));
+                renames.push((f, key(&format!("{name}.friction"))));
+            }
+        }
+        p.normal = None;
+        p.damping = None;
+        p.tangential = None;
+        p.rolling = None;
+        p.twisting = None;
+        Ok((p, renames))
+    }
+}
+
+/// `e` with the flat key names of `renames` (prefixed by `field`) replaced by the family
+/// tables' names: the error of a lowered law speaks of the keys its config has.
+pub(crate) fn rename_keys(e: CoreError, field: &str, renames: &Renames) -> CoreError {
+    if renames.is_empty() {
+        return e;
+    }
+    let rename = |text: &str| -> String {
+        let mut out = text.to_string();
+        for (flat, table) in renames {
+            let flat = format!("{field}.{flat}");
+            // whole key names only (`contact.restitution` is not a prefix of another key here,
+            // but `contact.rolling_damping` would be one of a longer name)
+            out = replace_key(&out, &flat, table);
+        }
+        out
+    };
+    match e {
+        CoreError::InvalidParameter { field, value, allowed } => CoreError::InvalidParameter { field: rename(&field), value, allowed: rename(&allowed) },
+        CoreError::Inconsistent(m) => CoreError::Inconsistent(rename(&m)),
+        other => other,
+    }
+}
+
+/// `text` with every occurrence of the key `from` that is not part of a longer key name
+/// (followed by a letter, digit, `_` or `.`) replaced by `to`.
+fn replace_key(text: &str, from: &str, to: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    while let Some(i) = rest.find(from) {
+        let after = &rest[i + from.len()..];
+        let longer = after.chars().next().is_some_and(|c| c.is_alphanumeric() || c == '_' || c == '.');
+        out.push_str(&rest[..i]);
+        out.push_str(if longer { from } else { to });
+        rest = after;
+    }
+    out.push_str(rest);
+    out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::contact::Partner;
+
+    fn flat(preset: &str) -> ContactParams {
+        ContactParams::preset(preset)
+    }
+    fn family(normal: NormalTable) -> ContactParams {
+        ContactParams { normal: Some(normal), ..Default::default() }
+    }
+    fn both_partners_equal(a: &ContactParams, b: &ContactParams) {
+        for partner in [Partner::Grain, Partner::Wall] {
+            let (la, lb) = (a.build(partner, "contact").unwrap(), b.build(partner, "contact").unwrap());
+            assert_eq!(la, lb, "{partner:?}: {a:?} vs {b:?}");
+        }
+    }
+
+    /// Every family of each composition, written as tables, builds the law of the flat keys to
+    /// the bit (grain–grain and wall), defaults included.
+    #[test]
+    fn family_tables_build_the_law_of_the_flat_keys() {
+        // Hooke, restitution, linear spring with its ratio, rolling resistance
+        let mut a = flat("hooke_cundall_strack");
+        (a.normal_stiffness, a.restitution, a.tangential_stiffness_ratio, a.friction) = (Some(1e4), Some(0.8), Some(0.3), Some(0.4));
+        (a.rolling_stiffness, a.rolling_damping, a.rolling_friction) = (Some(50.0), Some(0.2), Some(0.01));
+        let mut b = family(NormalTable::Hooke { stiffness: 1e4 });
+        b.friction = Some(0.4);
+        b.damping = Some(DampingTable::Restitution { restitution: 0.8, tangential_ratio: None, tangential_rate: None });
+        b.tangential = Some(TangentialTable::Linear { stiffness_ratio: Some(0.3), slip_activation_time: None });
+        b.rolling = Some(ResistanceTable { stiffness: 50.0, damping: Some(0.2), friction: Some(0.01) });
+        both_partners_equal(&a, &b);
+        // the default tangential law of the composition (no `[contact.tangential]`)
+        b.tangential = None;
+        a.tangential_stiffness_ratio = None;
+        both_partners_equal(&a, &b);
+        // mass-proportional damping with a tangential rate, and the slip-activation time
+        let mut a = flat("hooke_cundall_strack");
+        (a.normal_stiffness, a.normal_damping_rate, a.tangential_damping_rate, a.slip_activation_time) = (Some(2e3), Some(30.0), Some(10.0), Some(0.05));
+        let mut b = family(NormalTable::Hooke { stiffness: 2e3 });
+        b.damping = Some(DampingTable::MassProportional { rate: 30.0, tangential_ratio: None, tangential_rate: Some(10.0) });
+        b.tangential = Some(TangentialTable::Linear { stiffness_ratio: None, slip_activation_time: Some(0.05) });
+        both_partners_equal(&a, &b);
+        assert!(matches!(b.build(Partner::Grain, "contact").unwrap().tangential, crate::contact::Tangential::SlipActivation { .. }));
+        // a dashpot with a tangential ratio; Tsuji on Hooke
+        let mut a = flat("hooke_cundall_strack");
+        (a.normal_stiffness, a.normal_damping, a.tangential_damping_ratio) = (Some(1e3), Some(0.7), Some(0.25));
+        let mut b = family(NormalTable::Hooke { stiffness: 1e3 });
+        b.damping = Some(DampingTable::Dashpot { coefficient: 0.7, tangential_ratio: Some(0.25), tangential_rate: None });
+        both_partners_equal(&a, &b);
+        // Hertz with Tsuji damping and a tangential ratio
+        let mut a = flat("hertz_mindlin");
+        (a.young, a.poisson, a.tsuji_restitution, a.tangential_damping_ratio) = (Some(1e5), Some(0.3), Some(0.6), Some(0.5));
+        let mut b = family(NormalTable::Hertz { young: 1e5, poisson: Some(0.3) });
+        b.damping = Some(DampingTable::Tsuji { restitution: 0.6, tangential_ratio: Some(0.5) });
+        both_partners_equal(&a, &b);
+        // Hertz, a fraction of critical damping, Mindlin rescaled on unloading, twisting resistance
+        let mut a = flat("hertz_mindlin");
+        (a.young, a.damping_fraction, a.mindlin_rescale) = (Some(3e4), Some(0.1), Some(true));
+        (a.twisting_stiffness, a.twisting_friction) = (Some(2.0), Some(0.05));
+        let mut b = family(NormalTable::Hertz { young: 3e4, poisson: None });
+        b.damping = Some(DampingTable::CriticalFraction { fraction: 0.1, tangential_ratio: None, tangential_rate: None });
+        b.tangential = Some(TangentialTable::Mindlin { rescale_on_unloading: Some(true) });
+        b.twisting = Some(ResistanceTable { stiffness: 2.0, damping: None, friction: Some(0.05) });
+        both_partners_equal(&a, &b);
+        // frictionless: `law = "none"` is friction 0
+        let mut a = flat("hooke_cundall_strack");
+        (a.normal_stiffness, a.friction) = (Some(1e3), Some(0.0));
+        let mut b = family(NormalTable::Hooke { stiffness: 1e3 });
+        b.tangential = Some(TangentialTable::None {});
+        b.damping = Some(DampingTable::None {});
+        both_partners_equal(&a, &b);
+    }
+
+    fn err(p: &ContactParams) -> String {
+        p.build(Partner::Grain, "contact").unwrap_err().to_string()
+    }
+
+    /// The checks of each family report under the family's key names; a family given in both
+    /// forms, a preset beside family tables, a tangential law of the other composition and a
+    /// frictionless law with a friction coefficient are refused naming the keys.
+    #[test]
+    fn family_errors_name_the_family_keys() {
+        let e = err(&family(NormalTable::Hooke { stiffness: -1.0 }));
+        assert!(e.contains("contact.normal.stiffness") && e.contains("-1"), "{e}");
+        let e = err(&family(NormalTable::Hertz { young: 1e5, poisson: Some(0.7) }));
+        assert!(e.contains("contact.normal.poisson") && e.contains("0.7"), "{e}");
+        let mut p = family(NormalTable::Hooke { stiffness: 1e3 });
+        p.damping = Some(DampingTable::Restitution { restitution: 1.5, tangential_ratio: None, tangential_rate: None });
+        let e = err(&p);
+        assert!(e.contains("`contact.damping.restitution`") || e.contains("contact.damping.restitution:"), "{e}");
+        assert!(!e.contains("contact.restitution"), "{e}");
+        p.damping = Some(DampingTable::Restitution { restitution: 0.5, tangential_ratio: Some(0.2), tangential_rate: Some(3.0) });
+        let e = err(&p);
+        assert!(e.contains("contact.damping.tangential_ratio") && e.contains("contact.damping.tangential_rate"), "{e}");
+        p.damping = None;
+        p.rolling = Some(ResistanceTable { stiffness: 1.0, damping: Some(-2.0), friction: None });
+        let e = err(&p);
+        assert!(e.contains("contact.rolling.damping") && !e.contains("rolling_damping"), "{e}");
+        p.rolling = Some(ResistanceTable { stiffness: 1.0, damping: None, friction: None });
+        p.tangential = Some(TangentialTable::Linear { stiffness_ratio: None, slip_activation_time: Some(-1.0) });
+        let e = err(&p);
+        assert!(e.contains("contact.tangential.slip_activation_time"), "{e}");
+        // both forms
+        let mut q = p.clone();
+        q.tangential = None;
+        q.rolling_stiffness = Some(3.0);
+        let e = err(&q);
+        assert!(e.contains("`contact.rolling_stiffness`") && e.contains("[contact.rolling]") && e.contains("one form"), "{e}");
+        let mut q = family(NormalTable::Hooke { stiffness: 1e3 });
+        q.normal_stiffness = Some(1e3);
+        assert!(err(&q).contains("`contact.normal_stiffness`"), "{}", err(&q));
+        // a preset beside family tables
+        let mut q = family(NormalTable::Hooke { stiffness: 1e3 });
+        q.preset = "hooke_cundall_strack".into();
+        assert!(err(&q).contains("`contact.preset`"), "{}", err(&q));
+        // no normal table
+        let q = ContactParams { rolling: Some(ResistanceTable { stiffness: 1.0, damping: None, friction: None }), ..Default::default() };
+        assert!(err(&q).contains("contact.normal") && err(&q).contains("required"), "{}", err(&q));
+        // the other composition's tangential law
+        let mut q = family(NormalTable::Hertz { young: 1e5, poisson: None });
+        q.tangential = Some(TangentialTable::Linear { stiffness_ratio: None, slip_activation_time: None });
+        assert!(err(&q).contains("contact.tangential.law") && err(&q).contains("Hooke"), "{}", err(&q));
+        let mut q = family(NormalTable::Hooke { stiffness: 1e3 });
+        q.tangential = Some(TangentialTable::Mindlin { rescale_on_unloading: None });
+        assert!(err(&q).contains("Hertz"), "{}", err(&q));
+        // frictionless with a friction coefficient
+        q.tangential = Some(TangentialTable::None {});
+        q.friction = Some(0.3);
+        assert!(err(&q).contains("`contact.friction` = 0.3"), "{}", err(&q));
+    }
+
+    #[test]
+    fn keys_are_replaced_whole() {
+        assert_eq!(replace_key("`c.rolling` and `c.rolling_damping` and c.rolling.", "c.rolling", "X"), "`X` and `c.rolling_damping` and c.rolling.");
+        assert_eq!(replace_key("c.young: 5", "c.young", "c.normal.young"), "c.normal.young: 5");
+    }
+}
