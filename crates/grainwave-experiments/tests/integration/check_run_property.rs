@@ -12,7 +12,8 @@
 //! A run that ends with an error of the input class (exit code 2: `is_input_error`), or with
 //! failed units whose reasons are of that class (an invalid value, an inconsistent set-up, an
 //! initial overlap), is a mismatch: `check` should have refused the config. So is a panic in
-//! either. Run-time failures (a blow-up, no equilibrium) are not: only running finds them.
+//! either, and so is a run that does not stop within `STOP_WITHIN` of the interrupt. Run-time
+//! failures (a blow-up, no equilibrium) are not mismatches: only running finds them.
 //!
 //! The cases are drawn with a fixed seed; `GRAINWAVE_CHECK_RUN_CASES` sets their number
 //! (default `CASES`, under a minute in a release build).
@@ -34,6 +35,10 @@ const CASES: usize = 400;
 /// Wall-clock budget of one run before it is interrupted: a failure of the set-up shows within
 /// it (the runs below build their state in well under this).
 const BUDGET: Duration = Duration::from_millis(250);
+
+/// How soon a run must stop once interrupted (Ctrl-C is honoured within a second; this leaves
+/// room for a loaded machine).
+const STOP_WITHIN: Duration = Duration::from_secs(20);
 
 /// The base configs: the smallest committed example of each protocol (a few hundred grains or
 /// fewer), and the adversarial fixture with a wall of each kind.
@@ -289,6 +294,8 @@ struct Counts {
     interrupted: usize,
     failed_at_run_time: usize,
     mismatches: Vec<String>,
+    /// A run did not stop after the interrupt: it still runs, so the cases end there.
+    stuck: bool,
 }
 
 /// True when a unit's failure line is of the input class (what `check` should have refused).
@@ -333,10 +340,25 @@ fn run_case(case: &Case, dir: &Path, counts: &mut Counts) {
             }
         })
     };
-    let result = std::panic::catch_unwind(|| {
-        let mut rep = SilentReporter;
-        RunContext::new(dir, &mut rep, flag).and_then(|mut ctx| registry::run(&src, &mut ctx))
-    });
+    // the run in a thread of its own, so that one that does not stop after the interrupt is
+    // reported (and the cases stop) instead of holding the test for ever
+    let (finished, outcome) = mpsc::channel();
+    {
+        let (dir, base, text) = (dir.to_path_buf(), case.base, case.text.clone());
+        std::thread::spawn(move || {
+            let src = ConfigSource::from_text(base, &text);
+            let result = std::panic::catch_unwind(|| {
+                let mut rep = SilentReporter;
+                RunContext::new(&dir, &mut rep, flag).and_then(|mut ctx| registry::run(&src, &mut ctx))
+            });
+            let _ = finished.send(result);
+        });
+    }
+    let Ok(result) = outcome.recv_timeout(BUDGET + STOP_WITHIN) else {
+        counts.mismatches.push(format!("{label}: the run did not stop within {STOP_WITHIN:?} of the interrupt"));
+        counts.stuck = true;
+        return;
+    };
     drop(done);
     watchdog.join().unwrap();
     let _ = std::fs::remove_dir_all(dir);
@@ -434,14 +456,19 @@ fn a_config_check_accepts_does_not_fail_at_the_start_of_its_run_for_a_config_rea
     cases.truncate(n);
     let dir = std::env::temp_dir().join(format!("grainwave-check-run-{}", std::process::id()));
     let mut counts = Counts::default();
+    let mut done = 0;
     for case in &cases {
         run_case(case, &dir, &mut counts);
+        done += 1;
+        if counts.stuck {
+            break;
+        }
     }
     let _ = std::fs::remove_dir_all(&dir);
     eprintln!(
         "{} of {total} generated configs in {:.1} s: {} refused by check, {} ran to their end, {} interrupted after {BUDGET:?}, \
          {} failed at run time (not for a config reason), {} mismatches",
-        cases.len(),
+        done,
         start.elapsed().as_secs_f64(),
         counts.refused,
         counts.ran,
@@ -453,7 +480,7 @@ fn a_config_check_accepts_does_not_fail_at_the_start_of_its_run_for_a_config_rea
         eprintln!("  {m}");
     }
     assert_eq!(cases.len(), n.min(total));
-    assert_eq!(counts.refused + counts.ran + counts.interrupted + counts.failed_at_run_time + counts.mismatches.len(), cases.len());
+    assert_eq!(counts.refused + counts.ran + counts.interrupted + counts.failed_at_run_time + counts.mismatches.len(), done);
     assert!(counts.refused > 0 && counts.ran + counts.interrupted > 0, "both sides of check are exercised");
     assert!(counts.mismatches.is_empty(), "{} configs pass check and fail run for a config reason", counts.mismatches.len());
 }
