@@ -173,8 +173,9 @@ impl<D: Dim> NeighborList<D> {
             .iter()
             .zip(&self.ref_wall_pos)
             .map(|(w, &r)| (w.position - r).dot(w.normal).abs())
-            .fold(0.0, f64::max);
-        max_d + max_wall > self.skin
+            .fold(0.0, nan_max);
+        // negated: a NaN (a wall at a non-finite position) forces a rebuild, whose checks report it
+        !(max_d + max_wall <= self.skin)
     }
 
     /// Rebuilds the candidate lists from scratch with a cell list, carrying over the state of every

@@ -32,8 +32,21 @@ pub fn check_config(src: &ConfigSource, cfg: &crate::E1Config) -> Result<(), Con
     let per_task = 64.0 + 16.0 * cfg.pulse.time_samples as f64;
     check(src, "samples", "samples", cfg.samples as f64, MAX_UNITS, f64::INFINITY, 0.0)?;
     check(src, "pulse.time_samples", "time samples", cfg.pulse.time_samples as f64, MAX_POINTS, f64::INFINITY, 16.0 * groups.max(1.0))?;
-    check(src, "samples", "tasks (samples × sizes × pressures)", cfg.samples as f64 * groups.max(1.0), MAX_UNITS, f64::INFINITY, per_task)
+    check(src, "samples", "tasks (samples × sizes × pressures)", cfg.samples as f64 * groups.max(1.0), MAX_UNITS, f64::INFINITY, per_task)?;
+    // one damped MD run (a whole pulse, stepped) per damping fraction, on each of the first
+    // `damped.samples` samples of every group: 100 000 fractions ran for minutes inside one
+    // sample, out of reach of the interrupt
+    if let Some(d) = &cfg.damped {
+        let runs = d.damping_fractions.len() as f64 * d.samples.min(cfg.samples) as f64 * groups.max(1.0);
+        check(src, "damped.damping_fractions", "damped MD runs (damping fractions × damped samples × sizes × pressures)", runs, MAX_DAMPED_RUNS, f64::INFINITY, per_task)?;
+    }
+    Ok(())
 }
+
+/// The most damped MD runs a config may ask for without `--allow-large`: each is a whole pulse
+/// stepped by molecular dynamics inside its sample (the published study has 4 fractions × 1 sample
+/// per group).
+pub const MAX_DAMPED_RUNS: f64 = 1.0e3;
 
 /// The grain counts an `e1` plan computed (from `heights`).
 pub fn check_plan(src: &ConfigSource, plan: &crate::plan::Plan) -> Result<(), ConfigError> {

@@ -230,11 +230,12 @@ pub fn relax<D: Dim>(
             return Ok(RelaxStatus::Interrupted);
         }
         if sim.step >= pc.step_limit {
-            return Err(CoreError::Inconsistent(format!(
-                "no equilibrium after {} steps (`preparation.step_limit`): max acceleration {:.3e}, piston acceleration {:.3e} (tolerance {:.1e})",
+            // a limit the run reached, found only by running (exit code 1), not an inconsistent
+            // input: worded and typed as e2's preparation that reaches no equilibrium in time
+            return Err(grainwave_study::ExperimentError::NotReached(format!(
+                "the preparation reached no equilibrium within {} steps (`preparation.step_limit`): max acceleration {:.3e}, piston acceleration {:.3e} (tolerance `preparation.max_acceleration` = {:.1e})",
                 sim.step, p.max_acceleration, a_w, pc.max_acceleration
-            ))
-            .into());
+            )));
         }
         if info.tail_step.is_none() && pc.tail_dt_factor > 1.0 && sim.step % every == 0
             && p.kinetic_energy_per_grain < tail_below

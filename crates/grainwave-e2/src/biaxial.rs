@@ -512,6 +512,22 @@ pub fn checkpoint_indices(dir: &Path) -> Vec<u64> {
     v
 }
 
+/// The checkpoint that index `k` (−1: the last) names among the indices `have` (sorted): `k`
+/// itself or, when `k` was not written, the last index before it. Checkpoint k is the state at
+/// the first sample with |ε_yy| ≥ k × `checkpoint_strain`; the loading writes at most one
+/// checkpoint per sample, under the first index not written yet, so a sample that passes several
+/// multiples at once (a `checkpoint_strain` smaller than the strain of one sample) writes index j
+/// and skips j + 1 … k: the state of index j is then the first at or beyond k ×
+/// `checkpoint_strain`. `check` keeps k × `checkpoint_strain` within the loading's
+/// `final_strain`, so k is always passed. None when no index is at or before `k`.
+pub fn resolve_index(have: &[u64], k: i64) -> Option<u64> {
+    if k < 0 {
+        have.last().copied()
+    } else {
+        have.iter().copied().take_while(|&i| i <= k as u64).last()
+    }
+}
+
 /// Loads checkpoint `k` (−1: the last) of the run in `source`; a reference checkpoint is
 /// regenerated from its full checkpoint ([`regenerate`]).
 pub fn load_checkpoint(source: &Path, k: i64) -> Result<StrainCheckpoint> {
@@ -522,13 +538,17 @@ pub fn load_checkpoint(source: &Path, k: i64) -> Result<StrainCheckpoint> {
 /// every 1000 steps of the regeneration (None: interrupted).
 pub fn load_checkpoint_with(source: &Path, k: i64, log: &mut dyn FnMut(&str), interrupted: &mut dyn FnMut() -> bool) -> Result<Option<StrainCheckpoint>> {
     let have = checkpoint_indices(source);
-    let index = if k < 0 { have.last().copied() } else { have.iter().copied().find(|&i| i == k as u64) };
-    let Some(index) = index else {
+    let Some(index) = resolve_index(&have, k) else {
         return Err(ExperimentError::Resume {
             path: source.to_path_buf(),
             reason: format!("no checkpoint {k} in {}/checkpoints (present: {:?})", source.display(), have),
         });
     };
+    if k >= 0 && index != k as u64 {
+        log(&format!(
+            "checkpoint {k} was passed within the sample that wrote checkpoint {index} (a sample of the loading spans several multiples of `loading.checkpoint_strain`): replaying that state, the first at or beyond {k} × checkpoint_strain"
+        ));
+    }
     match read_checkpoint(&checkpoint_path(source, index))? {
         StoredCheckpoint::Full(ck) => Ok(Some(*ck)),
         StoredCheckpoint::Reference(r) => {

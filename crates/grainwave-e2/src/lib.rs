@@ -356,6 +356,18 @@ pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
         engine_values(src, &cfg)?;
     }
     positive(src, "preparation.max_force", pc.max_force)?;
+    // the forces of the prepared packing are of order p* d̄ and are sums of contact forces of that
+    // order: their round-off alone is about 1e-15 p* d̄, so a tolerance below MIN_MAX_FORCE is never
+    // met and the preparation ran to `max_time` before failing (5e-324)
+    if pc.max_force < MIN_MAX_FORCE {
+        return Err(src.error_at_key(
+            "preparation.max_force",
+            format!(
+                "{:e} (allowed: a tolerance of at least {MIN_MAX_FORCE:e} p* d̄; the residual forces of a packing at rest are sums of contact forces of order p* d̄, and their round-off alone is about 1e-15 p* d̄)",
+                pc.max_force
+            ),
+        ));
+    }
     positive(src, "preparation.max_time", pc.max_time)?;
     if pc.check_every == 0 {
         return Err(src.error_at_key("preparation.check_every", "0 (allowed: at least 1 step)"));
@@ -468,6 +480,22 @@ pub fn prepare(src: &ConfigSource) -> Result<E2Config, ConfigError> {
         names.insert(name, k);
         if r.checkpoint < -1 {
             return Err(src.error_at_key(&key("checkpoint"), format!("{} (allowed: a checkpoint index ≥ 0, or −1 for the last)", r.checkpoint)));
+        }
+        // the loading ends at `final_strain`: an index beyond it is never written, and its replay
+        // failed after the loading ("no checkpoint k")
+        if r.from.is_none() && cfg.source.dir.is_none() && r.checkpoint >= 0 && l.checkpoint_strain > 0.0 {
+            let last = (l.final_strain / l.checkpoint_strain).floor();
+            if r.checkpoint as f64 > last {
+                return Err(src.error_at_key(
+                    &key("checkpoint"),
+                    format!(
+                        "{}: the strain {:e} of that checkpoint is beyond the loading's final_strain = {:e} (allowed: an index of at most final_strain / checkpoint_strain = {last}, or −1 for the last)",
+                        r.checkpoint,
+                        r.checkpoint as f64 * l.checkpoint_strain,
+                        l.final_strain
+                    ),
+                ));
+            }
         }
         positive(src, &key("duration"), r.duration)?;
         positive(src, &key("sample_interval"), r.sample_interval)?;
@@ -675,6 +703,11 @@ pub fn check_source(src: &ConfigSource, cfg: &E2Config) -> Result<(), ConfigErro
 /// Longest replay name [characters]: the name is the directory `replays/<name>/` (file systems
 /// take 255 bytes; a 300-character name failed after the loading had run).
 const MAX_REPLAY_NAME: usize = 200;
+
+/// The smallest `preparation.max_force` [p* d̄]: a thousand times the round-off of the residual
+/// forces of a packing at rest (sums of contact forces of order p* d̄). A smaller tolerance is
+/// never met, and the preparation runs to `preparation.max_time` before failing.
+const MIN_MAX_FORCE: f64 = 1e-12;
 
 /// The values the run gives the engine, derived from the config's: the contact laws (grain–grain
 /// with the friction, grain–wall, absorbing walls), the pistons' mass and the gravity of the

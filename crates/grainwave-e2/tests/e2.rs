@@ -725,6 +725,15 @@ fn bad_e2_configs_name_the_key_the_value_and_what_is_allowed() {
     check("[[replays]]\nmodification = \"incremental\"\nsteps_per_period = 2", "replays[0].steps_per_period", "> π");
     check("[[replays]]\nmodification = \"incremental\"\nbranches = \"sometimes\"", "branches", "incremental");
     check("[material]\nslip_activation_time = -1.0", "material.slip_activation_time", "[0, 1e12] t_a");
+    // a tolerance below round-off is never met: the preparation ran to its time limit and failed
+    check("[preparation]\nmax_force = 5e-324", "preparation.max_force", "at least 1e-12 p* d̄");
+    check("[preparation]\nmax_force = 1e-13", "preparation.max_force", "round-off");
+    // a checkpoint beyond the loading's end is never written (its replay failed after the loading)
+    check(
+        "[loading]\nfinal_strain = 1e-4\ncheckpoint_strain = 3e-5\n[[replays]]\ncheckpoint = 4",
+        "replays[0].checkpoint",
+        "at most final_strain / checkpoint_strain = 3",
+    );
     // (NaN is refused for every key by the config reader, at the key)
     check("[material]\nslip_activation_time = nan", "material.slip_activation_time", "NaN");
 }
@@ -1357,3 +1366,23 @@ static ONE: [Entry; 1] = [entry::<grainwave_e2::E2Protocol>()];
 /// The study alone in a registry: the tests check, run, resume and re-plot configs through the
 /// same dispatch as the command line (the table of every study is `grainwave-experiments`').
 pub static REGISTRY: Registry = Registry::new(&ONE);
+
+/// A sample of the loading that passes several multiples of `checkpoint_strain` writes one
+/// checkpoint, under the first index not written yet, and skips the others: a replay of a
+/// skipped index replays that state (the first at or beyond its strain), instead of failing
+/// after the loading with "no checkpoint k".
+#[test]
+fn a_checkpoint_index_passed_within_one_sample_names_the_state_of_that_sample() {
+    use grainwave_e2::biaxial::resolve_index;
+    let have = [0, 1, 5, 9];
+    assert_eq!(resolve_index(&have, 0), Some(0));
+    assert_eq!(resolve_index(&have, 1), Some(1));
+    // index 1 was written at a sample with |ε_yy| ≥ 4 × checkpoint_strain (the next index written is 5)
+    assert_eq!(resolve_index(&have, 2), Some(1));
+    assert_eq!(resolve_index(&have, 4), Some(1));
+    assert_eq!(resolve_index(&have, 5), Some(5));
+    assert_eq!(resolve_index(&have, 12), Some(9));
+    assert_eq!(resolve_index(&have, -1), Some(9));
+    assert_eq!(resolve_index(&[], 3), None);
+    assert_eq!(resolve_index(&[2, 3], 1), None);
+}

@@ -434,6 +434,9 @@ pub fn prepare(src: &ConfigSource) -> Result<E3Config, ConfigError> {
             }
         }
     }
+    if cfg.mode != Mode::LatticeElasticity {
+        engine_laws(src, &cfg)?;
+    }
     // units
     let u = &cfg.units;
     for (k, v) in [("units.radius", u.radius), ("units.thickness", u.thickness), ("units.density", u.density), ("units.gravity", u.gravity)] {
@@ -481,6 +484,57 @@ fn check_names(src: &ConfigSource, cfg: &E3Config, plan: &Plan) -> Result<(), Co
         let name = format!("{}.partial.gwck", r.label);
         if name.len() > MAX_NAME_BYTES {
             return Err(refuse("load.forces", r.force, &name));
+        }
+    }
+    Ok(())
+}
+
+/// Checks the contact laws the run gives the engine — the grain–grain law and the walls' laws of
+/// every friction and stiffness ratio of the config (its own and the sweep's) — and names the key
+/// a bad derived value comes from. The walls' stiffness is `wall_stiffness_ratio` ×
+/// `normal_stiffness` and the default dashpots are square roots of stiffnesses: each keyed value
+/// can be valid while a product is not (`normal_stiffness = 1e308` with the default ratio 2 gave
+/// the floor an infinite stiffness, refused by the engine when the first reference state was
+/// built).
+fn engine_laws(src: &ConfigSource, cfg: &E3Config) -> Result<(), ConfigError> {
+    let m = &cfg.material;
+    let frictions: Vec<f64> = std::iter::once(m.friction).chain(cfg.sweep.frictions.iter().copied()).collect();
+    let ratios: Vec<(&str, f64)> =
+        std::iter::once(("material.tangential_stiffness_ratio", m.tangential_stiffness_ratio)).chain(cfg.sweep.stiffness_ratios.iter().map(|&r| ("sweep.stiffness_ratios", r))).collect();
+    for &friction in &frictions {
+        for &(ratio_key, ratio) in &ratios {
+            let mat = slab::Material::resolve(m, friction, ratio);
+            let laws = [
+                ("grain", mat.grain_law(), mat.normal_stiffness),
+                ("wall", mat.wall_law(mat.wall_friction), mat.wall_stiffness_ratio * mat.normal_stiffness),
+                ("wall", mat.wall_law(mat.side_wall_friction), mat.wall_stiffness_ratio * mat.normal_stiffness),
+            ];
+            for (whose, law, k) in laws {
+                let fault = match law.validate("material") {
+                    Err(grainwave_core::CoreError::InvalidParameter { field, value, .. }) => Some((field.trim_start_matches("material.").to_string(), value)),
+                    Err(e) => Some(("contact".to_string(), e.to_string())),
+                    // a subnormal stiffness gives a time step and dashpots that are not representable
+                    Ok(()) if k < f64::MIN_POSITIVE => Some(("normal_stiffness".to_string(), k.to_string())),
+                    Ok(()) => None,
+                };
+                let Some((field, value)) = fault else { continue };
+                let (key, derived) = match (whose, field.as_str()) {
+                    ("grain", "normal_stiffness") => ("material.normal_stiffness", "the grains' normal stiffness"),
+                    ("grain", "tangential_stiffness") => (ratio_key, "the grains' tangential stiffness ratio × normal_stiffness"),
+                    ("grain", "normal_damping") => ("material.normal_damping", "the grains' normal dashpot (default √normal_stiffness)"),
+                    ("grain", "tangential_damping") => ("material.tangential_damping", "the grains' tangential dashpot (default √(ratio × normal_stiffness))"),
+                    ("wall", "normal_stiffness") => ("material.wall_stiffness_ratio", "the walls' stiffness wall_stiffness_ratio × normal_stiffness"),
+                    ("wall", "tangential_stiffness") => ("material.wall_stiffness_ratio", "the walls' tangential stiffness ratio × wall_stiffness_ratio × normal_stiffness"),
+                    ("wall", "normal_damping") => ("material.wall_normal_damping", "the walls' normal dashpot (default √(wall_stiffness_ratio × normal_stiffness))"),
+                    ("wall", "tangential_damping") => ("material.wall_tangential_damping", "the walls' tangential dashpot"),
+                    (_, "friction") => ("material.friction", "the friction"),
+                    _ => ("material", "a contact parameter"),
+                };
+                return Err(src.error_at_key(
+                    key,
+                    format!("makes {derived} {value} (allowed: values for which it is a finite, normal number > 0; normal_stiffness = {}, wall_stiffness_ratio = {})", m.normal_stiffness, m.wall_stiffness_ratio),
+                ));
+            }
         }
     }
     Ok(())

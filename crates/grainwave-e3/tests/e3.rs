@@ -474,6 +474,13 @@ fn config_errors_point_at_the_key() {
     assert_eq!(e.key.as_deref(), Some("slab.layers"));
     let e = check(&base.replace("[load]", "[load]\ngrain = 999"));
     assert_eq!(e.key.as_deref(), Some("load.grain"));
+    // a stiffness valid by itself whose product with wall_stiffness_ratio (default 2) overflows:
+    // the engine refused the floor's infinite stiffness when the first reference state was built
+    let e = check(&base.replace("[material]", "[material]\nnormal_stiffness = 1e308"));
+    assert_eq!(e.key.as_deref(), Some("material.wall_stiffness_ratio"), "{e}");
+    assert!(e.message.contains("inf") && e.message.contains("wall_stiffness_ratio × normal_stiffness"), "{e}");
+    let e = check(&base.replace("[material]", "[material]\nwall_stiffness_ratio = 1e-320"));
+    assert_eq!(e.key.as_deref(), Some("material.wall_stiffness_ratio"), "{e}");
     // a valid config is described
     let lines = crate::REGISTRY.check(&ConfigSource::from_text("ok.toml", &base)).unwrap();
     // default rows = "full": 5 × 8 = 40 grains (the alternating layout would have 37)

@@ -339,7 +339,7 @@ fn e1_every_sample_failing_exits_1_with_the_list() {
         }
     }
     assert!(!err.contains("no data series") && !err.contains("panicked"), "{err}");
-    assert!(err.contains("no equilibrium after"), "{err}");
+    assert!(err.contains("reached no equilibrium within") && !err.contains("inconsistent set-up"), "{err}");
     marked_failed(&dir, "every one of the 8 samples failed");
     // before: `plot` of that directory failed in the plot stage ("the plot has no data series")
     let (code, err) = gw(&["plot", dir.to_str().unwrap()]);

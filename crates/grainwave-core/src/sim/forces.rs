@@ -957,6 +957,11 @@ impl<D: Dim> Simulation<D> {
         if lens.iter().any(|&l| l != n) {
             return Err(CoreError::Inconsistent(format!("per-grain arrays of different lengths ({lens:?} for {n} grain ids)")));
         }
+        // a wall driven beyond what can be integrated (a piston of tiny mass under a huge force,
+        // a huge speed) reaches a non-finite position or velocity: the grains near it would follow
+        // to non-finite positions, and a run could end "converged" with them (checked every step:
+        // O(walls))
+        self.check_walls()?;
         if self.nlist.needs_rebuild(&self.grains.pos, &self.domain, max_displacement2) {
             self.check_confinement()?;
             self.nlist.rebuild(&self.grains.pos, &self.grains.radius, &self.grains.id, &self.domain);
@@ -983,6 +988,26 @@ impl<D: Dim> Simulation<D> {
         for wall in &self.domain.walls {
             if let Some(k) = (0..g.len()).into_par_iter().find_first(|&k| wall.distance(g.pos[k]) < 0.0) {
                 return Err(self.blow_up(k, format!("the grain left the domain through wall `{}`", wall.name)));
+            }
+        }
+        Ok(())
+    }
+
+    /// Blow-up check done at every step: every wall's position and velocity finite.
+    fn check_walls(&self) -> Result<()> {
+        for wall in &self.domain.walls {
+            let (x, v) = (wall.position, wall.velocity());
+            if !(x.is_finite_vec() && v.is_finite_vec()) {
+                let reason = format!(
+                    "wall `{}` reached a non-finite position {:?} or velocity {:?} (its motion — speed, or piston force / mass — is beyond what the integration can represent)",
+                    wall.name,
+                    x.to_array3(),
+                    v.to_array3()
+                );
+                if self.grains.len() > 0 {
+                    return Err(self.blow_up(0, reason));
+                }
+                return Err(CoreError::BlowUp { step: self.step, time: self.time, grain: 0, reason, position: [0.0; 3], velocity: [0.0; 3], force: [0.0; 3] });
             }
         }
         Ok(())

@@ -160,6 +160,26 @@ fn grain_escaping_through_a_wall_is_a_blow_up() {
     assert!(e.contains("left the domain through wall `floor`") || e.contains("overlap with wall `floor`"), "{e}");
 }
 
+/// A piston pulled away under a force its mass cannot represent for long (acceleration 1e306)
+/// reaches a non-finite position within a few hundred steps: the run stops with a blow-up naming
+/// the wall at the step it happens, instead of carrying on with non-finite positions (which an
+/// earlier version reported only when plotting, after the run, or as "converged").
+#[test]
+fn a_wall_at_a_non_finite_position_is_a_blow_up() {
+    let wall = hooke(1.0e4, None, 0.0).build(Partner::Wall, "contact.wall").unwrap();
+    let mut g = Grains::<D2>::new(GrainKind::Disk { thickness: 1.0 });
+    g.push(DVec2::new(0.0, 0.5), 0.5, 1.0, DVec2::ZERO);
+    let d = Domain::new(DVec2::splat(-5.0), DVec2::splat(5.0), [false; 3])
+        .with_wall(Wall::axis_aligned("floor", 1, -5.0, true, wall))
+        .with_wall(Wall::axis_aligned("top", 1, 5.0, false, wall).with_motion(WallMotion::Piston { mass: 1e-296, force: TimeFunction::constant(-1e10) }));
+    let mut sim = SimulationBuilder::new(g, d, law()).dt(1e-2).build().unwrap();
+    let e = sim.steps(100_000).unwrap_err();
+    assert!(matches!(e, CoreError::BlowUp { .. }), "{e}");
+    let e = e.to_string();
+    assert!(e.contains("wall `top` reached a non-finite position"), "{e}");
+    assert!(sim.step < 100_000, "stopped at step {}", sim.step);
+}
+
 /// The overlap guard of a grain–wall contact scales with the wall's softness (an absorbing wall of
 /// SPEC §6.7 has K_n/√N): a disk resting under gravity at 0.4 R in a floor 64 × softer than the
 /// grains carries the force of a 0.4/64 R grain contact and must run on, while the same 0.4 R

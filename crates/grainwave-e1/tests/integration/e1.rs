@@ -496,6 +496,12 @@ fn config_errors_point_at_their_keys() {
     assert!(e.message.contains("4") && e.message.contains("at most 3"), "{e}");
     let e = check_err("experiment = \"e1\"\n[chain]\ngrains = [10]\n[preparation]\ntail_kinetic_energy = -1.0\n");
     assert_eq!(e.key.as_deref(), Some("preparation.tail_kinetic_energy"), "{e}");
+    // each damping fraction is a damped MD run of a whole pulse inside its sample: 100 000 of them
+    // were accepted and ran for minutes without looking at the interrupt
+    let many = vec!["0.5"; 100_000].join(", ");
+    let e = check_err(&format!("experiment = \"e1\"\n[packing]\nwidth = 8.0\ngrains = [60]\npressures = [1e-4]\n[damped]\ndamping_fractions = [{many}]\n"));
+    assert_eq!(e.key.as_deref(), Some("damped.damping_fractions"), "{e}");
+    assert!(e.message.contains("damped MD runs") && e.message.contains("limit of 1e3"), "{e}");
     let lines = crate::REGISTRY.check(&ConfigSource::from_text("ok.toml", SMALL)).unwrap();
     assert!(lines.iter().any(|l| l.contains("2 groups × 2 samples = 4 tasks")), "{lines:?}");
 }

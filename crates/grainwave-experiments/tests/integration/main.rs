@@ -3,6 +3,7 @@
 //! resource limits, the run directory's files, generated edits of configs, the config reference
 //! and the scorecard of the validation page.
 
+mod check_run_property;
 mod examples;
 mod fuzz_regressions;
 mod layering;
