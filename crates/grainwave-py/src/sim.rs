@@ -430,7 +430,7 @@ impl Simulation {
         let shown = Shown::open(py, progress.as_ref())?;
         let first = self.step_count();
         // a bar's total only where the run cannot end before it
-        let total = if stop.has_equilibrium_criterion() { None } else { stop.step_limit };
+        let total = stop.certain_end();
         if let Err(e) = shown.stage(py, "run_until", first, total) {
             shown.close(py)?;
             return Err(e);

@@ -153,7 +153,8 @@ impl SimulationState {
         let out = self.config.output.clone();
         let stop = self.config.stop.clone();
         let limit = stop.step_limit.unwrap_or(u64::MAX);
-        ctx.reporter.stage("simulation", stop.step_limit);
+        // a bar drawn to the step limit only where nothing ends the run before it
+        ctx.reporter.stage("simulation", stop.certain_end());
         ctx.log(&format!(
             "{} {} grains ({}D), dt = {:.4e}, {} contacts at the start",
             sim.len(),

@@ -81,6 +81,38 @@ fn check_err(text: &str) -> grainwave_study::config::ConfigError {
     crate::REGISTRY.check(&ConfigSource::from_text("bad.toml", text)).expect_err("must be refused")
 }
 
+/// Records the stages a run announces, with their bar totals.
+#[derive(Default)]
+struct Stages(Vec<(String, Option<u64>)>);
+
+impl grainwave_study::protocol::Reporter for Stages {
+    fn stage(&mut self, name: &str, total_steps: Option<u64>) {
+        self.0.push((name.to_string(), total_steps));
+    }
+    fn progress(&mut self, _: &grainwave_study::Progress) {}
+    fn samples(&mut self, _: usize, _: usize) {}
+    fn message(&mut self, _: &str) {}
+}
+
+#[test]
+fn the_bar_has_a_total_only_where_the_step_limit_ends_the_run() {
+    let announced = |text: &str, name: &str| {
+        let out = out_dir(name);
+        let mut rep = Stages::default();
+        let mut ctx = RunContext::new(&out, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
+        crate::REGISTRY.run(&ConfigSource::from_text("small.toml", text), &mut ctx).unwrap();
+        drop(ctx);
+        let _ = std::fs::remove_dir_all(&out);
+        rep.0
+    };
+    // settling: the equilibrium criteria end it long before its step limit of 10⁶
+    assert_eq!(announced(SMALL, "bar-settle"), [("simulation".to_string(), None)]);
+    // a fixed number of steps: the bar runs to it
+    let fixed = SMALL.replace("kinetic_energy_per_grain = 1e-12\nmax_acceleration = 1e-7\n", "").replace("step_limit = 1_000_000", "step_limit = 300");
+    assert_ne!(fixed, SMALL);
+    assert_eq!(announced(&fixed, "bar-fixed"), [("simulation".to_string(), Some(300))]);
+}
+
 #[test]
 fn small_pile_settles_and_the_walls_carry_the_weight() {
     let out = out_dir("pile");

@@ -45,6 +45,18 @@ impl StopCriteria {
             || self.no_sliding
     }
 
+    /// The step at which the run certainly stops, where nothing can stop it earlier: the step
+    /// limit when no equilibrium criterion and no time limit is set, `None` otherwise. A
+    /// progress bar's total (a bar drawn to the step limit of a run that converges at 7 % of it
+    /// would show a meaningless ETA).
+    pub fn certain_end(&self) -> Option<u64> {
+        if self.has_equilibrium_criterion() || self.time_limit.is_some() {
+            None
+        } else {
+            self.step_limit
+        }
+    }
+
     /// Checks the values.
     pub fn validate(&self) -> Result<()> {
         if self.step_limit.is_none() && self.time_limit.is_none() {
@@ -287,5 +299,24 @@ impl<D: Dim> Simulation<D> {
                 self.dt, self.dt_fraction, overlap, suggested
             ));
         }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::StopCriteria;
+
+    #[test]
+    fn a_bar_total_only_where_nothing_ends_the_run_earlier() {
+        let steps = StopCriteria { step_limit: Some(5000), ..Default::default() };
+        assert_eq!(steps.certain_end(), Some(5000));
+        // an equilibrium criterion or a time limit can end the run before the step limit
+        let settle = StopCriteria { max_acceleration: Some(1e-7), ..steps.clone() };
+        assert_eq!(settle.certain_end(), None);
+        let sliding = StopCriteria { no_sliding: true, ..steps.clone() };
+        assert_eq!(sliding.certain_end(), None);
+        let timed = StopCriteria { time_limit: Some(2.0), ..steps };
+        assert_eq!(timed.certain_end(), None);
+        assert_eq!(StopCriteria { time_limit: Some(2.0), ..Default::default() }.certain_end(), None);
     }
 }
