@@ -31,6 +31,8 @@ use std::path::{Path, PathBuf};
 pub struct Series {
     names: Vec<String>,
     columns: Vec<Vec<f64>>,
+    /// Columns of whole counts (see [`Series::mark_counts`]).
+    counts: Vec<bool>,
 }
 
 /// The two files written by [`Series::write`].
@@ -40,6 +42,11 @@ pub struct SeriesFiles {
     pub npz: PathBuf,
     /// `<dir>/<stem>.csv`.
     pub csv: PathBuf,
+}
+
+/// A whole number in 0 … 2⁵³ (every such integer is exactly an `f64`).
+fn is_count(v: f64) -> bool {
+    v >= 0.0 && v <= 9_007_199_254_740_992.0 && v.fract() == 0.0
 }
 
 /// Checks that `stem` is a plain file name stem (no directories).
@@ -80,7 +87,35 @@ impl Series {
         }
         self.names.push(name);
         self.columns.push(values);
+        self.counts.push(false);
         Ok(())
+    }
+
+    /// Marks the columns `names` as counts (step numbers, numbers of contacts): written as
+    /// integers, `500` rather than `500.0`, in the CSV and as `int64` arrays in the archive, so
+    /// that readers get integers back. Refused, naming the column, the row and the value, where
+    /// a name is not a column or a value is not a whole number in 0 … 2⁵³ (the range where an
+    /// `f64` holds every integer exactly).
+    pub fn mark_counts(&mut self, names: &[&str]) -> Result<()> {
+        for name in names {
+            let k = self.names.iter().position(|n| n == name).ok_or_else(|| OutputError::Name {
+                name: name.to_string(),
+                reason: format!("not a column of this series (columns: {})", self.names.join(", ")),
+            })?;
+            if let Some((row, v)) = self.columns[k].iter().enumerate().find(|(_, v)| !is_count(**v)) {
+                return Err(OutputError::Name {
+                    name: name.to_string(),
+                    reason: format!("row {row} holds {v}, but a column of counts holds whole numbers in 0 … 2^53"),
+                });
+            }
+            self.counts[k] = true;
+        }
+        Ok(())
+    }
+
+    /// True when column `name` is a column of counts ([`Series::mark_counts`]).
+    pub fn is_counts(&self, name: &str) -> bool {
+        self.names.iter().position(|n| n == name).is_some_and(|k| self.counts[k])
     }
 
     /// Appends a whole column (its length must equal [`rows`](Series::rows) unless the series
@@ -93,6 +128,12 @@ impl Series {
     pub fn push_row(&mut self, row: &[f64]) -> Result<()> {
         if row.len() != self.names.len() {
             return Err(OutputError::Length { what: "row of a series".into(), expected: self.names.len(), len: row.len() });
+        }
+        if let Some(k) = (0..row.len()).find(|&k| self.counts[k] && !is_count(row[k])) {
+            return Err(OutputError::Name {
+                name: self.names[k].clone(),
+                reason: format!("{} is not a count (a whole number in 0 … 2^53), but the column holds counts", row[k]),
+            });
         }
         for (column, &value) in self.columns.iter_mut().zip(row) {
             column.push(value);
@@ -120,11 +161,12 @@ impl Series {
         self.names.iter().zip(&self.columns).map(|(n, c)| (n.as_str(), c.as_slice()))
     }
 
-    /// The series as an archive: one 1-D `float64` array per column.
+    /// The series as an archive: one 1-D array per column, `float64` (`int64` for counts).
     pub fn to_npz(&self) -> Npz {
         let mut npz = Npz::new();
-        for (name, column) in self.iter() {
-            npz.push(name, NpyArray::vector(column.to_vec())).expect("series names are valid, unique archive names");
+        for ((name, column), &counts) in self.iter().zip(&self.counts) {
+            let array = if counts { NpyArray::vector(column.iter().map(|&v| v as i64).collect::<Vec<i64>>()) } else { NpyArray::vector(column.to_vec()) };
+            npz.push(name, array).expect("series names are valid, unique archive names");
         }
         npz
     }
@@ -132,8 +174,13 @@ impl Series {
     /// The series as a CSV table (header line with the names).
     pub fn to_csv(&self) -> CsvTable {
         let mut t = CsvTable::new();
-        for (name, column) in self.iter() {
-            t.push_f64(name, column.iter().copied()).expect("series columns are unique and of equal length");
+        for ((name, column), &counts) in self.iter().zip(&self.counts) {
+            if counts {
+                t.push_u64(name, column.iter().map(|&v| v as u64))
+            } else {
+                t.push_f64(name, column.iter().copied())
+            }
+            .expect("series columns are unique and of equal length");
         }
         t
     }
@@ -161,6 +208,12 @@ impl Series {
                 });
             }
             s.add_column(name.to_string(), array.data().to_f64())?;
+            // an int64 column reads back as counts, as it was written
+            if let Some(ints) = array.as_slice::<i64>() {
+                if ints.iter().all(|&v| is_count(v as f64)) {
+                    *s.counts.last_mut().expect("the column just added") = true;
+                }
+            }
         }
         Ok(s)
     }
@@ -195,6 +248,32 @@ mod tests {
         assert_eq!(rows.len(), 6);
         assert_eq!(rows[3][1].parse::<f64>().unwrap(), s.column("E").unwrap()[2]);
         std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn counts_are_written_and_read_back_as_integers() {
+        let mut s = Series::from_columns([("step", vec![0.0, 500.0, 1000.0]), ("time", vec![0.0, 1.0, 2.0]), ("contacts", vec![0.0, 7.0, 12.0])]).unwrap();
+        s.mark_counts(&["step", "contacts"]).unwrap();
+        assert!(s.is_counts("step") && s.is_counts("contacts") && !s.is_counts("time"));
+        let dir = scratch_dir("series-counts");
+        let files = s.write(&dir, "series").unwrap();
+        let rows = parse_csv(&std::fs::read_to_string(&files.csv).unwrap());
+        assert_eq!(rows[2], ["500", "1.0", "7"].map(String::from), "counts without a point, floats with one");
+        let npz = Npz::read(&files.npz).unwrap();
+        assert_eq!(npz.get("step").unwrap().as_slice::<i64>(), Some(&[0i64, 500, 1000][..]));
+        assert!(npz.get("time").unwrap().as_slice::<f64>().is_some());
+        assert_eq!(Series::read_npz(&files.npz).unwrap(), s, "the archive reads back with its counts");
+        std::fs::remove_dir_all(&dir).unwrap();
+        // a value that is not a whole number ≥ 0, or a name that is not a column, is refused
+        let mut bad = Series::from_columns([("n", vec![1.0, 2.5])]).unwrap();
+        let err = bad.mark_counts(&["n"]).unwrap_err().to_string();
+        assert!(err.contains("row 1 holds 2.5"), "{err}");
+        assert!(bad.mark_counts(&["m"]).unwrap_err().to_string().contains("not a column"));
+        assert!(!bad.is_counts("n"));
+        let mut s = Series::new(["n"]).unwrap();
+        s.mark_counts(&["n"]).unwrap();
+        s.push_row(&[3.0]).unwrap();
+        assert!(s.push_row(&[-1.0]).is_err() && s.rows() == 1);
     }
 
     #[test]

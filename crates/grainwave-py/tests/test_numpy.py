@@ -147,8 +147,13 @@ def test_integer_columns_are_integers(tmp_path, settle):
     assert grains["id"].dtype == np.int64
     np.testing.assert_array_equal(grains["id"], np.arange(40))
     assert grains["x"].dtype == np.float64
-    # the time series writes every column as a float (`0.0`, `500.0`): float64 there
-    assert r.tables["series"]["step"].dtype == np.float64
+    # the time series writes its counts as integers (`500`), its measurements as floats, in the
+    # CSV and in the archive alike
+    for name in ("step", "contacts", "sliding"):
+        assert r.tables["series"][name].dtype == np.int64, name
+        assert r.arrays["series"][name].dtype == np.int64, name
+    assert r.tables["series"]["time"].dtype == np.float64 and r.arrays["series"]["time"].dtype == np.float64
+    np.testing.assert_array_equal(r.tables["series"]["step"], r.arrays["series"]["step"])
 
 
 def test_progress_of_step_and_run_until(settle):

@@ -231,7 +231,7 @@ pub const OUTPUTS: &[OutputFile] = &[
     OutputFile::always(
         "series.csv",
         Format::Csv,
-        "time series, one row per record (`output.series_every` steps): step, time, kinetic energy per grain, max acceleration, contacts, sliding, load_<wall> per wall [config units]",
+        "time series, one row per record (`output.series_every` steps): step, time, kinetic energy per grain, max acceleration, contacts, sliding, load_<wall> per wall [config units]; step, contacts and sliding as integers",
     ),
     OutputFile::always("series.npz", Format::Npz, "the same time series as NumPy arrays, one per column"),
     OutputFile::always("grains.csv", Format::Csv, "the final grains, one row per grain: id, position, velocity, angular velocity, radius, mass, force [config units]"),

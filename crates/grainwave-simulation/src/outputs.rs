@@ -115,7 +115,10 @@ pub fn write_snapshot_in<D: Dim>(dir: &Path, sim: &Simulation<D>) -> Result<[Pat
 pub fn write_final<D: Dim>(ctx: &mut RunContext<'_>, state: &SimulationState, sim: &Simulation<D>) -> Result<SimulationReport> {
     let mut files =
         vec!["config.resolved.toml".to_string(), "summary.json".into(), "series.npz".into(), "series.csv".into(), "grains.csv".into()];
-    let series = Series::from_columns(state.series.names.iter().cloned().zip(state.series.columns.iter().cloned()))?;
+    let mut series = Series::from_columns(state.series.names.iter().cloned().zip(state.series.columns.iter().cloned()))?;
+    // step numbers and numbers of contacts as integers (`500`, int64), not `500.0`
+    let counts: Vec<&str> = ["step", "contacts", "sliding"].into_iter().filter(|c| state.series.column(c).is_some()).collect();
+    series.mark_counts(&counts)?;
     series.write(ctx.out_dir(), "series")?;
     let snap = sim.snapshot();
     write_grains_csv(&ctx.path("grains.csv"), &snap)?;
