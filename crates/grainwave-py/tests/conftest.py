@@ -6,6 +6,7 @@ import os
 import shutil
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 ROOT = Path(__file__).resolve().parents[3]
@@ -60,3 +61,17 @@ def dir_files(d: Path):
         if p.is_file() and p.name not in ("run.log", ".grainwave.lock"):
             out[str(p.relative_to(d))] = p.read_bytes()
     return out
+
+
+def contact_force_sum(sim):
+    """The force on each grain of a 2D simulation under gravity (0, −1) summed from its contact
+    records (−F_n n̂ + F_t on i, the opposite on j) plus its weight, and the largest contact
+    force (the scale of a tolerance)."""
+    c = sim.contacts()
+    f_i = c["tangential_force"] - c["normal_force"][:, None] * c["normal"]
+    total = np.zeros((len(sim), 2))
+    np.add.at(total, c["i"], f_i)
+    pairs = c["j"] >= 0
+    np.add.at(total, c["j"][pairs], -f_i[pairs])
+    total[:, 1] -= sim.masses
+    return total, np.abs(f_i).max()

@@ -10,6 +10,7 @@ import numpy as np
 import pytest
 
 import grainwave
+from conftest import contact_force_sum
 
 
 def test_per_grain_arrays_refuse_assignment(settle):
@@ -63,22 +64,12 @@ def test_forces_are_those_of_the_half_step_velocities_under_damping(settle):
     sim.step(4000)  # grains landed and still moving: the dashpots act
     assert sim.contacts()["i"].size > 0
 
-    def record_sum():
-        c = sim.contacts()
-        f_i = c["tangential_force"] - c["normal_force"][:, None] * c["normal"]
-        total = np.zeros((len(sim), 2))
-        np.add.at(total, c["i"], f_i)
-        pairs = c["j"] >= 0
-        np.add.at(total, c["j"][pairs], -f_i[pairs])
-        total[:, 1] -= sim.masses
-        return total, np.abs(f_i).max()
-
-    total, scale = record_sum()
+    total, scale = contact_force_sum(sim)
     assert np.abs(sim.forces - total).max() > 1e-6 * scale
     assert "half-step velocities" in grainwave.Simulation.forces.__doc__
     sim.set_velocities(sim.velocities)
     sim.set_angular_velocities(sim.angular_velocities)
-    total, scale = record_sum()
+    total, scale = contact_force_sum(sim)
     np.testing.assert_allclose(sim.forces, total, rtol=0, atol=1e-9 * scale)
 
 

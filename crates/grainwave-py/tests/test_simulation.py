@@ -10,6 +10,7 @@ import pytest
 
 import grainwave
 from grainwave import _config
+from conftest import contact_force_sum
 
 
 def test_arrays_have_the_shapes_and_values_of_the_grains(settle):
@@ -69,13 +70,7 @@ def test_contact_records_balance_the_forces(settle):
     np.testing.assert_allclose(np.linalg.norm(c["normal"], axis=1), 1.0, rtol=1e-12)
     # Newton's third law and the records: the force on each grain is the sum over its contacts
     # (−F_n n̂ + F_t on i, the opposite on j) plus its weight
-    f_i = c["tangential_force"] - c["normal_force"][:, None] * c["normal"]
-    total = np.zeros((len(sim), 2))
-    np.add.at(total, c["i"], f_i)
-    pairs = c["j"] >= 0
-    np.add.at(total, c["j"][pairs], -f_i[pairs])
-    total[:, 1] -= sim.masses
-    scale = np.abs(f_i).max()
+    total, scale = contact_force_sum(sim)
     np.testing.assert_allclose(sim.forces, total, rtol=0, atol=1e-9 * scale)
 
 

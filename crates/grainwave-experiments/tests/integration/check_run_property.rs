@@ -24,8 +24,8 @@ use grainwave_experiments::registry;
 use grainwave_experiments::ExperimentError;
 use grainwave_experiments::config::reference;
 use std::path::{Path, PathBuf};
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::{mpsc, Arc};
+use std::sync::mpsc;
+use super::watchdog::Watchdog;
 use std::time::{Duration, Instant};
 use toml::Value;
 
@@ -330,16 +330,8 @@ fn run_case(case: &Case, dir: &Path, counts: &mut Counts) {
         Ok(Ok(())) => {}
     }
     let _ = std::fs::remove_dir_all(dir);
-    let flag = Arc::new(AtomicBool::new(false));
-    let (done, wait) = mpsc::channel::<()>();
-    let watchdog = {
-        let flag = flag.clone();
-        std::thread::spawn(move || {
-            if wait.recv_timeout(BUDGET) == Err(mpsc::RecvTimeoutError::Timeout) {
-                flag.store(true, Ordering::SeqCst);
-            }
-        })
-    };
+    let watchdog = Watchdog::start(BUDGET);
+    let flag = watchdog.flag();
     // the run in a thread of its own, so that one that does not stop after the interrupt is
     // reported (and the cases stop) instead of holding the test for ever
     let (finished, outcome) = mpsc::channel();
@@ -359,8 +351,7 @@ fn run_case(case: &Case, dir: &Path, counts: &mut Counts) {
         counts.stuck = true;
         return;
     };
-    drop(done);
-    watchdog.join().unwrap();
+    drop(watchdog);
     let _ = std::fs::remove_dir_all(dir);
     match result {
         Err(_) => counts.mismatches.push(format!("{label}: run panicked")),

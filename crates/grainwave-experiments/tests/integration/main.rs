@@ -13,3 +13,4 @@ mod reference;
 mod run_dir_files;
 mod run_property;
 mod validation_page;
+mod watchdog;

@@ -22,8 +22,8 @@ use grainwave_experiments::registry;
 use proptest::prelude::*;
 use proptest::test_runner::{Config, RngSeed, TestCaseError, TestRunner};
 use std::path::Path;
-use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
-use std::sync::{mpsc, Arc};
+use std::sync::atomic::{AtomicUsize, Ordering};
+use super::watchdog::Watchdog;
 use std::time::Duration;
 
 /// Wall-clock budget of one run: a few times what an unedited run of this config takes
@@ -123,20 +123,10 @@ fn check_and_run(text: &str, dir: &Path) -> Result<End, TestCaseError> {
         return Ok(End::Rejected);
     }
     let _ = std::fs::remove_dir_all(dir);
-    let flag = Arc::new(AtomicBool::new(false));
-    let (done, wait) = mpsc::channel::<()>();
-    let watchdog = {
-        let flag = flag.clone();
-        std::thread::spawn(move || {
-            if wait.recv_timeout(BUDGET) == Err(mpsc::RecvTimeoutError::Timeout) {
-                flag.store(true, Ordering::SeqCst);
-            }
-        })
-    };
+    let watchdog = Watchdog::start(BUDGET);
     let mut rep = SilentReporter;
-    let result = RunContext::new(dir, &mut rep, flag).and_then(|mut ctx| registry::run(&src, &mut ctx));
-    drop(done);
-    watchdog.join().unwrap();
+    let result = RunContext::new(dir, &mut rep, watchdog.flag()).and_then(|mut ctx| registry::run(&src, &mut ctx));
+    drop(watchdog);
     let _ = std::fs::remove_dir_all(dir);
     Ok(match result {
         Ok(_) => End::Ran,
