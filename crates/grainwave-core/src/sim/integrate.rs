@@ -72,7 +72,7 @@ impl<D: Dim> Simulation<D> {
             let track = reference.len() == g.pos.len();
             // In 3D, the close list's reference too (the force pass's own check, done here in
             // the same sweep). 2D keeps the pass with one reference: the second one cost its
-            // two-worker runs 9–15 % (BENCHMARKS.md), and 2D keeps no close list.
+            // two-worker runs 9–15 % (docs/bench-history.md), and 2D keeps no close list.
             let close = &work.cross.close_ref;
             let track_close = D::D == 3 && work.cross.close_ok && close.len() == g.pos.len();
             let chunks = g

@@ -10,7 +10,7 @@
 //! grains are one block: the plain bin order.
 //! Measured on the 32 000-sphere benchmark tiled 4 × 4 × 2 (1 024 000 spheres, `hooke3d`, one
 //! worker, 300 steps, Zen 4): plain bin order 4.28e6 particle-steps/s against 5.59e6 for the
-//! tiles' own order (each a binned 32 000-sphere box), one pair; blocks 5.1–5.5e6 (`BENCHMARKS.md`,
+//! tiles' own order (each a binned 32 000-sphere box), one pair; blocks 5.1–5.5e6 (`docs/bench-history.md`,
 //! "A million spheres").
 //!
 //! Measured on the 32 000-sphere benchmark (user CPU, 500 steps): bin order as written by LAMMPS

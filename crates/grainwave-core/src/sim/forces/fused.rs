@@ -16,7 +16,7 @@
 //! [`Wide16`], sixteen lanes as two 512-bit vectors (AVX-512 F and VL; level 3, the default
 //! where the processor has it). Two vectors side by side let the long square-root and division
 //! chains of two groups overlap (one 512-bit vector of eight lanes was 5–16 % slower, three or
-//! four spilled registers and were 10–20 % slower, `BENCHMARKS.md`). On 512-bit lanes the 3D
+//! four spilled registers and were 10–20 % slower, `docs/bench-history.md`). On 512-bit lanes the 3D
 //! results go back as rows (x, y, z) with two-element and one-element vector loads and stores,
 //! the owner's sums kept in registers over its lanes of a group. The passes are written once,
 //! generic over the lane type, with one wrapper per lane type compiled for its extensions.
