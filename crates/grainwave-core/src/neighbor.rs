@@ -11,7 +11,7 @@
 //! The list is rebuilt when a grain has moved more than half the skin since the last build (or a
 //! wall has moved so that a new grain–wall contact could have formed).
 
-use crate::contact::{ContactState, TangentialHistory};
+use crate::contact::{ContactState, HistoryColumn, TangentialHistory};
 use crate::dim::{Dim, VectorOps};
 use crate::domain::{Domain, PeriodicImage};
 use rayon::prelude::*;
@@ -59,6 +59,10 @@ pub struct PairList<D: Dim> {
     pub(crate) rolling: Vec<<D as Dim>::AngVector>,
     /// Twisting spring.
     pub(crate) twist: Vec<f64>,
+    /// The law's own history of each pair ([`crate::contact::LawHistory`]; empty for laws
+    /// without one), carried across rebuilds with the other histories.
+    #[serde(default)]
+    pub(crate) extra: HistoryColumn,
 }
 
 impl<D: Dim> PairList<D> {
@@ -194,12 +198,19 @@ impl<D: Dim> NeighborList<D> {
             let mut sliding = split_parts(&mut list.sliding, &parts).into_iter();
             let mut rolling = split_parts(&mut list.rolling, &parts).into_iter();
             let mut twist = split_parts(&mut list.twist, &parts).into_iter();
+            // where each new pair's law history comes from (only when the law has one)
+            let mut from = if old.extra.is_stored() { vec![(u32::MAX, false); list.partner.len()] } else { Vec::new() };
+            let mut from_parts = if old.extra.is_stored() { split_parts(&mut from, &parts) } else { Vec::new() }.into_iter();
             let jobs: Vec<_> = parts
                 .iter()
-                .map(|(g, p)| (g.clone(), p.start, spring.next().unwrap(), overlap.next().unwrap(), sliding.next().unwrap(), rolling.next().unwrap(), twist.next().unwrap()))
+                .map(|(g, p)| {
+                    let f = from_parts.next().unwrap_or_default();
+                    (g.clone(), p.start, spring.next().unwrap(), overlap.next().unwrap(), sliding.next().unwrap(), rolling.next().unwrap(), twist.next().unwrap(), f)
+                })
                 .collect();
+            drop(from_parts);
             let (new_start, new_partner) = (&list.owner_start, &list.partner);
-            jobs.into_par_iter().for_each(|(grains, first, spring, overlap, sliding, rolling, twist)| {
+            jobs.into_par_iter().for_each(|(grains, first, spring, overlap, sliding, rolling, twist, from)| {
                 for i in grains {
                     let (mut o, o_end) = (old.owner_start[i] as usize, old.owner_start[i + 1] as usize);
                     for p in new_start[i] as usize..new_start[i + 1] as usize {
@@ -214,23 +225,29 @@ impl<D: Dim> NeighborList<D> {
                             sliding[q] = old.sliding[o];
                             rolling[q] = old.rolling[o];
                             twist[q] = old.twist[o];
+                            if let Some(f) = from.get_mut(q) {
+                                *f = (o as u32, false);
+                            }
                         }
                     }
                 }
             });
+            list.extra = old.extra.remap(&from);
         } else {
             // Grains added, removed or reordered: match contacts by stable id pair (smaller id
             // first), with the orientation they were stored in (histories act on the grain of
             // smaller storage index).
             let ref_ids = &self.ref_ids;
-            let mut carried: Vec<(u64, bool, ContactState<D>)> = old
+            let mut carried: Vec<(u64, bool, ContactState<D>, u32)> = old
                 .iter()
-                .filter(|p| p.state.in_contact() && (p.i as usize) < ref_ids.len() && (p.j as usize) < ref_ids.len())
-                .map(|p| {
+                .enumerate()
+                .filter(|(_, p)| p.state.in_contact() && (p.i as usize) < ref_ids.len() && (p.j as usize) < ref_ids.len())
+                .map(|(k, p)| {
                     let (a, b) = (ref_ids[p.i as usize], ref_ids[p.j as usize]);
-                    (id_key(a, b), a < b, p.state)
+                    (id_key(a, b), a < b, p.state, k as u32)
                 })
                 .collect();
+            let mut from = if old.extra.is_stored() { vec![(u32::MAX, false); list.partner.len()] } else { Vec::new() };
             carried.sort_unstable_by_key(|e| e.0);
             if !carried.is_empty() {
                 for i in 0..n {
@@ -238,7 +255,10 @@ impl<D: Dim> NeighborList<D> {
                     for p in list.owner_start[i] as usize..list.owner_start[i + 1] as usize {
                         let b = ids[list.partner[p] as usize];
                         if let Ok(e) = carried.binary_search_by_key(&id_key(a, b), |e| e.0) {
-                            let (_, stored_ascending, mut s) = carried[e];
+                            let (_, stored_ascending, mut s, o) = carried[e];
+                            if let Some(f) = from.get_mut(p) {
+                                *f = (o, stored_ascending != (a < b));
+                            }
                             if stored_ascending != (a < b) {
                                 // the storage order of the two grains changed: histories act on the other one
                                 s.spring = -s.spring;
@@ -253,6 +273,7 @@ impl<D: Dim> NeighborList<D> {
                     }
                 }
             }
+            list.extra = old.extra.remap(&from);
         }
         let ref_ids = if self.ref_ids.is_empty() { ids } else { &self.ref_ids };
         let mut old_wall: Vec<((u32, u32), ContactState<D>)> = self

@@ -52,6 +52,16 @@ pub enum NormalTable {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         poisson: Option<f64>,
     },
+    /// Hysteretic linear law (Walton–Braun): loading along k₁ past the contact's largest
+    /// overlap so far ξ_max, unloading and reloading along k₂ ≥ k₁ from (ξ_max, k₁ ξ_max); a
+    /// binary collision's restitution is √(k₁/k₂). The Hooke composition otherwise (tangential
+    /// stiffness ratio × k₁); see docs/engine.md.
+    Hysteretic {
+        /// k₁ [force/length].
+        loading_stiffness: f64,
+        /// k₂ ≥ k₁ [force/length].
+        unloading_stiffness: f64,
+    },
 }
 
 /// The normal damping law and the tangential damping that goes with it (`[contact.damping]`).
@@ -207,6 +217,12 @@ impl ContactParams {
                 p.normal_stiffness = Some(*stiffness);
                 renames.push(("normal_stiffness", key("normal.stiffness")));
             }
+            // the Hooke composition with k_n = k₁; `ContactParams::build` puts the law in
+            NormalTable::Hysteretic { loading_stiffness, .. } => {
+                p.preset = "hooke_cundall_strack".into();
+                p.normal_stiffness = Some(*loading_stiffness);
+                renames.push(("normal_stiffness", key("normal.loading_stiffness")));
+            }
             NormalTable::Hertz { young, poisson } => {
                 p.preset = "hertz_mindlin".into();
                 p.young = Some(*young);
@@ -215,7 +231,7 @@ impl ContactParams {
                 renames.push(("poisson", key("normal.poisson")));
             }
         }
-        let hooke = matches!(normal, NormalTable::Hooke { .. });
+        let hooke = matches!(normal, NormalTable::Hooke { .. } | NormalTable::Hysteretic { .. });
         if let Some(d) = &self.damping {
             given(
                 &[

@@ -133,7 +133,11 @@ impl ContactParams {
             // the family form: read into the keys of the composition it names, reported under
             // the families' key names
             let (flat, renames) = self.lower_families(field)?;
-            return flat.build(partner, field).map_err(|e| super::families::rename_keys(e, field, &renames));
+            let mut law = flat.build(partner, field).map_err(|e| super::families::rename_keys(e, field, &renames))?;
+            if let Some(NormalTable::Hysteretic { loading_stiffness, unloading_stiffness }) = self.normal {
+                super::HystereticNormal { loading_stiffness, unloading_stiffness }.apply(&mut law, self.damping.as_ref(), field)?;
+            }
+            return Ok(law);
         }
         let key = |k: &str| format!("{field}.{k}");
         let friction = self.friction.unwrap_or(DEFAULT_FRICTION);
