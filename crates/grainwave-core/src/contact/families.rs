@@ -208,7 +208,7 @@ impl ContactParams {
         }
         // normal: names the composition
         let normal = self.normal.as_ref().ok_or_else(|| {
-            CoreError::invalid(key("normal"), "(missing)", "a table `[contact.normal]` with `law = \"hooke\"` or `law = \"hertz\"`, required with family tables")
+            CoreError::invalid(key("normal"), "(missing)", "a table `[contact.normal]` with `law = \"hooke\"`, `\"hertz\"` or `\"hysteretic\"`, required with family tables")
         })?;
         given(&[("normal_stiffness", self.normal_stiffness.is_some()), ("young", self.young.is_some()), ("poisson", self.poisson.is_some())], "normal")?;
         match normal {

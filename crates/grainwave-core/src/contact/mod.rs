@@ -39,7 +39,7 @@ pub use kinematics::{pair_kinematics, wall_kinematics, Kinematics};
 pub use normal::{NormalElastic, NormalResponse};
 pub use families::{DampingTable, NormalTable, ResistanceTable, TangentialTable};
 pub use history::{HistoryColumn, LawHistory};
-pub(crate) use history::decoding_without_columns;
+pub(crate) use history::{decoding_without_columns, zero_sized_slice};
 pub use hysteretic::{Hysteretic, HystereticNormal, MaxOverlap};
 pub use params::{ContactParams, Partner, PRESETS};
 pub use parts::{HertzMindlin, HookeCundallStrack, HookeSlipActivation, LawParts, Specialized, WithRolling};

@@ -88,9 +88,9 @@ pub struct ContactParams {
     pub twisting_damping: Option<f64>,
     /// Twisting friction μ_tw, default ∞ (no cap).
     pub twisting_friction: Option<f64>,
-    /// The normal law as a family table, `[contact.normal]` (`law = "hooke"` or `"hertz"`): the
-    /// family form of the law, in place of `preset` and the flat keys (docs/engine.md, "The
-    /// contact law by family"); required when any family table is given.
+    /// The normal law as a family table, `[contact.normal]` (`law = "hooke"`, `"hertz"` or
+    /// `"hysteretic"`): the family form of the law, in place of `preset` and the flat keys
+    /// (docs/engine.md, "The contact law by family"); required when any family table is given.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub normal: Option<NormalTable>,
     /// The damping as a family table, `[contact.damping]` (`law = "none"`, `"restitution"`,

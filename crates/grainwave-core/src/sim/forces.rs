@@ -1225,8 +1225,8 @@ impl<'a, D: Dim> History<'a, D> {
         rolling: &'a mut [D::AngVector],
         twist: &'a mut [f64],
     ) -> Self {
-        // (a slice of zero-sized values: no memory)
-        let extra = Vec::leak(vec![(); overlap.len()]);
+        // (a slice of zero-sized values: no memory, no loop)
+        let extra = crate::contact::zero_sized_slice(overlap.len());
         History { base: 0, spring, overlap, sliding, rolling, twist, extra }
     }
 }
