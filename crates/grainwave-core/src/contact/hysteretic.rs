@@ -285,6 +285,19 @@ mod tests {
         let mut d = pair::<D3>(law, 10.0 * 0.1 * dt, 0.1, dt);
         two.install(|| run(&mut d, 430, true));
         assert_eq!(bits(&a), bits(&d));
+        // grains stored right one first, re-sorted mid-contact: the rebuild that matches
+        // contacts by id pair (the two grains swapped storage order) carries ξ_max too
+        let mut e = pair::<D3>(law, 10.0 * 0.1 * dt, 0.1, dt);
+        e.grains.pos.swap(0, 1);
+        e.grains.vel.swap(0, 1);
+        e.nlist.stale = true;
+        run(&mut e, 130, false);
+        let first = e.grains.id[0];
+        e.sort_spatially();
+        assert_ne!(e.grains.id[0], first);
+        run(&mut e, 300, false);
+        let speed = (e.grains.vel[e.grains.index_of(0).unwrap()].x - e.grains.vel[e.grains.index_of(1).unwrap()].x) / 0.1;
+        assert!((speed - 0.5).abs() < 0.005, "{speed}");
     }
 
     /// Bad stiffnesses and the restitution dashpots are refused naming the key, the value and
