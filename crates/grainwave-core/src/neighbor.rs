@@ -198,19 +198,12 @@ impl<D: Dim> NeighborList<D> {
             let mut sliding = split_parts(&mut list.sliding, &parts).into_iter();
             let mut rolling = split_parts(&mut list.rolling, &parts).into_iter();
             let mut twist = split_parts(&mut list.twist, &parts).into_iter();
-            // where each new pair's law history comes from (only when the law has one)
-            let mut from = if old.extra.is_stored() { vec![(u32::MAX, false); list.partner.len()] } else { Vec::new() };
-            let mut from_parts = if old.extra.is_stored() { split_parts(&mut from, &parts) } else { Vec::new() }.into_iter();
             let jobs: Vec<_> = parts
                 .iter()
-                .map(|(g, p)| {
-                    let f = from_parts.next().unwrap_or_default();
-                    (g.clone(), p.start, spring.next().unwrap(), overlap.next().unwrap(), sliding.next().unwrap(), rolling.next().unwrap(), twist.next().unwrap(), f)
-                })
+                .map(|(g, p)| (g.clone(), p.start, spring.next().unwrap(), overlap.next().unwrap(), sliding.next().unwrap(), rolling.next().unwrap(), twist.next().unwrap()))
                 .collect();
-            drop(from_parts);
             let (new_start, new_partner) = (&list.owner_start, &list.partner);
-            jobs.into_par_iter().for_each(|(grains, first, spring, overlap, sliding, rolling, twist, from)| {
+            jobs.into_par_iter().for_each(|(grains, first, spring, overlap, sliding, rolling, twist)| {
                 for i in grains {
                     let (mut o, o_end) = (old.owner_start[i] as usize, old.owner_start[i + 1] as usize);
                     for p in new_start[i] as usize..new_start[i + 1] as usize {
@@ -225,14 +218,28 @@ impl<D: Dim> NeighborList<D> {
                             sliding[q] = old.sliding[o];
                             rolling[q] = old.rolling[o];
                             twist[q] = old.twist[o];
-                            if let Some(f) = from.get_mut(q) {
-                                *f = (o as u32, false);
-                            }
                         }
                     }
                 }
             });
-            list.extra = old.extra.remap(&from);
+            if old.extra.is_stored() {
+                // the law's own history: where each new pair's entry comes from, by the same
+                // merge (a pass of its own, so that the merge above is that of the laws without)
+                let mut from = vec![(u32::MAX, false); list.partner.len()];
+                for i in 0..m {
+                    let (mut o, o_end) = (old.owner_start[i] as usize, old.owner_start[i + 1] as usize);
+                    for p in list.owner_start[i] as usize..list.owner_start[i + 1] as usize {
+                        let j = list.partner[p];
+                        while o < o_end && old.partner[o] < j {
+                            o += 1;
+                        }
+                        if o < o_end && old.partner[o] == j {
+                            from[p] = (o as u32, false);
+                        }
+                    }
+                }
+                list.extra = old.extra.remap(&from);
+            }
         } else {
             // Grains added, removed or reordered: match contacts by stable id pair (smaller id
             // first), with the orientation they were stored in (histories act on the grain of
