@@ -15,7 +15,8 @@
 //! `unloading_stiffness` k₂ (the Hooke composition otherwise: tangential spring ratio × k₁,
 //! any damping except the `restitution` and `tsuji` dashpots, which are defined for the
 //! reversible laws). Runs on the general kernel (`Specialized::Hysteretic`); grain–wall contacts
-//! keep no law history yet, so walls need another normal law (`[contact.wall]`).
+//! keep no law history yet, so walls need another normal law (`[wall_contact.normal]` or the
+//! wall's `contact.normal`).
 
 use super::{ContactLaw, DampingTable, LawHistory, LawParts, NormalDamping, NormalElastic, NormalResponse, Rolling, Tangential, TangentialDamping, Twisting};
 use crate::error::{require_positive, CoreError, Result};

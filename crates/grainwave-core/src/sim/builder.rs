@@ -180,7 +180,7 @@ impl<D: Dim> SimulationBuilder<D> {
             return Err(CoreError::invalid(
                 format!("walls.{}.contact.normal.law", wall.name),
                 "\"hysteretic\"",
-                "a normal law without per-contact history for wall contacts (\"hooke\" or \"hertz\", e.g. in `[contact.wall]`): grain–wall contacts do not store the hysteretic law's history yet",
+                "a normal law without per-contact history for wall contacts (\"hooke\" or \"hertz\", e.g. `[wall_contact.normal]` or the wall's `contact.normal` table): grain–wall contacts do not store the hysteretic law's history yet",
             ));
         }
         for (k, load) in self.loads.iter().enumerate() {
