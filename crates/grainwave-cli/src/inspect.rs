@@ -69,7 +69,8 @@ fn describe_checkpoint(path: &Path, bytes: &[u8]) -> Result<Vec<String>> {
     let mut v = vec![format!(
         "{}: grainwave checkpoint (format {}, {} bytes, checksum ok), holds `{tag}`",
         path.file_name().map(|n| n.to_string_lossy().into_owned()).unwrap_or_default(),
-        grainwave_experiments::engine::FORMAT_VERSION,
+        // the file's own version (verified: 16 bytes or more), not the newest this program writes
+        u32::from_le_bytes(bytes[8..12].try_into().unwrap()),
         body.len()
     )];
     match tag.as_str() {

@@ -11,7 +11,7 @@
 //! The list is rebuilt when a grain has moved more than half the skin since the last build (or a
 //! wall has moved so that a new grain–wall contact could have formed).
 
-use crate::contact::{ContactState, TangentialHistory};
+use crate::contact::{ContactState, HistoryColumn, TangentialHistory};
 use crate::dim::{Dim, VectorOps};
 use crate::domain::{Domain, PeriodicImage};
 use rayon::prelude::*;
@@ -59,6 +59,10 @@ pub struct PairList<D: Dim> {
     pub(crate) rolling: Vec<<D as Dim>::AngVector>,
     /// Twisting spring.
     pub(crate) twist: Vec<f64>,
+    /// The law's own history of each pair ([`crate::contact::LawHistory`]; empty for laws
+    /// without one), carried across rebuilds with the other histories.
+    #[serde(default)]
+    pub(crate) extra: HistoryColumn,
 }
 
 impl<D: Dim> PairList<D> {
@@ -218,19 +222,39 @@ impl<D: Dim> NeighborList<D> {
                     }
                 }
             });
+            if old.extra.is_stored() {
+                // the law's own history: where each new pair's entry comes from, by the same
+                // merge (a pass of its own, so that the merge above is that of the laws without)
+                let mut from = vec![(u32::MAX, false); list.partner.len()];
+                for i in 0..m {
+                    let (mut o, o_end) = (old.owner_start[i] as usize, old.owner_start[i + 1] as usize);
+                    for p in list.owner_start[i] as usize..list.owner_start[i + 1] as usize {
+                        let j = list.partner[p];
+                        while o < o_end && old.partner[o] < j {
+                            o += 1;
+                        }
+                        if o < o_end && old.partner[o] == j {
+                            from[p] = (o as u32, false);
+                        }
+                    }
+                }
+                list.extra = old.extra.remap(&from);
+            }
         } else {
             // Grains added, removed or reordered: match contacts by stable id pair (smaller id
             // first), with the orientation they were stored in (histories act on the grain of
             // smaller storage index).
             let ref_ids = &self.ref_ids;
-            let mut carried: Vec<(u64, bool, ContactState<D>)> = old
+            let mut carried: Vec<(u64, bool, ContactState<D>, u32)> = old
                 .iter()
-                .filter(|p| p.state.in_contact() && (p.i as usize) < ref_ids.len() && (p.j as usize) < ref_ids.len())
-                .map(|p| {
+                .enumerate()
+                .filter(|(_, p)| p.state.in_contact() && (p.i as usize) < ref_ids.len() && (p.j as usize) < ref_ids.len())
+                .map(|(k, p)| {
                     let (a, b) = (ref_ids[p.i as usize], ref_ids[p.j as usize]);
-                    (id_key(a, b), a < b, p.state)
+                    (id_key(a, b), a < b, p.state, k as u32)
                 })
                 .collect();
+            let mut from = if old.extra.is_stored() { vec![(u32::MAX, false); list.partner.len()] } else { Vec::new() };
             carried.sort_unstable_by_key(|e| e.0);
             if !carried.is_empty() {
                 for i in 0..n {
@@ -238,7 +262,10 @@ impl<D: Dim> NeighborList<D> {
                     for p in list.owner_start[i] as usize..list.owner_start[i + 1] as usize {
                         let b = ids[list.partner[p] as usize];
                         if let Ok(e) = carried.binary_search_by_key(&id_key(a, b), |e| e.0) {
-                            let (_, stored_ascending, mut s) = carried[e];
+                            let (_, stored_ascending, mut s, o) = carried[e];
+                            if let Some(f) = from.get_mut(p) {
+                                *f = (o, stored_ascending != (a < b));
+                            }
                             if stored_ascending != (a < b) {
                                 // the storage order of the two grains changed: histories act on the other one
                                 s.spring = -s.spring;
@@ -253,6 +280,7 @@ impl<D: Dim> NeighborList<D> {
                     }
                 }
             }
+            list.extra = old.extra.remap(&from);
         }
         let ref_ids = if self.ref_ids.is_empty() { ids } else { &self.ref_ids };
         let mut old_wall: Vec<((u32, u32), ContactState<D>)> = self

@@ -12,8 +12,9 @@ use crate::dim::VectorOps;
 use std::ops::{Add, Div, Mul, Neg, Sub};
 
 /// Floating-point lanes: `f64` or a vector of f64 whose every operation is the `f64` one lane by
-/// lane (see the module documentation).
-pub(crate) trait Real: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> + Neg<Output = Self> {
+/// lane (see the module documentation). Nominally `pub` (the module is not) because the
+/// lane-generic hooks of the public `LawParts` and `LawHistory` name it in their bounds.
+pub trait Real: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> + Neg<Output = Self> {
     /// Per-lane truth value.
     type Mask: Copy;
     /// Every lane `x`.

@@ -52,6 +52,16 @@ pub enum NormalTable {
         #[serde(default, skip_serializing_if = "Option::is_none")]
         poisson: Option<f64>,
     },
+    /// Hysteretic linear law (Walton–Braun): loading along k₁ past the contact's largest
+    /// overlap so far ξ_max, unloading and reloading along k₂ ≥ k₁ from (ξ_max, k₁ ξ_max); a
+    /// binary collision's restitution is √(k₁/k₂). The Hooke composition otherwise (tangential
+    /// stiffness ratio × k₁); see docs/engine.md.
+    Hysteretic {
+        /// k₁ [force/length].
+        loading_stiffness: f64,
+        /// k₂ ≥ k₁ [force/length].
+        unloading_stiffness: f64,
+    },
 }
 
 /// The normal damping law and the tangential damping that goes with it (`[contact.damping]`).
@@ -198,7 +208,7 @@ impl ContactParams {
         }
         // normal: names the composition
         let normal = self.normal.as_ref().ok_or_else(|| {
-            CoreError::invalid(key("normal"), "(missing)", "a table `[contact.normal]` with `law = \"hooke\"` or `law = \"hertz\"`, required with family tables")
+            CoreError::invalid(key("normal"), "(missing)", "a table `[contact.normal]` with `law = \"hooke\"`, `\"hertz\"` or `\"hysteretic\"`, required with family tables")
         })?;
         given(&[("normal_stiffness", self.normal_stiffness.is_some()), ("young", self.young.is_some()), ("poisson", self.poisson.is_some())], "normal")?;
         match normal {
@@ -206,6 +216,12 @@ impl ContactParams {
                 p.preset = "hooke_cundall_strack".into();
                 p.normal_stiffness = Some(*stiffness);
                 renames.push(("normal_stiffness", key("normal.stiffness")));
+            }
+            // the Hooke composition with k_n = k₁; `ContactParams::build` puts the law in
+            NormalTable::Hysteretic { loading_stiffness, .. } => {
+                p.preset = "hooke_cundall_strack".into();
+                p.normal_stiffness = Some(*loading_stiffness);
+                renames.push(("normal_stiffness", key("normal.loading_stiffness")));
             }
             NormalTable::Hertz { young, poisson } => {
                 p.preset = "hertz_mindlin".into();
@@ -215,7 +231,7 @@ impl ContactParams {
                 renames.push(("poisson", key("normal.poisson")));
             }
         }
-        let hooke = matches!(normal, NormalTable::Hooke { .. });
+        let hooke = matches!(normal, NormalTable::Hooke { .. } | NormalTable::Hysteretic { .. });
         if let Some(d) = &self.damping {
             given(
                 &[

@@ -20,6 +20,8 @@
 mod coulomb;
 mod damping;
 mod families;
+mod history;
+mod hysteretic;
 mod kinematics;
 mod normal;
 mod params;
@@ -36,6 +38,9 @@ pub use damping::{
 pub use kinematics::{pair_kinematics, wall_kinematics, Kinematics};
 pub use normal::{NormalElastic, NormalResponse};
 pub use families::{DampingTable, NormalTable, ResistanceTable, TangentialTable};
+pub use history::{HistoryColumn, LawHistory};
+pub(crate) use history::{decoding_without_columns, zero_sized_slice};
+pub use hysteretic::{Hysteretic, HystereticNormal, MaxOverlap};
 pub use params::{ContactParams, Partner, PRESETS};
 pub use parts::{HertzMindlin, HookeCundallStrack, HookeSlipActivation, LawParts, Specialized, WithRolling};
 pub use rolling::{Rolling, Twisting};
@@ -172,12 +177,19 @@ pub(crate) struct LawOut<R: Real> {
 ///
 /// `damp` gives γ_n and γ_t (the law's own damping parts, or the same formulas resolved at
 /// compile time for the presets). Every `match` on a part folds away for a law whose parts are
-/// constants of its type ([`LawParts`]).
+/// constants of its type ([`LawParts`]). `extra` is the law's own history ([`LawParts::Extra`],
+/// `()` for the laws without), read and updated by its normal part.
 #[inline(always)]
-pub(crate) fn law_lanes<R: Real, const DIM: usize, const ROT: usize, P: LawParts, Q: Dampers>(law: &P, damp: Q, x: &LawIn<R>, dt: f64) -> LawOut<R> {
+pub(crate) fn law_lanes<R: Real, const DIM: usize, const ROT: usize, P: LawParts, Q: Dampers>(
+    law: &P,
+    damp: Q,
+    x: &LawIn<R>,
+    extra: &mut <P::Extra as LawHistory>::Lanes<R>,
+    dt: f64,
+) -> LawOut<R> {
     let zero = R::splat(0.0);
     let n = x.normal;
-    let NormalResponse { force: f_el, stiffness: k_n, secant } = law.normal().response_lanes(x.overlap, x.r_eff);
+    let NormalResponse { force: f_el, stiffness: k_n, secant } = law.normal_response(x.overlap, x.r_eff, extra);
     let gamma_n = damp.normal(x.m_eff, k_n, secant);
     let f_n = clamped_normal_force_lanes(f_el, gamma_n, x.v_n);
     let tangential = law.tangential();
@@ -234,10 +246,11 @@ pub(crate) fn law_lanes<R: Real, const DIM: usize, const ROT: usize, P: LawParts
 }
 
 /// Evaluates a contact law given by its parts (see [`LawParts`]) on one contact: [`law_lanes`]
-/// on one lane (`f64`) with the law's own damping parts. The general kernel of the engine, and
-/// the reference its specialised kernels are tested against.
+/// on one lane (`f64`) with the law's own damping parts, updating the shared `state` and the
+/// law's own history `extra`. The general kernel of the engine, and the reference its
+/// specialised kernels are tested against.
 #[inline(always)]
-pub(crate) fn evaluate_parts<D: Dim, P: LawParts>(law: &P, kin: &Kinematics<D>, state: &mut ContactState<D>, dt: f64) -> ContactOutput<D> {
+pub(crate) fn evaluate_parts<D: Dim, P: LawParts>(law: &P, kin: &Kinematics<D>, state: &mut ContactState<D>, extra: &mut P::Extra, dt: f64) -> ContactOutput<D> {
     let x = LawIn {
         normal: to_lanes(kin.normal),
         overlap: kin.overlap,
@@ -253,7 +266,9 @@ pub(crate) fn evaluate_parts<D: Dim, P: LawParts>(law: &P, kin: &Kinematics<D>, 
         was: state.overlap,
     };
     let damp = (law.damping(), law.tangential_damping());
-    let o = if D::D == 2 { law_lanes::<f64, 2, 1, P, _>(law, damp, &x, dt) } else { law_lanes::<f64, 3, 3, P, _>(law, damp, &x, dt) };
+    let mut h = extra.to_lane();
+    let o = if D::D == 2 { law_lanes::<f64, 2, 1, P, _>(law, damp, &x, &mut h, dt) } else { law_lanes::<f64, 3, 3, P, _>(law, damp, &x, &mut h, dt) };
+    *extra = P::Extra::from_lane(h);
     state.spring = TangentialHistory(from_lanes(o.spring));
     state.rolling = from_lanes(o.rolling);
     state.twist = o.twist;
@@ -316,10 +331,12 @@ pub(crate) fn contact_loads<D: Dim>(kin: &Kinematics<D>, o: &ContactOutput<D>) -
 
 impl ContactLaw {
     /// Evaluates the law for a contact with kinematics `kin` over a step `dt`, updating `state`.
-    /// Assumes `kin.overlap > 0`.
+    /// Assumes `kin.overlap > 0`. A law with its own history (the hysteretic normal law) is
+    /// evaluated here without it (its stateless part): the engine runs such laws through their
+    /// composition ([`ContactLaw::specialize`]).
     #[inline]
     pub fn evaluate<D: Dim>(&self, kin: &Kinematics<D>, state: &mut ContactState<D>, dt: f64) -> ContactOutput<D> {
-        evaluate_parts(self, kin, state, dt)
+        evaluate_parts(self, kin, state, &mut (), dt)
     }
 
     /// Elastic energy stored in a contact: normal part + tangential spring (½ k_t s² for the
@@ -372,6 +389,7 @@ impl ContactLaw {
         match self.normal {
             NormalElastic::Hooke { stiffness } => require_positive(&format!("{field}.normal_stiffness"), stiffness)?,
             NormalElastic::Hertz { effective_modulus } => require_positive(&format!("{field}.young"), effective_modulus)?,
+            NormalElastic::Hysteretic(h) => h.validate(&format!("{field}.normal"))?,
         }
         match self.damping {
             NormalDamping::None => {}

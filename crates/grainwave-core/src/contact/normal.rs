@@ -1,5 +1,6 @@
 //! Normal elastic part (SPEC §2.1): Hooke and Hertz.
 
+use super::HystereticNormal;
 use crate::real::Real;
 use serde::{Deserialize, Serialize};
 
@@ -17,6 +18,8 @@ pub enum NormalElastic {
         /// Effective modulus E*_ij of the pair (grain–grain: (1/E*_i + 1/E*_j)⁻¹; rigid wall: E*_i).
         effective_modulus: f64,
     },
+    /// Hysteretic linear law with per-contact history ([`HystereticNormal`]).
+    Hysteretic(HystereticNormal),
 }
 
 /// What the normal elastic part gives at one overlap (`R` = `f64`), or at one overlap per lane
@@ -61,6 +64,7 @@ impl NormalElastic {
                 let secant = R::splat(4.0 / 3.0 * effective_modulus) * a;
                 NormalResponse { force: secant * xi, stiffness: R::splat(2.0 * effective_modulus) * a, secant }
             }
+            NormalElastic::Hysteretic(h) => h.response_lanes(xi),
         }
     }
 
@@ -69,6 +73,7 @@ impl NormalElastic {
         match *self {
             NormalElastic::Hooke { stiffness } => 0.5 * stiffness * xi * xi,
             NormalElastic::Hertz { effective_modulus } => 8.0 / 15.0 * effective_modulus * r_eff.sqrt() * xi.powf(2.5),
+            NormalElastic::Hysteretic(h) => h.energy(xi),
         }
     }
 }

@@ -88,9 +88,9 @@ pub struct ContactParams {
     pub twisting_damping: Option<f64>,
     /// Twisting friction μ_tw, default ∞ (no cap).
     pub twisting_friction: Option<f64>,
-    /// The normal law as a family table, `[contact.normal]` (`law = "hooke"` or `"hertz"`): the
-    /// family form of the law, in place of `preset` and the flat keys (docs/engine.md, "The
-    /// contact law by family"); required when any family table is given.
+    /// The normal law as a family table, `[contact.normal]` (`law = "hooke"`, `"hertz"` or
+    /// `"hysteretic"`): the family form of the law, in place of `preset` and the flat keys
+    /// (docs/engine.md, "The contact law by family"); required when any family table is given.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub normal: Option<NormalTable>,
     /// The damping as a family table, `[contact.damping]` (`law = "none"`, `"restitution"`,
@@ -133,7 +133,11 @@ impl ContactParams {
             // the family form: read into the keys of the composition it names, reported under
             // the families' key names
             let (flat, renames) = self.lower_families(field)?;
-            return flat.build(partner, field).map_err(|e| super::families::rename_keys(e, field, &renames));
+            let mut law = flat.build(partner, field).map_err(|e| super::families::rename_keys(e, field, &renames))?;
+            if let Some(NormalTable::Hysteretic { loading_stiffness, unloading_stiffness }) = self.normal {
+                super::HystereticNormal { loading_stiffness, unloading_stiffness }.apply(&mut law, self.damping.as_ref(), field)?;
+            }
+            return Ok(law);
         }
         let key = |k: &str| format!("{field}.{k}");
         let friction = self.friction.unwrap_or(DEFAULT_FRICTION);

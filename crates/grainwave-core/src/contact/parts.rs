@@ -7,10 +7,21 @@
 //! off at compile time; [`WithRolling`] adds a rolling spring–dashpot to either (E2's law). Each part computes the same expression in every implementation, so a
 //! specialised kernel gives exactly the bits of the general one (tested).
 
-use super::{ContactLaw, NormalDamping, NormalElastic, Rolling, Tangential, TangentialDamping, Twisting};
+use super::{ContactLaw, Hysteretic, LawHistory, NormalDamping, NormalElastic, NormalResponse, Rolling, Tangential, TangentialDamping, Twisting};
+use crate::real::Real;
 
 /// The parts of a contact law, as [`evaluate_parts`](super::evaluate_parts) reads them.
 pub trait LawParts: Copy + Send + Sync {
+    /// The law's per-contact history beyond the shared parts ([`LawHistory`]): `()` for every
+    /// law without one, which then compiles to the code of a law without history.
+    type Extra: LawHistory;
+    /// The normal elastic response at overlap `xi` reading and updating the law's own history
+    /// `extra` (one value per lane). The default: the stateless [`LawParts::normal`] part.
+    #[inline(always)]
+    fn normal_response<R: Real>(&self, xi: R, r_eff: R, extra: &mut <Self::Extra as LawHistory>::Lanes<R>) -> NormalResponse<R> {
+        let _ = extra;
+        self.normal().response_lanes(xi, r_eff)
+    }
     /// Normal elastic part.
     fn normal(&self) -> NormalElastic;
     /// Normal damping part.
@@ -28,6 +39,7 @@ pub trait LawParts: Copy + Send + Sync {
 }
 
 impl LawParts for ContactLaw {
+    type Extra = ();
     #[inline(always)]
     fn normal(&self) -> NormalElastic {
         self.normal
@@ -118,6 +130,7 @@ macro_rules! common_parts {
 }
 
 impl LawParts for HertzMindlin {
+    type Extra = ();
     #[inline(always)]
     fn normal(&self) -> NormalElastic {
         NormalElastic::Hertz { effective_modulus: self.effective_modulus }
@@ -130,6 +143,7 @@ impl LawParts for HertzMindlin {
 }
 
 impl LawParts for HookeCundallStrack {
+    type Extra = ();
     #[inline(always)]
     fn normal(&self) -> NormalElastic {
         NormalElastic::Hooke { stiffness: self.normal_stiffness }
@@ -142,6 +156,7 @@ impl LawParts for HookeCundallStrack {
 }
 
 impl LawParts for HookeSlipActivation {
+    type Extra = ();
     #[inline(always)]
     fn normal(&self) -> NormalElastic {
         NormalElastic::Hooke { stiffness: self.normal_stiffness }
@@ -166,6 +181,11 @@ pub struct WithRolling<L> {
 }
 
 impl<L: LawParts> LawParts for WithRolling<L> {
+    type Extra = L::Extra;
+    #[inline(always)]
+    fn normal_response<R: Real>(&self, xi: R, r_eff: R, extra: &mut <Self::Extra as LawHistory>::Lanes<R>) -> NormalResponse<R> {
+        self.law.normal_response(xi, r_eff, extra)
+    }
     #[inline(always)]
     fn normal(&self) -> NormalElastic {
         self.law.normal()
@@ -214,13 +234,31 @@ pub enum Specialized {
     /// Anything else (twisting resistance, no friction, rescaled Mindlin, mixed parts):
     /// evaluated through [`ContactLaw`] itself.
     General(ContactLaw),
+    /// The hysteretic normal law with its per-contact history (general kernel).
+    Hysteretic(Hysteretic),
+}
+
+impl Specialized {
+    /// True for the compositions with window and fused kernels (`sim::lanes::WindowLaw`).
+    pub fn has_window_kernel(&self) -> bool {
+        !matches!(self, Specialized::General(_) | Specialized::Hysteretic(_))
+    }
 }
 
 impl ContactLaw {
+    /// The general kernel for this law: [`Specialized::General`], or the composition of a law
+    /// with its own per-contact history, which needs its type to reach that history.
+    pub fn general(&self) -> Specialized {
+        match self.normal {
+            NormalElastic::Hysteretic(normal) => Specialized::Hysteretic(Hysteretic { law: *self, normal }),
+            _ => Specialized::General(*self),
+        }
+    }
+
     /// The fastest evaluation path for this law.
     pub fn specialize(&self) -> Specialized {
-        if self.twisting != Twisting::None {
-            return Specialized::General(*self);
+        if self.twisting != Twisting::None || matches!(self.normal, NormalElastic::Hysteretic(_)) {
+            return self.general();
         }
         let (damping, tangential_damping, friction) = (self.damping, self.tangential_damping, self.friction);
         let rolling = match self.rolling {
@@ -277,8 +315,8 @@ mod tests {
             let spring = crate::contact::TangentialHistory(spring);
             let state = ContactState::<D> { spring, overlap: if rng.random::<f64>() < 0.2 { 0.0 } else { kin.overlap * 1.01 }, ..Default::default() };
             let (mut a, mut b) = (state, state);
-            let oa = evaluate_parts(special, &kin, &mut a, 1e-3);
-            let ob = evaluate_parts(general, &kin, &mut b, 1e-3);
+            let oa = evaluate_parts(special, &kin, &mut a, &mut Default::default(), 1e-3);
+            let ob = evaluate_parts(general, &kin, &mut b, &mut (), 1e-3);
             assert_eq!(format!("{oa:?} {a:?}"), format!("{ob:?} {b:?}"));
             contacts += 1;
             sliding += oa.sliding as usize;
@@ -349,7 +387,7 @@ mod tests {
                     same_bits::<D3, _>(&s, &law, mk3);
                     same_bits::<D2, _>(&s, &law, mk2);
                 }
-                Specialized::General(_) => panic!("{law:?} should be specialised"),
+                Specialized::General(_) | Specialized::Hysteretic(_) => panic!("{law:?} should be specialised"),
             }
             checked += 1;
         }

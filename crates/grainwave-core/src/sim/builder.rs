@@ -175,6 +175,14 @@ impl<D: Dim> SimulationBuilder<D> {
         let skin = self.skin.unwrap_or(0.2 * r_max);
         require_positive("skin", skin)?;
         self.domain.validate(2.0 * r_max + skin)?;
+        // grain–wall contacts keep no law history yet (contact::hysteretic)
+        if let Some(wall) = self.domain.walls.iter().find(|w| matches!(w.law.normal, crate::contact::NormalElastic::Hysteretic(_))) {
+            return Err(CoreError::invalid(
+                format!("walls.{}.contact.normal.law", wall.name),
+                "\"hysteretic\"",
+                "a normal law without per-contact history for wall contacts (\"hooke\" or \"hertz\", e.g. `[wall_contact.normal]` or the wall's `contact.normal` table): grain–wall contacts do not store the hysteretic law's history yet",
+            ));
+        }
         for (k, load) in self.loads.iter().enumerate() {
             if grains.index_of(load.grain).is_none() {
                 return Err(CoreError::invalid(format!("loads[{k}].grain"), load.grain, "the id of an existing grain"));

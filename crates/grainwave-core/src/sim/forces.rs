@@ -39,7 +39,7 @@
 
 use super::lanes::{self, Window, WindowLaw, CAP};
 use super::{CrossForce, CrossIndex, Simulation, WallForce};
-use crate::contact::{contact_loads, evaluate_parts, pair_kinematics, wall_kinematics, ContactLaw, ContactState, LawParts, NormalElastic, Rolling, Specialized, TangentialHistory, Twisting};
+use crate::contact::{contact_loads, evaluate_parts, pair_kinematics, wall_kinematics, ContactLaw, ContactState, HistoryColumn, LawHistory, LawParts, NormalElastic, Rolling, TangentialHistory, Twisting};
 use crate::dim::{Dim, VectorOps};
 use crate::domain::{Domain, PeriodicImage, WallMotion};
 use crate::error::{CoreError, Result};
@@ -111,17 +111,20 @@ struct Inputs<'a, D: Dim> {
     partner: &'a [u32],
 }
 
-/// The mutable history of a contiguous range of pairs starting at pair `base`.
-struct History<'a, D: Dim> {
+/// The mutable history of a contiguous range of pairs starting at pair `base`: the shared parts
+/// and the law's own history `extra` ([`LawParts::Extra`]; `()` for the window and fused
+/// kernels' laws, which stores nothing).
+struct History<'a, D: Dim, H: LawHistory = ()> {
     base: usize,
     spring: &'a mut [TangentialHistory<D::Vector>],
     overlap: &'a mut [f64],
     sliding: &'a mut [bool],
     rolling: &'a mut [D::AngVector],
     twist: &'a mut [f64],
+    extra: &'a mut [H],
 }
 
-impl<D: Dim> History<'_, D> {
+impl<'a, D: Dim, H: LawHistory> History<'a, D, H> {
     /// The contact of pair `base + q` opened: forgets its history and counts the change.
     #[inline(always)]
     fn forget(&mut self, q: usize, st: &mut ForceStats) {
@@ -130,7 +133,21 @@ impl<D: Dim> History<'_, D> {
         self.sliding[q] = false;
         self.rolling[q] = D::AngVector::ZERO;
         self.twist[q] = 0.0;
+        *self.extra_at(q) = H::default();
         st.changes += 1;
+    }
+
+    /// The law's own history of pair `base + q`; for `()` no access at all (no bounds check):
+    /// the kernels of the laws without history are the code they were before histories existed.
+    #[inline(always)]
+    fn extra_at(&mut self, q: usize) -> &mut H {
+        if std::mem::size_of::<H>() == 0 {
+            // SAFETY: a zero-sized value occupies no memory; a dangling, aligned, non-null
+            // pointer is a valid reference to one.
+            unsafe { std::ptr::NonNull::<H>::dangling().as_mut() }
+        } else {
+            &mut self.extra[q]
+        }
     }
 
     /// Splits at absolute pair index `at`.
@@ -141,10 +158,19 @@ impl<D: Dim> History<'_, D> {
         let (l0, l1) = self.sliding.split_at_mut(k);
         let (r0, r1) = self.rolling.split_at_mut(k);
         let (t0, t1) = self.twist.split_at_mut(k);
+        let (e0, e1) = self.extra.split_at_mut(k);
         (
-            History { base: self.base, spring: s0, overlap: o0, sliding: l0, rolling: r0, twist: t0 },
-            History { base: at, spring: s1, overlap: o1, sliding: l1, rolling: r1, twist: t1 },
+            History { base: self.base, spring: s0, overlap: o0, sliding: l0, rolling: r0, twist: t0, extra: e0 },
+            History { base: at, spring: s1, overlap: o1, sliding: l1, rolling: r1, twist: t1, extra: e1 },
         )
+    }
+
+    /// The same pairs with the law's own history of type `E` taken from `column` (one entry
+    /// per pair of the whole list; this history must start at pair 0).
+    fn with_extra<E: LawHistory>(self, column: &'a mut HistoryColumn) -> History<'a, D, E> {
+        debug_assert_eq!(self.base, 0);
+        let extra = column.typed_mut::<E>(self.overlap.len());
+        History { base: self.base, spring: self.spring, overlap: self.overlap, sliding: self.sliding, rolling: self.rolling, twist: self.twist, extra }
     }
 }
 
@@ -168,7 +194,7 @@ struct PairOut<D: Dim> {
 /// Evaluates pair `p` (absolute index) between `a` (the smaller index) and `b` (grain `j`),
 /// updating its history and the statistics. `None` when the grains are apart.
 #[inline(always)]
-fn eval_pair<D: Dim, P: LawParts>(law: &P, inp: &Inputs<D>, h: &mut History<D>, p: usize, a: &Body<D>, b: &Body<D>, st: &mut ForceStats) -> Option<PairOut<D>> {
+fn eval_pair<D: Dim, P: LawParts>(law: &P, inp: &Inputs<D>, h: &mut History<D, P::Extra>, p: usize, a: &Body<D>, b: &Body<D>, st: &mut ForceStats) -> Option<PairOut<D>> {
     let q = p - h.base;
     let (r, dv) = inp.image.displacement_velocity(a.x, b.x);
     // the image of j moves with the cell in a shearing cell
@@ -190,7 +216,7 @@ fn eval_pair<D: Dim, P: LawParts>(law: &P, inp: &Inputs<D>, h: &mut History<D>, 
                 overlap: was,
                 sliding: h.sliding[q],
             };
-            let o = evaluate_parts(law, &kin, &mut state, inp.dt);
+            let o = evaluate_parts(law, &kin, &mut state, h.extra_at(q), inp.dt);
             h.spring[q] = state.spring;
             h.overlap[q] = state.overlap;
             h.sliding[q] = state.sliding;
@@ -219,7 +245,7 @@ fn cross_pairs<D: Dim, P: LawParts>(
     omega: &[D::AngVector],
     cross: &CrossIndex<D>,
     blocks: std::ops::Range<usize>,
-    mut h: History<D>,
+    mut h: History<D, P::Extra>,
     out: &mut [CrossForce<D>],
     slot_base: usize,
 ) -> ForceStats {
@@ -292,7 +318,7 @@ fn blocks_pass<D: Dim, P: LawParts>(
     cross: &CrossIndex<D>,
     fin: &Finish<D>,
     blocks: std::ops::Range<usize>,
-    h: History<D>,
+    h: History<D, P::Extra>,
     g: Grain<D>,
 ) -> ForceStats {
     if blocks.len() > 1 {
@@ -394,7 +420,7 @@ fn start_block<D: Dim>(cross: &CrossIndex<D>, g0: usize, g1: usize, force: &mut 
 
 /// Phase B for one block.
 #[inline(always)]
-fn block<D: Dim, P: LawParts>(law: &P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, mut h: History<D>, g: Grain<D>) -> ForceStats {
+fn block<D: Dim, P: LawParts>(law: &P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, mut h: History<D, P::Extra>, g: Grain<D>) -> ForceStats {
     let mut st = ForceStats::new();
     let (g0, g1) = (b * cross.block_len, ((b + 1) * cross.block_len).min(cross.n));
     let Grain { force, torque, vel, omega, .. } = g;
@@ -613,6 +639,8 @@ struct CrossPairs<'a, 'h, D: Dim> {
     cross: &'a CrossIndex<D>,
     blocks: usize,
     h: History<'h, D>,
+    /// The law's own history of every pair ([`History::with_extra`]).
+    extra: &'h mut HistoryColumn,
     out: &'a mut [CrossForce<D>],
     path: Path,
 }
@@ -622,8 +650,9 @@ impl<D: Dim> lanes::WithLaw for CrossPairs<'_, '_, D> {
     fn special<L: WindowLaw>(self, law: &L) -> ForceStats {
         cross_pairs_windowed(law, self.inp, self.vel, self.omega, self.cross, 0..self.blocks, self.h, self.out, 0, self.path)
     }
-    fn general(self, law: &ContactLaw) -> ForceStats {
-        cross_pairs::<D, ContactLaw>(law, self.inp, self.vel, self.omega, self.cross, 0..self.blocks, self.h, self.out, 0)
+    fn general<P: LawParts>(self, law: &P) -> ForceStats {
+        let h = self.h.with_extra::<P::Extra>(self.extra);
+        cross_pairs::<D, P>(law, self.inp, self.vel, self.omega, self.cross, 0..self.blocks, h, self.out, 0)
     }
 }
 
@@ -635,6 +664,8 @@ struct BlocksPass<'a, 'h, D: Dim> {
     fin: &'a Finish<'a, D>,
     blocks: usize,
     h: History<'h, D>,
+    /// The law's own history of every pair ([`History::with_extra`]).
+    extra: &'h mut HistoryColumn,
     g: Grain<'h, D>,
     path: Path,
 }
@@ -644,8 +675,9 @@ impl<D: Dim> lanes::WithLaw for BlocksPass<'_, '_, D> {
     fn special<L: WindowLaw>(self, law: &L) -> ForceStats {
         blocks_pass_windowed(law, self.inp, self.cross, self.fin, 0..self.blocks, self.h, self.g, self.path)
     }
-    fn general(self, law: &ContactLaw) -> ForceStats {
-        blocks_pass::<D, ContactLaw>(law, self.inp, self.cross, self.fin, 0..self.blocks, self.h, self.g)
+    fn general<P: LawParts>(self, law: &P) -> ForceStats {
+        let h = self.h.with_extra::<P::Extra>(self.extra);
+        blocks_pass::<D, P>(law, self.inp, self.cross, self.fin, 0..self.blocks, h, self.g)
     }
 }
 
@@ -1034,7 +1066,7 @@ impl<D: Dim> Simulation<D> {
     /// the pass that completes each grain's force also advances its velocity by h·F/m and its
     /// angular velocity by h·τ/I (velocity Verlet's second half kick).
     pub(crate) fn compute_forces(&mut self, dt_hist: f64, use_eval: bool, kick: Option<f64>) -> Result<()> {
-        let specialized = if self.work.general_kernel { Specialized::General(self.law) } else { self.law.specialize() };
+        let specialized = if self.work.general_kernel { self.law.general() } else { self.law.specialize() };
         let time = self.time;
         let (grain_law, overlap_limit) = (self.law, self.safety.max_overlap_fraction);
         let Simulation { grains, domain, nlist, work, loads, gravity, .. } = self;
@@ -1106,7 +1138,7 @@ impl<D: Dim> Simulation<D> {
             ForceStats::new()
         } else {
             let h = History::of_parts(&mut list.spring, &mut list.overlap, &mut list.sliding, &mut list.rolling, &mut list.twist);
-            lanes::with_law(specialized, CrossPairs { inp: &inp, vel, omega, cross, blocks, h, out: &mut forces, path: kernels })
+            lanes::with_law(specialized, CrossPairs { inp: &inp, vel, omega, cross, blocks, h, extra: &mut list.extra, out: &mut forces, path: kernels })
         };
         cross.forces = forces;
 
@@ -1123,7 +1155,7 @@ impl<D: Dim> Simulation<D> {
         let known = work.cross.close_known.take();
         // (3D only: in 2D the list would skip only ≈ 10 % of the pairs, and its displacement
         // check cost two-worker runs 6–15 %, BENCHMARKS.md)
-        if D::D == 3 && kernels.fused() && !matches!(specialized, Specialized::General(_)) && n > 0 {
+        if D::D == 3 && kernels.fused() && specialized.has_window_kernel() && n > 0 {
             work.cross.ensure_close(list, pos, radius, mass, domain, CLOSE_FRACTION * nlist.skin, known, kernels == Path::Fused512);
         }
         let (gv, gw) = if use_eval { (&mut work.vel_eval, &mut work.omega_eval) } else { (&mut grains.vel, &mut grains.omega) };
@@ -1133,7 +1165,7 @@ impl<D: Dim> Simulation<D> {
         let pair_stats = if n == 0 {
             ForceStats::new()
         } else {
-            lanes::with_law(specialized, BlocksPass { inp: &inp, cross, fin: &fin, blocks, h, g, path: kernels })
+            lanes::with_law(specialized, BlocksPass { inp: &inp, cross, fin: &fin, blocks, h, extra: &mut list.extra, g, path: kernels })
         };
         let stats = ForceStats::merge(ForceStats::merge(pair_stats, cross_stats), wall_stats);
 
@@ -1193,7 +1225,9 @@ impl<'a, D: Dim> History<'a, D> {
         rolling: &'a mut [D::AngVector],
         twist: &'a mut [f64],
     ) -> Self {
-        History { base: 0, spring, overlap, sliding, rolling, twist }
+        // (a slice of zero-sized values: no memory, no loop)
+        let extra = crate::contact::zero_sized_slice(overlap.len());
+        History { base: 0, spring, overlap, sliding, rolling, twist, extra }
     }
 }
 

@@ -9,7 +9,7 @@
 //! fused multiply–add), so the result is bitwise that of the general kernel (tested on whole
 //! runs).
 
-use crate::contact::{contact_loads_lanes, law_lanes, pair_kinematics_lanes, ContactLaw, HertzMindlin, LawIn, Specialized, HookeCundallStrack, HookeSlipActivation, LawParts, NormalDamping, Rolling, TangentialDamping, WithRolling};
+use crate::contact::{contact_loads_lanes, law_lanes, pair_kinematics_lanes, HertzMindlin, LawIn, Specialized, HookeCundallStrack, HookeSlipActivation, LawParts, NormalDamping, Rolling, TangentialDamping, WithRolling};
 use crate::real::dot;
 use crate::dim::{Dim, VectorOps};
 
@@ -106,7 +106,7 @@ pub(crate) use crate::real::Real;
 /// A law with a specialised kernel: its normal and tangential parts are fixed at compile time
 /// (the [`LawParts`] of the presets return a constant variant, so every `match` on a part
 /// folds away in the kernel), and so is whether it has rolling resistance.
-pub(super) trait WindowLaw: LawParts {
+pub(super) trait WindowLaw: LawParts<Extra = ()> {
     /// Whether the law has rolling resistance: its contacts then read and write the rolling
     /// spring (a constant of the law's type).
     #[inline(always)]
@@ -122,13 +122,14 @@ impl<L: WindowLaw> WindowLaw for WithRolling<L> {}
 pub(crate) use crate::contact::Dampers;
 
 /// Something run with a contact law as its type ([`with_law`]): a specialised law
-/// ([`WindowLaw`]) or the general [`ContactLaw`].
+/// ([`WindowLaw`]) or the general kernel ([`crate::contact::ContactLaw`], or a law with its own history).
 pub(super) trait WithLaw {
     type Out;
     /// Runs with a law whose parts are constants of its type (the window and fused kernels).
     fn special<L: WindowLaw>(self, law: &L) -> Self::Out;
-    /// Runs with the general law (its parts read at every contact).
-    fn general(self, law: &ContactLaw) -> Self::Out;
+    /// Runs with the general kernel: the general law (its parts read at every contact), or a
+    /// composition with its own per-contact history ([`LawParts::Extra`]).
+    fn general<P: LawParts>(self, law: &P) -> Self::Out;
 }
 
 /// Runs `v` with the law of `specialized` as a type: the one place where the specialised
@@ -144,6 +145,7 @@ pub(super) fn with_law<V: WithLaw>(specialized: Specialized, v: V) -> V::Out {
         Specialized::HookeSlipActivation(law) => v.special(&law),
         Specialized::HookeSlipActivationRolling(law) => v.special(&law),
         Specialized::General(law) => v.general(&law),
+        Specialized::Hysteretic(law) => v.general(&law),
     }
 }
 
@@ -380,7 +382,7 @@ pub(super) fn contact<R: Real, const DIM: usize, const ROT: usize, L: WindowLaw,
         twist: zero,
         was: zero,
     };
-    let o = law_lanes::<R, DIM, ROT, L, P>(law, damp, &input, dt);
+    let o = law_lanes::<R, DIM, ROT, L, P>(law, damp, &input, &mut (), dt);
     // forces and torques (M_r = 0 without rolling resistance: adding the zero keeps the bits)
     let (force, torque_i, torque_j) = contact_loads_lanes::<R, DIM, ROT>(n, o.tangential_force, o.normal_force, k.lever_i, k.lever_j, o.torque);
     ContactOut { overlap: k.overlap, sliding: o.sliding, new_spring: o.spring, new_rolling: o.rolling, force, torque_i, torque_j }

@@ -426,6 +426,11 @@ impl<D: Dim> Simulation<D> {
         for p in &self.nlist.wall_pairs {
             hist(&p.state);
         }
+        // the law's own history, where it has one (none for the laws without: their hashes
+        // are those of before history columns existed)
+        for c in self.nlist.list.extra.values() {
+            h.write_f64(c);
+        }
         for w in &self.domain.walls {
             for c in w.position.to_array3() {
                 h.write_f64(c);

@@ -19,7 +19,7 @@
 //!   owner are strictly increasing, larger than the owner and below the number of owners; the
 //!   owners are the grains (one entry per grain plus one) whenever the list would be used without
 //!   a rebuild, and never more than the grains; every history array (`spring`, `overlap`,
-//!   `sliding`, `rolling`, `twist`) has one entry per pair.
+//!   `sliding`, `rolling`, `twist`, and the law's own history where stored) has one entry per pair.
 //! * **Wall pairs**: grain index below the number of grains, wall index below the number of
 //!   walls, sorted strictly by (grain, wall) (the per-grain wall index assumes it).
 //! * **Domain**: finite lengths > 0 on every axis, finite tilt factors and rates, walls with
@@ -183,6 +183,9 @@ impl<D: Dim> PairList<D> {
             if len != pairs {
                 return Err(format!("pair history `{name}` has {len} entries for {pairs} pairs"));
             }
+        }
+        if self.extra.is_stored() && self.extra.len() != pairs {
+            return Err(format!("the law's pair history has {} entries for {pairs} pairs", self.extra.len()));
         }
         if self.owner_start.is_empty() {
             if pairs != 0 || (exact && n != 0) {
