@@ -36,7 +36,7 @@ pub trait Real: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Se
     /// `m`, on one lane (`f64`), where the one-lane instance of a lane-generic part may branch
     /// past work that it does not need; `false` on vector types, which stay branch-free (a
     /// branch taken only when no lane of a vector needs the work was mispredicted often enough
-    /// to cost 3–4 % on `hooke2d`, BENCHMARKS.md). Either way the result has the same bits: the
+    /// to cost 3–4 % on `hooke2d`, docs/bench-history.md). Either way the result has the same bits: the
     /// code after the branch selects the same values.
     #[inline(always)]
     fn branch_if(_m: Self::Mask) -> bool {

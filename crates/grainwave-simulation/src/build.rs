@@ -113,7 +113,7 @@ fn build_dim<D: Dim>(src: &ConfigSource, cfg: &SimulationConfig) -> Result<Simul
         return Err(err(
             src,
             "contact.preset",
-            format!("missing (allowed: {}; or the law by family, a table `[contact.normal]` with `law = \"hooke\"` or `\"hertz\"`)", grainwave_core::contact::PRESETS.join(", ")),
+            format!("missing (allowed: {}; or the law by family, a table `[contact.normal]` with `law = \"hooke\"`, `\"hertz\"` or `\"hysteretic\"`)", grainwave_core::contact::PRESETS.join(", ")),
         ));
     }
     let law = cfg.contact.build(Partner::Grain, "contact").map_err(core)?;

@@ -35,7 +35,7 @@
 //! (3D) / 52 (2D) steps at m = 0.2 × skin. In 2D it gained 3–6 % on one worker, but the second
 //! displacement reference in the drift pass tipped two-worker runs into rayon's workers sleeping
 //! between the parallel regions of the short 2D steps (−6 to −15 %), so it is kept in 3D only
-//! (`../../BENCHMARKS.md`, Zen 4 section).
+//! (`docs/bench-history.md`, the Zen 4 sections).
 
 use super::lanes::{self, Window, WindowLaw, CAP};
 use super::{CrossForce, CrossIndex, Simulation, WallForce};
@@ -92,7 +92,7 @@ const MIN_BLOCK: usize = 512;
 /// Number of grains per block for `n` grains on `threads` threads: one block for one thread,
 /// otherwise two blocks per thread: a second one lets the work be balanced, more add cross-block
 /// pairs (phase A) and passes. Measured on two threads: two blocks per thread beat four by 5–8 %
-/// and one by up to 7 % (`../BENCHMARKS.md`).
+/// and one by up to 7 % (`docs/bench-history.md`).
 pub(super) fn block_len(n: usize, threads: usize) -> usize {
     if threads <= 1 || n < 2 * MIN_BLOCK {
         return n.max(1);
@@ -609,7 +609,7 @@ impl Path {
 
 /// The path for `level` (0 portable, 1 the fused AVX2 pass, 2 the AVX-512 windows, 3 the fused
 /// pass on 512-bit lanes — the default —), each only when the processor has it, the next lower
-/// level otherwise. On the AVX-512 processor measured last (a Zen-5 AMD EPYC, `../BENCHMARKS.md`)
+/// level otherwise. On the AVX-512 processor measured last (a Zen-5 AMD EPYC, `docs/bench-history.md`)
 /// the 512-bit lanes were faster than the AVX2 pass (eight lanes: +5.5 to +14 %; sixteen: a
 /// further +5 to +16 %), which in turn had been faster than the AVX-512 windows on an Intel Xeon.
 fn path(level: u8) -> Path {
@@ -1154,7 +1154,7 @@ impl<D: Dim> Simulation<D> {
         // (a displacement measured by the drift pass is for these positions only: always taken)
         let known = work.cross.close_known.take();
         // (3D only: in 2D the list would skip only ≈ 10 % of the pairs, and its displacement
-        // check cost two-worker runs 6–15 %, BENCHMARKS.md)
+        // check cost two-worker runs 6–15 %, docs/bench-history.md)
         if D::D == 3 && kernels.fused() && specialized.has_window_kernel() && n > 0 {
             work.cross.ensure_close(list, pos, radius, mass, domain, CLOSE_FRACTION * nlist.skin, known, kernels == Path::Fused512);
         }
