@@ -4,6 +4,7 @@ program for the bit-for-bit comparisons."""
 import copy
 import os
 import shutil
+import signal
 from pathlib import Path
 
 import numpy as np
@@ -33,6 +34,19 @@ SETTLE = {
     "stop": {"step_limit": 3000},
     "output": {"series_every": 500},
 }
+
+
+@pytest.fixture(autouse=True, scope="session")
+def ctrl_c_reaches_python():
+    """The tests of Ctrl-C send SIGINT to this process. A runner started in the background by a
+    non-interactive shell (`cmd &`, `nohup`) inherits SIGINT ignored, and Python then installs no
+    handler, so no Ctrl-C could reach a run: give SIGINT Python's default handler for the session
+    (as in any terminal), and put the inherited disposition back after it."""
+    inherited = signal.getsignal(signal.SIGINT)
+    if inherited == signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, inherited)
 
 
 @pytest.fixture
