@@ -167,7 +167,7 @@ pub const OUTPUTS: &[OutputFile] = &[
     OutputFile::when(
         "loading.csv",
         Format::Csv,
-        "the loading series: time [t*], strain_yy, strain_xx (compression positive), stress_yy, stress_xx [p*], sliding, contacts, kinetic_energy [p* L*²], step",
+        "the loading series: time [t*], strain_yy, strain_xx (compression positive), stress_yy, stress_xx [p*], sliding, contacts, kinetic_energy [p* L*²], step; sliding, contacts and step as integers",
         "unless source.dir is set",
     ),
     OutputFile::when("loading.npz", Format::Npz, "the same loading series as NumPy arrays", "unless source.dir is set"),
@@ -221,7 +221,7 @@ pub const OUTPUTS: &[OutputFile] = &[
     OutputFile::when(
         "replays/<name>/series.csv",
         Format::Csv,
-        "the replay's series: time [t_a], stress_yy, stress_xx [p*], sliding, kinetic_energy [p* L*²]",
+        "the replay's series: time [t_a], stress_yy, stress_xx [p*], sliding (an integer), kinetic_energy [p* L*²]",
         "per single replay",
     ),
     OutputFile::when("replays/<name>/series.npz", Format::Npz, "the same series as NumPy arrays", "per single replay"),

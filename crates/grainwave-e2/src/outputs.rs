@@ -175,7 +175,8 @@ fn push_plot(dir: &Path, files: &mut Vec<String>, r: grainwave_io::Result<grainw
 pub fn write_loading(dir: &Path, cfg: &E2Config, l: &Loading) -> Result<Vec<String>> {
     let mut files = Vec::new();
     let col = |k: usize| l.series.iter().map(|r| r[k]).collect::<Vec<f64>>();
-    let series = Series::from_columns(biaxial::SERIES_COLUMNS.iter().enumerate().map(|(k, n)| (n.to_string(), col(k))))?;
+    let mut series = Series::from_columns(biaxial::SERIES_COLUMNS.iter().enumerate().map(|(k, n)| (n.to_string(), col(k))))?;
+    series.mark_counts(&["sliding", "contacts", "step"])?;
     let f = series.write(dir, "loading")?;
     files.push(rel(dir, &f.npz));
     files.push(rel(dir, &f.csv));
@@ -411,7 +412,8 @@ pub fn write_pair_plots(out: &Path, dir: &Path, cfg: &E2Config, name: &str, repo
 /// [p* L*²]) and its plots into `dir`.
 pub fn write_single(dir: &Path, cfg: &E2Config, rc: &ReplayConfig, name: &str, rows: &[[f64; 5]]) -> Result<()> {
     let col = |k: usize| rows.iter().map(|r| r[k]).collect::<Vec<f64>>();
-    let series = Series::from_columns(["time", "stress_yy", "stress_xx", "sliding", "kinetic_energy"].iter().enumerate().map(|(k, n)| (n.to_string(), col(k))))?;
+    let mut series = Series::from_columns(["time", "stress_yy", "stress_xx", "sliding", "kinetic_energy"].iter().enumerate().map(|(k, n)| (n.to_string(), col(k))))?;
+    series.mark_counts(&["sliding"])?;
     series.write(dir, "series")?;
     if cfg.output.plots {
         let (ke_t, ke): (Vec<f64>, Vec<f64>) = col(0).iter().zip(col(4)).filter(|(_, k)| *k > 0.0).map(|(t, k)| (*t, k)).unzip();

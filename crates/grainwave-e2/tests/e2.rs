@@ -273,6 +273,21 @@ fn small_run_writes_checkpoints_series_replays_and_plots() {
     ] {
         assert!(dir.join(f).exists(), "{f} missing");
     }
+    // counts are written as whole numbers (`12`, not `12.0`): M_s, contacts and step of the
+    // loading series, M_s of a single replay's series
+    for (file, cols) in [("loading.csv", &["sliding", "contacts", "step"][..]), ("replays/stop/series.csv", &["sliding"][..])] {
+        let text = std::fs::read_to_string(dir.join(file)).unwrap();
+        let mut lines = text.lines().filter(|l| !l.starts_with('#'));
+        let header: Vec<&str> = lines.next().unwrap().split(',').collect();
+        let rows: Vec<Vec<&str>> = lines.map(|l| l.split(',').collect()).collect();
+        assert!(!rows.is_empty(), "{file}: no rows");
+        for c in cols {
+            let k = header.iter().position(|h| h == c).unwrap_or_else(|| panic!("{file}: no column {c} in {header:?}"));
+            for r in &rows {
+                assert!(r[k].parse::<u64>().is_ok(), "{file}: {c} = {:?} is not written as a count", r[k]);
+            }
+        }
+    }
     // anisotropy from pulses along y (top wall) and x (right wall) of the same stopped state
     let a = &summary["anisotropy"][0];
     let (cy, cx) = (a["along_y"].as_f64().unwrap(), a["along_x"].as_f64().unwrap());
