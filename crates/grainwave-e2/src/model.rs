@@ -9,7 +9,7 @@
 //! acoustic time t_a = L*/v_a.
 
 use super::config::{MaterialConfig, PackingConfig, PreparationConfig, PulseShape};
-use grainwave_core::contact::{critical_fraction_for_restitution, NormalDamping};
+use grainwave_core::contact::{critical_fraction_for_restitution, Hooke, NormalDamping};
 use grainwave_core::prelude::*;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -98,7 +98,7 @@ pub fn grain_law(m: &MaterialConfig, friction: f64, acoustic_time: f64) -> Conta
     let stiffness = m.tangential_stiffness_ratio * m.normal_stiffness;
     let activation_time = m.slip_activation_time * acoustic_time;
     ContactLaw {
-        normal: NormalElastic::Hooke { stiffness: m.normal_stiffness },
+        normal: NormalElastic::Hooke(Hooke { stiffness: m.normal_stiffness }),
         damping: NormalDamping::CriticalFraction { zeta },
         tangential: if friction <= 0.0 {
             Tangential::None
@@ -131,7 +131,7 @@ pub fn wall_law(m: &MaterialConfig) -> ContactLaw {
 /// length matches the acoustic impedance of the packing, so incoming waves are mostly absorbed.
 pub fn absorbing_wall_law(m: &MaterialConfig, grains: usize, mean_mass: f64) -> ContactLaw {
     ContactLaw {
-        normal: NormalElastic::Hooke { stiffness: m.normal_stiffness / (grains as f64).sqrt() },
+        normal: NormalElastic::Hooke(Hooke { stiffness: m.normal_stiffness / (grains as f64).sqrt() }),
         damping: NormalDamping::Dashpot { coefficient: m.absorbing_damping * (mean_mass * m.normal_stiffness).sqrt() },
         tangential: Tangential::None,
         tangential_damping: TangentialDamping::None,

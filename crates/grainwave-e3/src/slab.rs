@@ -25,7 +25,7 @@
 use super::config::{IntegrationConfig, IntegratorName, MaterialConfig, RowLayout};
 use grainwave_study::Result;
 use glam::DVec2;
-use grainwave_core::contact::{ContactLaw, NormalDamping, NormalElastic, Rolling, Tangential, TangentialDamping, Twisting};
+use grainwave_core::contact::{ContactLaw, Hooke, NormalDamping, NormalElastic, Rolling, Tangential, TangentialDamping, Twisting};
 use grainwave_core::prelude::*;
 use grainwave_core::sim::Safety;
 use rand::SeedableRng;
@@ -193,7 +193,7 @@ impl Material {
     fn law(k: f64, ratio: f64, gamma_n: f64, gamma_t: f64, friction: f64) -> ContactLaw {
         let frictional = friction > 0.0;
         ContactLaw {
-            normal: NormalElastic::Hooke { stiffness: k },
+            normal: NormalElastic::Hooke(Hooke { stiffness: k }),
             damping: NormalDamping::Dashpot { coefficient: gamma_n },
             tangential: if frictional { Tangential::Linear { stiffness: ratio * k } } else { Tangential::None },
             tangential_damping: if frictional { TangentialDamping::Coefficient { coefficient: gamma_t } } else { TangentialDamping::None },

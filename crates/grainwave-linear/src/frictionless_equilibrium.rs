@@ -52,7 +52,7 @@ use faer::linalg::solvers::Solve;
 use faer::sparse::{SparseColMat, Triplet};
 use faer::{Mat, Side};
 use glam::DVec2;
-use grainwave_core::contact::NormalElastic;
+use grainwave_core::contact::{Hooke, NormalElastic};
 use grainwave_core::dim::D2;
 use grainwave_core::snapshot::Snapshot;
 use serde::{Deserialize, Serialize};
@@ -117,7 +117,7 @@ impl Candidate {
 
 fn hooke(n: &NormalElastic, what: &str) -> Result<f64> {
     match *n {
-        NormalElastic::Hooke { stiffness } => Ok(stiffness),
+        NormalElastic::Hooke(Hooke { stiffness }) => Ok(stiffness),
         _ => Err(LinearError::Inconsistent(format!("frictionless equilibrium needs Hooke contacts; the {what} law is {n:?}"))),
     }
 }
@@ -312,6 +312,7 @@ pub fn frictionless_equilibrium(snapshot: &Snapshot<D2>, external: &[DVec2], opt
 #[cfg(test)]
 mod tests {
     use super::*;
+    use grainwave_core::contact::Hertz;
     use grainwave_core::prelude::*;
 
     /// A column of three disks (m = 1, R = 1) on a floor, initially separated by `gap`.
@@ -321,7 +322,7 @@ mod tests {
         p.friction = Some(0.0);
         let law = p.build(Partner::Grain, "contact").unwrap();
         let mut wall = law;
-        wall.normal = NormalElastic::Hooke { stiffness: 2000.0 };
+        wall.normal = NormalElastic::Hooke(Hooke { stiffness: 2000.0 });
         let mut g = Grains::<D2>::new(GrainKind::Disk { thickness: 1.0 });
         for k in 0..3 {
             g.push_with_mass(DVec2::new(5.0, 1.0 + gap + k as f64 * (2.0 + gap)), 1.0, 1.0, DVec2::ZERO);
@@ -352,7 +353,7 @@ mod tests {
     #[test]
     fn hertz_contacts_are_refused() {
         let mut snap = column(0.0);
-        snap.law.normal = NormalElastic::Hertz { effective_modulus: 1.0 };
+        snap.law.normal = NormalElastic::Hertz(Hertz { effective_modulus: 1.0 });
         let err = frictionless_equilibrium(&snap, &[DVec2::ZERO; 3], &EquilibriumOptions::default()).unwrap_err();
         assert!(err.to_string().contains("Hooke"), "{err}");
     }

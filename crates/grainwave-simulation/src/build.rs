@@ -113,7 +113,11 @@ fn build_dim<D: Dim>(src: &ConfigSource, cfg: &SimulationConfig) -> Result<Simul
         return Err(err(
             src,
             "contact.preset",
-            format!("missing (allowed: {}; or the law by family, a table `[contact.normal]` with `law = \"hooke\"`, `\"hertz\"` or `\"hysteretic\"`)", grainwave_core::contact::PRESETS.join(", ")),
+            format!(
+                "missing (allowed: {}; or the law by family, a table `[contact.normal]` with `law` one of {})",
+                grainwave_core::contact::PRESETS.join(", "),
+                grainwave_core::contact::NormalElastic::NAMES.iter().map(|n| format!("\"{n}\"")).collect::<Vec<_>>().join(", ")
+            ),
         ));
     }
     let law = cfg.contact.build(Partner::Grain, "contact").map_err(core)?;

@@ -29,40 +29,9 @@
 //! with the flat form only. `friction` (the Coulomb coefficient μ) stays a key of `[contact]` in
 //! both forms, so that wall overrides such as `friction = 0` apply to either.
 
-use super::ContactParams;
+use super::{Composition, ContactParams, NormalElastic};
 use crate::error::{CoreError, Result};
 use serde::{Deserialize, Serialize};
-
-/// The normal elastic law (`[contact.normal]`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
-#[serde(tag = "law", rename_all = "snake_case", deny_unknown_fields)]
-pub enum NormalTable {
-    /// Linear spring F_el = k_n ξ (the `hooke_cundall_strack` composition).
-    Hooke {
-        /// k_n [force/length].
-        stiffness: f64,
-    },
-    /// Hertz F_el = (4/3) E* √R* ξ^{3/2}, E* = E/(1 − ν²) per grain, E*/2 between two grains
-    /// (the `hertz_mindlin` composition).
-    Hertz {
-        /// Young's modulus E of the grains.
-        young: f64,
-        /// Poisson's ratio ν, default 0.
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        poisson: Option<f64>,
-    },
-    /// Hysteretic linear law (Walton–Braun): loading along k₁ past the contact's largest
-    /// overlap so far ξ_max, unloading and reloading along k₂ ≥ k₁ from (ξ_max, k₁ ξ_max); a
-    /// binary collision's restitution is √(k₁/k₂). The Hooke composition otherwise (tangential
-    /// stiffness ratio × k₁); see docs/engine.md.
-    Hysteretic {
-        /// k₁ [force/length].
-        loading_stiffness: f64,
-        /// k₂ ≥ k₁ [force/length].
-        unloading_stiffness: f64,
-    },
-}
 
 /// The normal damping law and the tangential damping that goes with it (`[contact.damping]`).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -208,30 +177,27 @@ impl ContactParams {
         }
         // normal: names the composition
         let normal = self.normal.as_ref().ok_or_else(|| {
-            CoreError::invalid(key("normal"), "(missing)", "a table `[contact.normal]` with `law = \"hooke\"`, `\"hertz\"` or `\"hysteretic\"`, required with family tables")
+            let names: Vec<String> = NormalElastic::NAMES.iter().map(|n| format!("\"{n}\"")).collect();
+            CoreError::invalid(key("normal"), "(missing)", format!("a table `[contact.normal]` with `law` one of {}, required with family tables", names.join(", ")))
         })?;
         given(&[("normal_stiffness", self.normal_stiffness.is_some()), ("young", self.young.is_some()), ("poisson", self.poisson.is_some())], "normal")?;
-        match normal {
-            NormalTable::Hooke { stiffness } => {
+        // the other families go with the composition the normal law names
+        let composition = normal.composition();
+        match composition {
+            Composition::Hooke { stiffness, key: k } => {
                 p.preset = "hooke_cundall_strack".into();
-                p.normal_stiffness = Some(*stiffness);
-                renames.push(("normal_stiffness", key("normal.stiffness")));
+                p.normal_stiffness = Some(stiffness);
+                renames.push(("normal_stiffness", key(&format!("normal.{k}"))));
             }
-            // the Hooke composition with k_n = k₁; `ContactParams::build` puts the law in
-            NormalTable::Hysteretic { loading_stiffness, .. } => {
-                p.preset = "hooke_cundall_strack".into();
-                p.normal_stiffness = Some(*loading_stiffness);
-                renames.push(("normal_stiffness", key("normal.loading_stiffness")));
-            }
-            NormalTable::Hertz { young, poisson } => {
+            Composition::Hertz { young, poisson } => {
                 p.preset = "hertz_mindlin".into();
-                p.young = Some(*young);
-                p.poisson = *poisson;
+                p.young = Some(young);
+                p.poisson = poisson;
                 renames.push(("young", key("normal.young")));
                 renames.push(("poisson", key("normal.poisson")));
             }
         }
-        let hooke = matches!(normal, NormalTable::Hooke { .. } | NormalTable::Hysteretic { .. });
+        let hooke = matches!(composition, Composition::Hooke { .. });
         if let Some(d) = &self.damping {
             given(
                 &[
@@ -400,7 +366,7 @@ fn replace_key(text: &str, from: &str, to: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::contact::Partner;
+    use crate::contact::{Hooke, HertzParams, NormalTable, Partner};
 
     fn flat(preset: &str) -> ContactParams {
         ContactParams::preset(preset)
@@ -423,7 +389,7 @@ mod tests {
         let mut a = flat("hooke_cundall_strack");
         (a.normal_stiffness, a.restitution, a.tangential_stiffness_ratio, a.friction) = (Some(1e4), Some(0.8), Some(0.3), Some(0.4));
         (a.rolling_stiffness, a.rolling_damping, a.rolling_friction) = (Some(50.0), Some(0.2), Some(0.01));
-        let mut b = family(NormalTable::Hooke { stiffness: 1e4 });
+        let mut b = family(NormalTable::Hooke(Hooke { stiffness: 1e4 }));
         b.friction = Some(0.4);
         b.damping = Some(DampingTable::Restitution { restitution: 0.8, tangential_ratio: None, tangential_rate: None });
         b.tangential = Some(TangentialTable::Linear { stiffness_ratio: Some(0.3), slip_activation_time: None });
@@ -436,7 +402,7 @@ mod tests {
         // mass-proportional damping with a tangential rate, and the slip-activation time
         let mut a = flat("hooke_cundall_strack");
         (a.normal_stiffness, a.normal_damping_rate, a.tangential_damping_rate, a.slip_activation_time) = (Some(2e3), Some(30.0), Some(10.0), Some(0.05));
-        let mut b = family(NormalTable::Hooke { stiffness: 2e3 });
+        let mut b = family(NormalTable::Hooke(Hooke { stiffness: 2e3 }));
         b.damping = Some(DampingTable::MassProportional { rate: 30.0, tangential_ratio: None, tangential_rate: Some(10.0) });
         b.tangential = Some(TangentialTable::Linear { stiffness_ratio: None, slip_activation_time: Some(0.05) });
         both_partners_equal(&a, &b);
@@ -444,20 +410,20 @@ mod tests {
         // a dashpot with a tangential ratio; Tsuji on Hooke
         let mut a = flat("hooke_cundall_strack");
         (a.normal_stiffness, a.normal_damping, a.tangential_damping_ratio) = (Some(1e3), Some(0.7), Some(0.25));
-        let mut b = family(NormalTable::Hooke { stiffness: 1e3 });
+        let mut b = family(NormalTable::Hooke(Hooke { stiffness: 1e3 }));
         b.damping = Some(DampingTable::Dashpot { coefficient: 0.7, tangential_ratio: Some(0.25), tangential_rate: None });
         both_partners_equal(&a, &b);
         // Hertz with Tsuji damping and a tangential ratio
         let mut a = flat("hertz_mindlin");
         (a.young, a.poisson, a.tsuji_restitution, a.tangential_damping_ratio) = (Some(1e5), Some(0.3), Some(0.6), Some(0.5));
-        let mut b = family(NormalTable::Hertz { young: 1e5, poisson: Some(0.3) });
+        let mut b = family(NormalTable::Hertz(HertzParams { young: 1e5, poisson: Some(0.3) }));
         b.damping = Some(DampingTable::Tsuji { restitution: 0.6, tangential_ratio: Some(0.5) });
         both_partners_equal(&a, &b);
         // Hertz, a fraction of critical damping, Mindlin rescaled on unloading, twisting resistance
         let mut a = flat("hertz_mindlin");
         (a.young, a.damping_fraction, a.mindlin_rescale) = (Some(3e4), Some(0.1), Some(true));
         (a.twisting_stiffness, a.twisting_friction) = (Some(2.0), Some(0.05));
-        let mut b = family(NormalTable::Hertz { young: 3e4, poisson: None });
+        let mut b = family(NormalTable::Hertz(HertzParams { young: 3e4, poisson: None }));
         b.damping = Some(DampingTable::CriticalFraction { fraction: 0.1, tangential_ratio: None, tangential_rate: None });
         b.tangential = Some(TangentialTable::Mindlin { rescale_on_unloading: Some(true) });
         b.twisting = Some(ResistanceTable { stiffness: 2.0, damping: None, friction: Some(0.05) });
@@ -465,7 +431,7 @@ mod tests {
         // frictionless: `law = "none"` is friction 0
         let mut a = flat("hooke_cundall_strack");
         (a.normal_stiffness, a.friction) = (Some(1e3), Some(0.0));
-        let mut b = family(NormalTable::Hooke { stiffness: 1e3 });
+        let mut b = family(NormalTable::Hooke(Hooke { stiffness: 1e3 }));
         b.tangential = Some(TangentialTable::None {});
         b.damping = Some(DampingTable::None {});
         both_partners_equal(&a, &b);
@@ -480,11 +446,11 @@ mod tests {
     /// frictionless law with a friction coefficient are refused naming the keys.
     #[test]
     fn family_errors_name_the_family_keys() {
-        let e = err(&family(NormalTable::Hooke { stiffness: -1.0 }));
+        let e = err(&family(NormalTable::Hooke(Hooke { stiffness: -1.0 })));
         assert!(e.contains("contact.normal.stiffness") && e.contains("-1"), "{e}");
-        let e = err(&family(NormalTable::Hertz { young: 1e5, poisson: Some(0.7) }));
+        let e = err(&family(NormalTable::Hertz(HertzParams { young: 1e5, poisson: Some(0.7) })));
         assert!(e.contains("contact.normal.poisson") && e.contains("0.7"), "{e}");
-        let mut p = family(NormalTable::Hooke { stiffness: 1e3 });
+        let mut p = family(NormalTable::Hooke(Hooke { stiffness: 1e3 }));
         p.damping = Some(DampingTable::Restitution { restitution: 1.5, tangential_ratio: None, tangential_rate: None });
         let e = err(&p);
         assert!(e.contains("`contact.damping.restitution`") || e.contains("contact.damping.restitution:"), "{e}");
@@ -506,21 +472,21 @@ mod tests {
         q.rolling_stiffness = Some(3.0);
         let e = err(&q);
         assert!(e.contains("`contact.rolling_stiffness`") && e.contains("[contact.rolling]") && e.contains("one form"), "{e}");
-        let mut q = family(NormalTable::Hooke { stiffness: 1e3 });
+        let mut q = family(NormalTable::Hooke(Hooke { stiffness: 1e3 }));
         q.normal_stiffness = Some(1e3);
         assert!(err(&q).contains("`contact.normal_stiffness`"), "{}", err(&q));
         // a preset beside family tables
-        let mut q = family(NormalTable::Hooke { stiffness: 1e3 });
+        let mut q = family(NormalTable::Hooke(Hooke { stiffness: 1e3 }));
         q.preset = "hooke_cundall_strack".into();
         assert!(err(&q).contains("`contact.preset`"), "{}", err(&q));
         // no normal table
         let q = ContactParams { rolling: Some(ResistanceTable { stiffness: 1.0, damping: None, friction: None }), ..Default::default() };
         assert!(err(&q).contains("contact.normal") && err(&q).contains("required"), "{}", err(&q));
         // the other composition's tangential law
-        let mut q = family(NormalTable::Hertz { young: 1e5, poisson: None });
+        let mut q = family(NormalTable::Hertz(HertzParams { young: 1e5, poisson: None }));
         q.tangential = Some(TangentialTable::Linear { stiffness_ratio: None, slip_activation_time: None });
         assert!(err(&q).contains("contact.tangential.law") && err(&q).contains("Hooke"), "{}", err(&q));
-        let mut q = family(NormalTable::Hooke { stiffness: 1e3 });
+        let mut q = family(NormalTable::Hooke(Hooke { stiffness: 1e3 }));
         q.tangential = Some(TangentialTable::Mindlin { rescale_on_unloading: None });
         assert!(err(&q).contains("Hertz"), "{}", err(&q));
         // frictionless with a friction coefficient

@@ -35,6 +35,8 @@ pub trait LawHistory: Copy + Default + PartialEq + Debug + Send + Sync + 'static
     fn to_lane(self) -> Self::Lanes<f64>;
     /// Back from the one-lane form.
     fn from_lane(l: Self::Lanes<f64>) -> Self;
+    /// This value on every lane of `R`.
+    fn splat<R: crate::real::Real>(self) -> Self::Lanes<R>;
     /// Appends the `WIDTH` values of the encoding.
     fn encode(&self, out: &mut Vec<f64>);
     /// Reads the `WIDTH` values written by [`LawHistory::encode`].
@@ -45,6 +47,14 @@ pub trait LawHistory: Copy + Default + PartialEq + Debug + Send + Sync + 'static
     #[inline]
     fn reversed(self) -> Self {
         self
+    }
+    /// Runs `v` with the parts of `law`, whose normal part `normal` declares this history:
+    /// the composition [`WithNormal`](super::WithNormal) that reaches the history (the
+    /// default), or for `()` the general law itself, so that the laws without history share one
+    /// general force pass.
+    #[inline(always)]
+    fn route_normal<N: super::NormalLaw<History = Self>, V: super::parts::VisitParts>(law: &super::ContactLaw, normal: N, v: V) -> V::Out {
+        v.visit(&super::WithNormal { law: *law, normal })
     }
 }
 
@@ -57,6 +67,12 @@ impl LawHistory for () {
     fn to_lane(self) {}
     #[inline(always)]
     fn from_lane(_: ()) {}
+    #[inline(always)]
+    fn splat<R: crate::real::Real>(self) {}
+    #[inline(always)]
+    fn route_normal<N: super::NormalLaw<History = ()>, V: super::parts::VisitParts>(law: &super::ContactLaw, _normal: N, v: V) -> V::Out {
+        v.visit(law)
+    }
     #[inline(always)]
     fn encode(&self, _: &mut Vec<f64>) {}
     #[inline(always)]
@@ -295,6 +311,9 @@ mod tests {
         fn from_lane(l: (f64, f64)) -> Self {
             Two(l.0, l.1)
         }
+        fn splat<R: crate::real::Real>(self) -> (R, R) {
+            (R::splat(self.0), R::splat(self.1))
+        }
         fn encode(&self, out: &mut Vec<f64>) {
             out.extend([self.0, self.1]);
         }
@@ -342,6 +361,9 @@ mod tests {
         }
         fn from_lane(l: (f64, f64)) -> Self {
             TwoOther(l.0, l.1)
+        }
+        fn splat<R: crate::real::Real>(self) -> (R, R) {
+            (R::splat(self.0), R::splat(self.1))
         }
         fn encode(&self, out: &mut Vec<f64>) {
             out.extend([self.0, self.1]);

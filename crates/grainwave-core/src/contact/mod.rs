@@ -21,7 +21,6 @@ mod coulomb;
 mod damping;
 mod families;
 mod history;
-mod hysteretic;
 mod kinematics;
 mod normal;
 mod params;
@@ -36,13 +35,12 @@ pub use damping::{
     NormalDamping,
 };
 pub use kinematics::{pair_kinematics, wall_kinematics, Kinematics};
-pub use normal::{NormalElastic, NormalResponse};
-pub use families::{DampingTable, NormalTable, ResistanceTable, TangentialTable};
+pub use normal::*;
+pub use families::{DampingTable, ResistanceTable, TangentialTable};
 pub use history::{HistoryColumn, LawHistory};
 pub(crate) use history::{decoding_without_columns, zero_sized_slice};
-pub use hysteretic::{Hysteretic, HystereticNormal, MaxOverlap};
 pub use params::{ContactParams, Partner, PRESETS};
-pub use parts::{HertzMindlin, HookeCundallStrack, HookeSlipActivation, LawParts, Specialized, WithRolling};
+pub use parts::{HertzMindlin, HookeCundallStrack, HookeSlipActivation, LawParts, Specialized, VisitParts, WithNormal, WithRolling};
 pub use rolling::{Rolling, Twisting};
 pub use tangential::{HistoryValue, Tangential, TangentialDamping, TangentialHistory};
 pub(crate) use coulomb::coulomb_cap_lanes;
@@ -331,9 +329,9 @@ pub(crate) fn contact_loads<D: Dim>(kin: &Kinematics<D>, o: &ContactOutput<D>) -
 
 impl ContactLaw {
     /// Evaluates the law for a contact with kinematics `kin` over a step `dt`, updating `state`.
-    /// Assumes `kin.overlap > 0`. A law with its own history (the hysteretic normal law) is
-    /// evaluated here without it (its stateless part): the engine runs such laws through their
-    /// composition ([`ContactLaw::specialize`]).
+    /// Assumes `kin.overlap > 0`. A normal law with its own history is evaluated here as for a
+    /// contact that has just formed (its history the default): the engine runs such laws
+    /// through their composition [`WithNormal`], which keeps the history.
     #[inline]
     pub fn evaluate<D: Dim>(&self, kin: &Kinematics<D>, state: &mut ContactState<D>, dt: f64) -> ContactOutput<D> {
         evaluate_parts(self, kin, state, &mut (), dt)
@@ -370,7 +368,7 @@ impl ContactLaw {
     /// mode k_n/m*, and the tangential mode k_t (1 + m R²/I)/m* which couples translation and
     /// rotation (`inertia_factor` = m R²/I: 2 for disks, 5/2 for spheres).
     pub fn max_frequency_sq(&self, m_eff: f64, r_eff: f64, overlap: f64, inertia_factor: f64) -> f64 {
-        let (_, k_n) = self.normal.force_stiffness(overlap, r_eff);
+        let k_n = self.normal.max_stiffness(overlap, r_eff);
         let k_t = self.tangential.stiffness(overlap, r_eff);
         let mut w2 = k_n / m_eff;
         w2 = w2.max(k_t * (1.0 + inertia_factor) / m_eff);
@@ -386,11 +384,7 @@ impl ContactLaw {
 
     /// Checks every parameter; `field` prefixes the names in error messages.
     pub fn validate(&self, field: &str) -> Result<()> {
-        match self.normal {
-            NormalElastic::Hooke { stiffness } => require_positive(&format!("{field}.normal_stiffness"), stiffness)?,
-            NormalElastic::Hertz { effective_modulus } => require_positive(&format!("{field}.young"), effective_modulus)?,
-            NormalElastic::Hysteretic(h) => h.validate(&format!("{field}.normal"))?,
-        }
+        self.normal.validate(field)?;
         match self.damping {
             NormalDamping::None => {}
             NormalDamping::Dashpot { coefficient } => require_non_negative(&format!("{field}.normal_damping"), coefficient)?,

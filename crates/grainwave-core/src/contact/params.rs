@@ -1,7 +1,7 @@
 //! Named presets: the keyword table at the boundary between configs and contact laws.
 
-use super::families::{DampingTable, NormalTable, ResistanceTable, TangentialTable};
-use super::{ContactLaw, NormalDamping, NormalElastic, Rolling, Tangential, TangentialDamping, Twisting};
+use super::families::{DampingTable, ResistanceTable, TangentialTable};
+use super::{ContactLaw, Hertz, Hooke, NormalContext, NormalDamping, NormalElastic, NormalTable, Rolling, Tangential, TangentialDamping, Twisting};
 use crate::error::{require_non_negative, require_positive, CoreError, Result};
 use serde::{Deserialize, Serialize};
 
@@ -88,9 +88,10 @@ pub struct ContactParams {
     pub twisting_damping: Option<f64>,
     /// Twisting friction μ_tw, default ∞ (no cap).
     pub twisting_friction: Option<f64>,
-    /// The normal law as a family table, `[contact.normal]` (`law = "hooke"`, `"hertz"` or
-    /// `"hysteretic"`): the family form of the law, in place of `preset` and the flat keys
-    /// (docs/engine.md, "The contact law by family"); required when any family table is given.
+    /// The normal law as a family table, `[contact.normal]` (`law = "…"` names one of the laws
+    /// listed in the type column, the other keys are that law's): the family form of the law,
+    /// in place of `preset` and the flat keys (docs/engine.md, "The contact law by family");
+    /// required when any family table is given.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub normal: Option<NormalTable>,
     /// The damping as a family table, `[contact.damping]` (`law = "none"`, `"restitution"`,
@@ -134,8 +135,9 @@ impl ContactParams {
             // the families' key names
             let (flat, renames) = self.lower_families(field)?;
             let mut law = flat.build(partner, field).map_err(|e| super::families::rename_keys(e, field, &renames))?;
-            if let Some(NormalTable::Hysteretic { loading_stiffness, unloading_stiffness }) = self.normal {
-                super::HystereticNormal { loading_stiffness, unloading_stiffness }.apply(&mut law, self.damping.as_ref(), field)?;
+            // the normal law itself: built from its own table by its own type
+            if let Some(normal) = &self.normal {
+                law.normal = normal.build(&NormalContext { partner, field, damping: self.damping.as_ref() })?;
             }
             return Ok(law);
         }
@@ -234,7 +236,7 @@ impl ContactParams {
                     Partner::Wall => 1.0,
                 };
                 ContactLaw {
-                    normal: NormalElastic::Hertz { effective_modulus: factor * e_star },
+                    normal: NormalElastic::Hertz(Hertz { effective_modulus: factor * e_star }),
                     damping,
                     tangential: if friction > 0.0 {
                         Tangential::Mindlin {
@@ -349,7 +351,7 @@ impl ContactParams {
                     (None, None, _) => TangentialDamping::FractionOfNormal { ratio: 0.5 },
                 };
                 ContactLaw {
-                    normal: NormalElastic::Hooke { stiffness: k_n },
+                    normal: NormalElastic::Hooke(Hooke { stiffness: k_n }),
                     damping,
                     tangential: match (friction > 0.0, tau) {
                         (false, _) => Tangential::None,
@@ -380,7 +382,7 @@ impl ContactParams {
 /// damping and time step follows from it by ratios and square roots; outside this range (far
 /// beyond any unit system) the derived values underflow or overflow, and the error would name a
 /// derived key the config does not have.
-fn require_modulus(field: &str, value: f64) -> Result<()> {
+pub(crate) fn require_modulus(field: &str, value: f64) -> Result<()> {
     if value.is_finite() && (1e-100..=1e100).contains(&value) {
         Ok(())
     } else {
@@ -400,8 +402,8 @@ mod tests {
         let g = p.build(Partner::Grain, "contact").unwrap();
         let w = p.build(Partner::Wall, "contact.wall").unwrap();
         let es = 1.0 / (1.0 - 0.0625);
-        assert_eq!(g.normal, NormalElastic::Hertz { effective_modulus: es / 2.0 });
-        assert_eq!(w.normal, NormalElastic::Hertz { effective_modulus: es });
+        assert_eq!(g.normal, NormalElastic::Hertz(Hertz { effective_modulus: es / 2.0 }));
+        assert_eq!(w.normal, NormalElastic::Hertz(Hertz { effective_modulus: es }));
         // η = k_t/k_n = 1 − ν/(2−ν)
         let kt = g.tangential.stiffness(1e-3, 0.5);
         let kn = g.normal.force_stiffness(1e-3, 0.5).1;

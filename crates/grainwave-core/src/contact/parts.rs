@@ -7,7 +7,7 @@
 //! off at compile time; [`WithRolling`] adds a rolling spring–dashpot to either (E2's law). Each part computes the same expression in every implementation, so a
 //! specialised kernel gives exactly the bits of the general one (tested).
 
-use super::{ContactLaw, Hysteretic, LawHistory, NormalDamping, NormalElastic, NormalResponse, Rolling, Tangential, TangentialDamping, Twisting};
+use super::{ContactLaw, Hertz, Hooke, LawHistory, NormalDamping, NormalElastic, NormalLaw, NormalResponse, Rolling, Tangential, TangentialDamping, Twisting};
 use crate::real::Real;
 
 /// The parts of a contact law, as [`evaluate_parts`](super::evaluate_parts) reads them.
@@ -67,6 +67,62 @@ impl LawParts for ContactLaw {
     #[inline(always)]
     fn twisting(&self) -> Twisting {
         self.twisting
+    }
+}
+
+/// Something run with the parts of a contact law as a type (`NormalElastic::route`; the
+/// engine's force passes).
+pub trait VisitParts {
+    /// What the run gives.
+    type Out;
+    /// Runs with the parts `law`.
+    fn visit<P: LawParts>(self, law: &P) -> Self::Out;
+}
+
+/// A contact law whose normal part `N` keeps a per-contact history: the normal response reads
+/// and updates it ([`LawParts::Extra`] = `N::History`); every other part is that of `law`, read
+/// at each contact as on the general kernel. The engine runs a law with such a normal part
+/// through this composition (`NormalElastic::route`, the default of
+/// [`LawHistory::route_normal`]), one per registered law with history, written once.
+#[derive(Clone, Copy, Debug)]
+pub struct WithNormal<N> {
+    pub(crate) law: ContactLaw,
+    pub(crate) normal: N,
+}
+
+impl<N: NormalLaw> LawParts for WithNormal<N> {
+    type Extra = N::History;
+    #[inline(always)]
+    fn normal_response<R: Real>(&self, xi: R, r_eff: R, extra: &mut <Self::Extra as LawHistory>::Lanes<R>) -> NormalResponse<R> {
+        self.normal.response_lanes(xi, r_eff, extra)
+    }
+    #[inline(always)]
+    fn normal(&self) -> NormalElastic {
+        self.law.normal
+    }
+    #[inline(always)]
+    fn damping(&self) -> NormalDamping {
+        self.law.damping
+    }
+    #[inline(always)]
+    fn tangential(&self) -> Tangential {
+        self.law.tangential
+    }
+    #[inline(always)]
+    fn tangential_damping(&self) -> TangentialDamping {
+        self.law.tangential_damping
+    }
+    #[inline(always)]
+    fn friction(&self) -> f64 {
+        self.law.friction
+    }
+    #[inline(always)]
+    fn rolling(&self) -> Rolling {
+        self.law.rolling
+    }
+    #[inline(always)]
+    fn twisting(&self) -> Twisting {
+        self.law.twisting
     }
 }
 
@@ -133,7 +189,7 @@ impl LawParts for HertzMindlin {
     type Extra = ();
     #[inline(always)]
     fn normal(&self) -> NormalElastic {
-        NormalElastic::Hertz { effective_modulus: self.effective_modulus }
+        NormalElastic::Hertz(Hertz { effective_modulus: self.effective_modulus })
     }
     #[inline(always)]
     fn tangential(&self) -> Tangential {
@@ -146,7 +202,7 @@ impl LawParts for HookeCundallStrack {
     type Extra = ();
     #[inline(always)]
     fn normal(&self) -> NormalElastic {
-        NormalElastic::Hooke { stiffness: self.normal_stiffness }
+        NormalElastic::Hooke(Hooke { stiffness: self.normal_stiffness })
     }
     #[inline(always)]
     fn tangential(&self) -> Tangential {
@@ -159,7 +215,7 @@ impl LawParts for HookeSlipActivation {
     type Extra = ();
     #[inline(always)]
     fn normal(&self) -> NormalElastic {
-        NormalElastic::Hooke { stiffness: self.normal_stiffness }
+        NormalElastic::Hooke(Hooke { stiffness: self.normal_stiffness })
     }
     #[inline(always)]
     fn tangential(&self) -> Tangential {
@@ -231,33 +287,29 @@ pub enum Specialized {
     HookeSlipActivation(HookeSlipActivation),
     /// [`HookeSlipActivation`] with rolling resistance (E2's law with a slip-activation time).
     HookeSlipActivationRolling(WithRolling<HookeSlipActivation>),
-    /// Anything else (twisting resistance, no friction, rescaled Mindlin, mixed parts):
-    /// evaluated through [`ContactLaw`] itself.
+    /// Anything else (twisting resistance, no friction, rescaled Mindlin, mixed parts, a
+    /// normal law with its own history): evaluated through [`ContactLaw`] itself, or through
+    /// [`WithNormal`] for a normal law with history (`NormalElastic::route`).
     General(ContactLaw),
-    /// The hysteretic normal law with its per-contact history (general kernel).
-    Hysteretic(Hysteretic),
 }
 
 impl Specialized {
     /// True for the compositions with window and fused kernels (`sim::lanes::WindowLaw`).
     pub fn has_window_kernel(&self) -> bool {
-        !matches!(self, Specialized::General(_) | Specialized::Hysteretic(_))
+        !matches!(self, Specialized::General(_))
     }
 }
 
 impl ContactLaw {
-    /// The general kernel for this law: [`Specialized::General`], or the composition of a law
-    /// with its own per-contact history, which needs its type to reach that history.
+    /// The general kernel for this law: [`Specialized::General`] (a normal law with history
+    /// is routed to its composition [`WithNormal`] when the force pass runs).
     pub fn general(&self) -> Specialized {
-        match self.normal {
-            NormalElastic::Hysteretic(normal) => Specialized::Hysteretic(Hysteretic { law: *self, normal }),
-            _ => Specialized::General(*self),
-        }
+        Specialized::General(*self)
     }
 
     /// The fastest evaluation path for this law.
     pub fn specialize(&self) -> Specialized {
-        if self.twisting != Twisting::None || matches!(self.normal, NormalElastic::Hysteretic(_)) {
+        if self.twisting != Twisting::None || self.normal.has_history() {
             return self.general();
         }
         let (damping, tangential_damping, friction) = (self.damping, self.tangential_damping, self.friction);
@@ -266,21 +318,21 @@ impl ContactLaw {
             Rolling::SpringDashpot { stiffness, damping, friction } => Some((stiffness, damping, friction)),
         };
         match (self.normal, self.tangential, rolling) {
-            (NormalElastic::Hertz { effective_modulus }, Tangential::Mindlin { effective_shear_modulus, rescale_on_unloading: false }, r) => {
+            (NormalElastic::Hertz(Hertz { effective_modulus }), Tangential::Mindlin { effective_shear_modulus, rescale_on_unloading: false }, r) => {
                 let law = HertzMindlin { effective_modulus, effective_shear_modulus, damping, tangential_damping, friction };
                 match r {
                     None => Specialized::HertzMindlin(law),
                     Some((stiffness, damping, friction)) => Specialized::HertzMindlinRolling(WithRolling { law, stiffness, damping, friction }),
                 }
             }
-            (NormalElastic::Hooke { stiffness: normal_stiffness }, Tangential::Linear { stiffness: tangential_stiffness }, r) => {
+            (NormalElastic::Hooke(Hooke { stiffness: normal_stiffness }), Tangential::Linear { stiffness: tangential_stiffness }, r) => {
                 let law = HookeCundallStrack { normal_stiffness, tangential_stiffness, damping, tangential_damping, friction };
                 match r {
                     None => Specialized::HookeCundallStrack(law),
                     Some((stiffness, damping, friction)) => Specialized::HookeCundallStrackRolling(WithRolling { law, stiffness, damping, friction }),
                 }
             }
-            (NormalElastic::Hooke { stiffness: normal_stiffness }, Tangential::SlipActivation { stiffness: tangential_stiffness, activation_time }, r) => {
+            (NormalElastic::Hooke(Hooke { stiffness: normal_stiffness }), Tangential::SlipActivation { stiffness: tangential_stiffness, activation_time }, r) => {
                 let law = HookeSlipActivation { normal_stiffness, tangential_stiffness, activation_time, damping, tangential_damping, friction };
                 match r {
                     None => Specialized::HookeSlipActivation(law),
@@ -387,7 +439,7 @@ mod tests {
                     same_bits::<D3, _>(&s, &law, mk3);
                     same_bits::<D2, _>(&s, &law, mk2);
                 }
-                Specialized::General(_) | Specialized::Hysteretic(_) => panic!("{law:?} should be specialised"),
+                Specialized::General(_) => panic!("{law:?} should be specialised"),
             }
             checked += 1;
         }

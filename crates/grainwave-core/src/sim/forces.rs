@@ -39,7 +39,7 @@
 
 use super::lanes::{self, Window, WindowLaw, CAP};
 use super::{CrossForce, CrossIndex, Simulation, WallForce};
-use crate::contact::{contact_loads, evaluate_parts, pair_kinematics, wall_kinematics, ContactLaw, ContactState, HistoryColumn, LawHistory, LawParts, NormalElastic, Rolling, TangentialHistory, Twisting};
+use crate::contact::{contact_loads, evaluate_parts, pair_kinematics, wall_kinematics, ContactLaw, ContactState, HistoryColumn, Hooke, LawHistory, LawParts, NormalElastic, Rolling, TangentialHistory, Twisting};
 use crate::dim::{Dim, VectorOps};
 use crate::domain::{Domain, PeriodicImage, WallMotion};
 use crate::error::{CoreError, Result};
@@ -1390,7 +1390,7 @@ const CLOSE_FRACTION: f64 = 0.3;
 /// wall plane, past which the confinement check stops the run anyway). Every other pair: 1.
 pub(crate) fn wall_overlap_scale(grain: &ContactLaw, wall: &ContactLaw, limit: f64) -> f64 {
     match (&grain.normal, &wall.normal) {
-        (&NormalElastic::Hooke { stiffness: kg }, &NormalElastic::Hooke { stiffness: kw }) if kw > 0.0 && kw < kg => {
+        (&NormalElastic::Hooke(Hooke { stiffness: kg }), &NormalElastic::Hooke(Hooke { stiffness: kw })) if kw > 0.0 && kw < kg => {
             let wall_limit = (limit * kg / kw).min(1.0).max(limit);
             limit / wall_limit
         }

@@ -9,7 +9,8 @@
 //! fused multiply–add), so the result is bitwise that of the general kernel (tested on whole
 //! runs).
 
-use crate::contact::{contact_loads_lanes, law_lanes, pair_kinematics_lanes, HertzMindlin, LawIn, Specialized, HookeCundallStrack, HookeSlipActivation, LawParts, NormalDamping, Rolling, TangentialDamping, WithRolling};
+use crate::contact::VisitParts;
+use crate::contact::{contact_loads_lanes, NormalElastic, law_lanes, pair_kinematics_lanes, HertzMindlin, LawIn, Specialized, HookeCundallStrack, HookeSlipActivation, LawParts, NormalDamping, Rolling, TangentialDamping, WithRolling};
 use crate::real::dot;
 use crate::dim::{Dim, VectorOps};
 
@@ -144,8 +145,18 @@ pub(super) fn with_law<V: WithLaw>(specialized: Specialized, v: V) -> V::Out {
         Specialized::HookeCundallStrackRolling(law) => v.special(&law),
         Specialized::HookeSlipActivation(law) => v.special(&law),
         Specialized::HookeSlipActivationRolling(law) => v.special(&law),
-        Specialized::General(law) => v.general(&law),
-        Specialized::Hysteretic(law) => v.general(&law),
+        Specialized::General(law) => NormalElastic::route(&law, General(v)),
+    }
+}
+
+/// A visitor of the general kernel as one of the parts of a law (`NormalElastic::route`).
+struct General<V>(V);
+
+impl<V: WithLaw> VisitParts for General<V> {
+    type Out = V::Out;
+    #[inline(always)]
+    fn visit<P: LawParts>(self, law: &P) -> V::Out {
+        self.0.general(law)
     }
 }
 

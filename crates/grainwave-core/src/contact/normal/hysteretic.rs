@@ -14,21 +14,26 @@
 //! Config: `[contact.normal] law = "hysteretic"` with `loading_stiffness` k₁ and
 //! `unloading_stiffness` k₂ (the Hooke composition otherwise: tangential spring ratio × k₁,
 //! any damping except the `restitution` and `tsuji` dashpots, which are defined for the
-//! reversible laws). Runs on the general kernel (`Specialized::Hysteretic`); grain–wall contacts
-//! keep no law history yet, so walls need another normal law (`[wall_contact.normal]` or the
-//! wall's `contact.normal`).
+//! reversible laws). Grain–wall contacts keep no law history, so walls need another normal law
+//! (`[wall_contact.normal]` or the wall's `contact.normal`).
 
-use super::{ContactLaw, DampingTable, LawHistory, LawParts, NormalDamping, NormalElastic, NormalResponse, Rolling, Tangential, TangentialDamping, Twisting};
+use super::{Composition, NormalContext, NormalLaw, NormalResponse};
+use crate::contact::{DampingTable, LawHistory};
 use crate::error::{require_positive, CoreError, Result};
 use crate::real::Real;
 use serde::{Deserialize, Serialize};
 
-/// The parameters: loading stiffness k₁ and unloading stiffness k₂ ≥ k₁ (force/length).
+/// The hysteretic law: loading stiffness k₁ and unloading stiffness k₂ ≥ k₁ (force/length).
+/// Loading along k₁ past the contact's largest overlap so far ξ_max, unloading and reloading
+/// along k₂ from (ξ_max, k₁ ξ_max); a binary collision's restitution is √(k₁/k₂). The Hooke
+/// composition otherwise (tangential stiffness ratio × k₁); see docs/engine.md.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct HystereticNormal {
-    /// k₁.
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[serde(deny_unknown_fields)]
+pub struct Hysteretic {
+    /// k₁ [force/length].
     pub loading_stiffness: f64,
-    /// k₂ ≥ k₁.
+    /// k₂ ≥ k₁ [force/length].
     pub unloading_stiffness: f64,
 }
 
@@ -48,6 +53,10 @@ impl LawHistory for MaxOverlap {
     fn from_lane(l: f64) -> Self {
         MaxOverlap(l)
     }
+    #[inline(always)]
+    fn splat<R: Real>(self) -> R {
+        R::splat(self.0)
+    }
     fn encode(&self, out: &mut Vec<f64>) {
         out.push(self.0);
     }
@@ -56,12 +65,53 @@ impl LawHistory for MaxOverlap {
     }
 }
 
-impl HystereticNormal {
+impl NormalLaw for Hysteretic {
+    type Params = Hysteretic;
+    type History = MaxOverlap;
+
+    fn composition(params: &Hysteretic) -> Composition {
+        Composition::Hooke { stiffness: params.loading_stiffness, key: "loading_stiffness" }
+    }
+
+    /// The law of the table, checked; the `restitution` and `tsuji` dashpots of
+    /// `[contact.damping]` are refused (defined for reversible laws).
+    fn build(params: &Hysteretic, at: &NormalContext) -> Result<Self> {
+        params.validate(at.field)?;
+        let refused = match at.damping {
+            Some(DampingTable::Restitution { .. }) => Some("restitution"),
+            Some(DampingTable::Tsuji { .. }) => Some("tsuji"),
+            _ => None,
+        };
+        if let Some(name) = refused {
+            return Err(CoreError::invalid(
+                format!("{}.damping.law", at.field),
+                format!("\"{name}\""),
+                "\"none\", \"dashpot\", \"critical_fraction\" or \"mass_proportional\" with the hysteretic normal law (its restitution √(k₁/k₂) comes from the hysteresis; the restitution dashpots are defined for reversible laws)",
+            ));
+        }
+        Ok(*params)
+    }
+
+    /// Checks k₁ > 0 and k₁ ≤ k₂ < ∞ (keys `{field}.normal.loading_stiffness`, …).
+    fn validate(&self, field: &str) -> Result<()> {
+        let key = |k: &str| format!("{field}.normal.{k}");
+        require_positive(&key("loading_stiffness"), self.loading_stiffness)?;
+        let (k1, k2) = (self.loading_stiffness, self.unloading_stiffness);
+        if !(k2.is_finite() && k2 >= k1) {
+            return Err(CoreError::invalid(
+                key("unloading_stiffness"),
+                k2,
+                format!("a finite stiffness ≥ loading_stiffness = {k1} (k₂ = k₁ is the elastic Hooke law; restitution e = √(k₁/k₂))"),
+            ));
+        }
+        Ok(())
+    }
+
     /// The response at overlap `xi` with the contact's largest overlap so far `max_overlap`,
     /// which it updates (the module documentation's law). Stiffness: k₁ loading, k₂ unloading
     /// while F_el > 0, 0 past ξ₀; secant F_el/ξ.
     #[inline(always)]
-    pub(crate) fn response_with_history<R: Real>(&self, xi: R, max_overlap: &mut R) -> NormalResponse<R> {
+    fn response_lanes<R: Real>(&self, xi: R, _r_eff: R, max_overlap: &mut R) -> NormalResponse<R> {
         let zero = R::splat(0.0);
         let (k1, k2) = (R::splat(self.loading_stiffness), R::splat(self.unloading_stiffness));
         // loading where ξ ≥ ξ_max (then ξ_max ← ξ)
@@ -75,113 +125,34 @@ impl HystereticNormal {
         NormalResponse { force, stiffness, secant: force / xi }
     }
 
-    /// The stateless response (no history known): the loading branch's force k₁ ξ, and as its
-    /// stiffness the largest one of the law, k₂, which bounds the contact's frequency (time-step
-    /// suggestions).
-    #[inline(always)]
-    pub(crate) fn response_lanes<R: Real>(&self, xi: R) -> NormalResponse<R> {
-        let k1 = R::splat(self.loading_stiffness);
-        NormalResponse { force: k1 * xi, stiffness: R::splat(self.unloading_stiffness), secant: k1 }
-    }
-
-    /// Elastic energy without the history: that of the loading branch, ½ k₁ ξ² (an upper bound
-    /// of what an unloading contact returns).
-    pub fn energy(&self, xi: f64) -> f64 {
-        0.5 * self.loading_stiffness * xi * xi
-    }
-
-    /// Checks k₁ > 0 and k₁ ≤ k₂ < ∞; `field` prefixes the key names.
-    pub fn validate(&self, field: &str) -> Result<()> {
-        require_positive(&format!("{field}.loading_stiffness"), self.loading_stiffness)?;
+    /// The energy returned on unloading from ξ: with ξ_m = max(ξ, ξ_max) and
+    /// ξ₀ = ξ_m (1 − k₁/k₂), ∫_{ξ₀}^{ξ} k₂ (ξ' − ξ₀) dξ' = ½ k₂ (ξ − ξ₀)² for ξ > ξ₀, 0 otherwise.
+    /// On the loading branch (ξ = ξ_m) it is (k₁/k₂) ½ k₁ ξ²: the rest of the work ½ k₁ ξ² done
+    /// on loading is dissipated.
+    fn energy(&self, xi: f64, _r_eff: f64, history: &MaxOverlap) -> f64 {
         let (k1, k2) = (self.loading_stiffness, self.unloading_stiffness);
-        if !(k2.is_finite() && k2 >= k1) {
-            return Err(CoreError::invalid(
-                format!("{field}.unloading_stiffness"),
-                k2,
-                format!("a finite stiffness ≥ loading_stiffness = {k1} (k₂ = k₁ is the elastic Hooke law; restitution e = √(k₁/k₂))"),
-            ));
-        }
-        Ok(())
+        let xi0 = xi.max(history.0) * (1.0 - k1 / k2);
+        let d = (xi - xi0).max(0.0);
+        0.5 * k2 * d * d
     }
 
-    /// The law of a config whose `[contact.normal]` names `hysteretic`: `law` is the Hooke
-    /// composition built with k_n = k₁ (its other families already checked), `damping` the
-    /// `[contact.damping]` table's law name if one was given; `field` prefixes the key names.
-    pub(crate) fn apply(self, law: &mut ContactLaw, damping: Option<&DampingTable>, field: &str) -> Result<()> {
-        self.validate(&format!("{field}.normal"))?;
-        let refused = match damping {
-            Some(DampingTable::Restitution { .. }) => Some("restitution"),
-            Some(DampingTable::Tsuji { .. }) => Some("tsuji"),
-            _ => None,
-        };
-        if let Some(name) = refused {
-            return Err(CoreError::invalid(
-                format!("{field}.damping.law"),
-                format!("\"{name}\""),
-                "\"none\", \"dashpot\", \"critical_fraction\" or \"mass_proportional\" with the hysteretic normal law (its restitution √(k₁/k₂) comes from the hysteresis; the restitution dashpots are defined for reversible laws)",
-            ));
-        }
-        law.normal = NormalElastic::Hysteretic(self);
-        Ok(())
-    }
-}
-
-/// A contact law whose normal part is [`HystereticNormal`], every other part that of `law`
-/// (read at each contact, as on the general kernel): the composition the engine runs for it,
-/// with the per-contact history [`MaxOverlap`].
-#[derive(Clone, Copy, Debug)]
-pub struct Hysteretic {
-    pub(crate) law: ContactLaw,
-    pub(crate) normal: HystereticNormal,
-}
-
-impl LawParts for Hysteretic {
-    type Extra = MaxOverlap;
-    #[inline(always)]
-    fn normal_response<R: Real>(&self, xi: R, _r_eff: R, extra: &mut R) -> NormalResponse<R> {
-        self.normal.response_with_history(xi, extra)
-    }
-    #[inline(always)]
-    fn normal(&self) -> NormalElastic {
-        self.law.normal
-    }
-    #[inline(always)]
-    fn damping(&self) -> NormalDamping {
-        self.law.damping
-    }
-    #[inline(always)]
-    fn tangential(&self) -> Tangential {
-        self.law.tangential
-    }
-    #[inline(always)]
-    fn tangential_damping(&self) -> TangentialDamping {
-        self.law.tangential_damping
-    }
-    #[inline(always)]
-    fn friction(&self) -> f64 {
-        self.law.friction
-    }
-    #[inline(always)]
-    fn rolling(&self) -> Rolling {
-        self.law.rolling
-    }
-    #[inline(always)]
-    fn twisting(&self) -> Twisting {
-        self.law.twisting
+    /// k₂, the stiffer of the two branches.
+    fn max_stiffness(&self, _xi: f64, _r_eff: f64) -> f64 {
+        self.unloading_stiffness
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::contact::{ContactParams, NormalTable, Partner};
+    use crate::contact::{ContactLaw, ContactParams, NormalElastic, NormalTable, Partner};
     use crate::dim::{Dim, D2, D3};
     use crate::domain::Domain;
     use crate::grains::{GrainKind, Grains};
     use crate::sim::{Simulation, SimulationBuilder};
 
     fn params(k1: f64, k2: f64) -> ContactParams {
-        let mut p = ContactParams { normal: Some(NormalTable::Hysteretic { loading_stiffness: k1, unloading_stiffness: k2 }), ..Default::default() };
+        let mut p = ContactParams { normal: Some(NormalTable::Hysteretic(Hysteretic { loading_stiffness: k1, unloading_stiffness: k2 })), ..Default::default() };
         p.friction = Some(0.0);
         p
     }
@@ -317,7 +288,43 @@ mod tests {
         assert!(e.contains("contact.damping.law") && e.contains("restitution") && e.contains("dashpot"), "{e}");
         p.damping = Some(DampingTable::Dashpot { coefficient: 0.1, tangential_ratio: None, tangential_rate: None });
         let law = p.build(Partner::Grain, "contact").unwrap();
-        assert_eq!(law.normal, NormalElastic::Hysteretic(HystereticNormal { loading_stiffness: 1e4, unloading_stiffness: 2e4 }));
-        assert!(matches!(law.specialize(), crate::contact::Specialized::Hysteretic(_)));
+        assert_eq!(law.normal, NormalElastic::Hysteretic(Hysteretic { loading_stiffness: 1e4, unloading_stiffness: 2e4 }));
+        assert!(!law.specialize().has_window_kernel());
+    }
+
+    /// The energy read from the history is the work the contact returns on unloading, ∫ F dξ
+    /// from ξ down to 0 along the law itself (history updated at every point), for a contact
+    /// loaded to ξ_m and then partly unloaded, and on the loading branch (k₁/k₂) ½ k₁ ξ². The
+    /// force is piecewise linear, so the trapezoidal sum with 10⁵ points is exact but for the
+    /// one interval holding the kink at ξ₀, an error ≤ k₂ h² / 8 relative to ½ k₂ (ξ − ξ₀)²,
+    /// below 1e-9 here (the tolerance 1e-8).
+    #[test]
+    fn energy_is_the_work_returned_on_unloading() {
+        let law = Hysteretic { loading_stiffness: 1e4, unloading_stiffness: 4e4 };
+        let mut h = 0.0;
+        for k in 0..=100 {
+            law.response_lanes(1e-3 * k as f64 / 100.0, 0.5, &mut h);
+        }
+        assert_eq!(h, 1e-3);
+        for xi in [1e-3, 0.9e-3, 0.8e-3, 0.7e-3] {
+            let stored = MaxOverlap(h);
+            let n = 100_000;
+            let (mut work, mut hist) = (0.0, h);
+            let mut f_prev = law.response_lanes(xi, 0.5, &mut hist).force;
+            for k in 1..=n {
+                let x = xi * (1.0 - k as f64 / n as f64);
+                let f = law.response_lanes(x, 0.5, &mut hist).force;
+                work += 0.5 * (f + f_prev) * xi / n as f64;
+                f_prev = f;
+            }
+            let e = law.energy(xi, 0.5, &stored);
+            assert!((e - work).abs() <= 1e-8 * work.max(1e-300), "ξ = {xi}: energy {e}, work {work}");
+        }
+        // ξ₀ = ¾ ξ_m: unloaded past it, nothing is stored
+        assert_eq!(law.energy(0.7e-3, 0.5, &MaxOverlap(1e-3)), 0.0);
+        // the loading branch (a contact that has just formed)
+        let xi = 2e-3;
+        let e = NormalElastic::from(law).energy(xi, 0.5);
+        assert!((e - 0.25 * 0.5 * 1e4 * xi * xi).abs() < 1e-15 * e, "{e}");
     }
 }
