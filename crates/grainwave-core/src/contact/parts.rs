@@ -444,6 +444,24 @@ mod tests {
             checked += 1;
         }
         assert_eq!(checked, 8);
+        // the composition a normal law with history runs through (`WithNormal`), here with the
+        // laws without history, gives the bits of the general law (the normal part called
+        // directly instead of through the enum; every other part that of the law)
+        let mut with_rolling = ContactParams::preset("hertz_mindlin");
+        (with_rolling.young, with_rolling.damping_fraction, with_rolling.mindlin_rescale) = (Some(1e5), Some(0.1), Some(true));
+        (with_rolling.rolling_stiffness, with_rolling.twisting_stiffness) = (Some(2e-3), Some(1e-3));
+        let mut hooke_twist = ContactParams::preset("hooke_cundall_strack");
+        (hooke_twist.normal_stiffness, hooke_twist.restitution, hooke_twist.twisting_stiffness) = (Some(1e4), Some(0.7), Some(1.0));
+        for p in [with_rolling, hooke_twist] {
+            let law = p.build(Partner::Grain, "contact").unwrap();
+            let v3 = |rng: &mut ChaCha8Rng| DVec3::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5);
+            let mk3 = |rng: &mut ChaCha8Rng| (DVec3::new(0.9 + 0.1 * rng.random::<f64>(), 0.2 * rng.random::<f64>(), 0.1), v3(rng), v3(rng), v3(rng) * 10f64.powf(7.0 * rng.random::<f64>() - 3.0));
+            match law.normal {
+                NormalElastic::Hertz(normal) => same_bits::<D3, _>(&WithNormal { law, normal }, &law, mk3),
+                NormalElastic::Hooke(normal) => same_bits::<D3, _>(&WithNormal { law, normal }, &law, mk3),
+                other => panic!("{other:?}"),
+            }
+        }
         // twisting resistance keeps the general path
         let mut p = ContactParams::preset("hooke_cundall_strack");
         p.normal_stiffness = Some(1e4);

@@ -327,4 +327,18 @@ mod tests {
         let e = NormalElastic::from(law).energy(xi, 0.5);
         assert!((e - 0.25 * 0.5 * 1e4 * xi * xi).abs() < 1e-15 * e, "{e}");
     }
+
+    /// A wall whose law has per-contact history is refused when the simulation is built,
+    /// naming the wall's key, the law and the laws allowed (those without history).
+    #[test]
+    fn walls_with_a_history_law_are_refused() {
+        let wall_law = params(1e4, 2e4).build(Partner::Wall, "wall_contact").unwrap();
+        let grain_law = params(1e4, 2e4).build(Partner::Grain, "contact").unwrap();
+        let mut g = Grains::<D2>::new(GrainKind::Disk { thickness: 1.0 });
+        g.push_with_mass(glam::DVec2::new(0.0, 1.0), 0.5, 1.0, glam::DVec2::ZERO);
+        let d = Domain::new(glam::DVec2::splat(-5.0), glam::DVec2::splat(5.0), [false; 3])
+            .with_wall(crate::domain::Wall::axis_aligned("floor", 1, 0.0, true, wall_law));
+        let e = SimulationBuilder::new(g, d, grain_law).dt(1e-3).build().unwrap_err().to_string();
+        assert!(e.contains("walls.floor.contact.normal.law") && e.contains("\"hysteretic\"") && e.contains("\"hooke\" or \"hertz\""), "{e}");
+    }
 }
