@@ -42,7 +42,7 @@ pub(crate) use history::{decoding_without_columns, zero_sized_slice};
 pub use params::{ContactParams, Partner, PRESETS};
 pub use parts::{HertzMindlin, HookeCundallStrack, HookeSlipActivation, LawParts, Specialized, VisitParts, WithNormal, WithRolling};
 pub use rolling::{Rolling, Twisting};
-pub use tangential::{HistoryValue, Tangential, TangentialDamping, TangentialHistory};
+pub use tangential::{HistoryValue, SlipActivationParams, Tangential, TangentialDamping, TangentialHistory};
 pub(crate) use coulomb::coulomb_cap_lanes;
 pub(crate) use damping::clamped_normal_force_lanes;
 pub(crate) use kinematics::{into_tangent_plane_lanes, pair_kinematics_lanes};
@@ -395,16 +395,7 @@ impl ContactLaw {
         match self.tangential {
             Tangential::None => {}
             Tangential::Linear { stiffness } => require_positive(&format!("{field}.tangential_stiffness"), stiffness)?,
-            Tangential::SlipActivation { stiffness, activation_time } => {
-                require_positive(&format!("{field}.tangential_stiffness"), stiffness)?;
-                if !(activation_time > 0.0 && activation_time.is_finite()) {
-                    return Err(CoreError::invalid(
-                        format!("{field}.slip_activation_time"),
-                        activation_time,
-                        "a finite time τ > 0 (0 is the Coulomb cap: leave the key out or set 0)",
-                    ));
-                }
-            }
+            Tangential::SlipActivation { stiffness, activation_time } => tangential::validate_slip_activation(stiffness, activation_time, field)?,
             Tangential::Mindlin { effective_shear_modulus, .. } => {
                 require_positive(&format!("{field}.shear_modulus"), effective_shear_modulus)?
             }

@@ -1,7 +1,7 @@
 //! Named presets: the keyword table at the boundary between configs and contact laws.
 
 use super::families::{DampingTable, ResistanceTable, TangentialTable};
-use super::{ContactLaw, Hertz, Hooke, NormalContext, NormalDamping, NormalElastic, NormalTable, Rolling, Tangential, TangentialDamping, Twisting};
+use super::{ContactLaw, Hertz, Hooke, NormalContext, NormalDamping, NormalElastic, NormalTable, Rolling, SlipActivationParams, Tangential, TangentialDamping, Twisting};
 use crate::error::{require_non_negative, require_positive, CoreError, Result};
 use serde::{Deserialize, Serialize};
 
@@ -276,15 +276,9 @@ impl ContactParams {
                         format!("a ratio that makes k_t = ratio × normal_stiffness a finite, normal number (here {k_t:?})"),
                     ));
                 }
-                // τ = 0 (or absent) is the Coulomb cap itself: today's law, not a limit of the other
-                let tau = match self.slip_activation_time {
-                    None => None,
-                    Some(t) if t == 0.0 => None,
-                    Some(t) if t > 0.0 && t.is_finite() => Some(t),
-                    Some(t) => {
-                        return Err(CoreError::invalid(key("slip_activation_time"), t, "a finite time τ ≥ 0 (0: the Coulomb cap)"));
-                    }
-                };
+                // τ = 0 (or absent) is the Coulomb cap itself: the linear law, not a limit of the other
+                let slip = SlipActivationParams { slip_activation_time: self.slip_activation_time };
+                let tangential = slip.build(ratio * k_n, &key("slip_activation_time"))?;
                 let given: Vec<&str> = [
                     ("restitution", self.restitution.is_some()),
                     ("normal_damping", self.normal_damping.is_some()),
@@ -353,11 +347,7 @@ impl ContactParams {
                 ContactLaw {
                     normal: NormalElastic::Hooke(Hooke { stiffness: k_n }),
                     damping,
-                    tangential: match (friction > 0.0, tau) {
-                        (false, _) => Tangential::None,
-                        (true, None) => Tangential::Linear { stiffness: ratio * k_n },
-                        (true, Some(activation_time)) => Tangential::SlipActivation { stiffness: ratio * k_n, activation_time },
-                    },
+                    tangential: if friction > 0.0 { tangential } else { Tangential::None },
                     tangential_damping,
                     friction,
                     rolling,

@@ -11,6 +11,10 @@ use crate::error::{CoreError, Result};
 use crate::real::{select3, Real, Vec3};
 use serde::{Deserialize, Serialize};
 
+mod slip_activation;
+pub(crate) use slip_activation::validate as validate_slip_activation;
+pub use slip_activation::SlipActivationParams;
+
 /// The tangential history of one contact as it is stored (on grain i of the pair), whose unit
 /// depends on the law that wrote it: a length for [`Tangential::Linear`] (the spring
 /// elongation s), a force for [`Tangential::Mindlin`] (the elastic tangential force). It is
@@ -134,7 +138,8 @@ pub enum Tangential {
     /// so a contact may hold more than μ F_n for a time of order τ: it slides at loading time
     /// scales (≫ τ) and sticks at acoustic ones (≪ τ). τ → 0 is the Coulomb cap of
     /// [`Tangential::Linear`]. Integrated by backward Euler over each step (unconditionally
-    /// stable, exact steady slide D_t = D_tᶜ + v_t τ; see [`spring_step`]). History: the
+    /// stable, exact steady slide D_t = D_tᶜ + v_t τ). Its parameter, checks and step past the
+    /// cap are in `contact/tangential/slip_activation.rs` ([`SlipActivationParams`]). History: the
     /// spring D_t (a length), as the linear law. (Appended last: the encoding of the other
     /// variants, and so of every earlier checkpoint, is unchanged.)
     SlipActivation {
@@ -290,19 +295,8 @@ pub(crate) fn spring_step<R: Real, const N: usize>(
     }
     let at_cap = law.history_for_force_lanes::<R, N>(f);
     if let Tangential::SlipActivation { activation_time, .. } = *law {
-        // Eq. 13 by backward Euler over the step: with x = |D_t| − D_tᶜ the excess over the
-        // history that holds the Coulomb force, x_new = x_old + v_t Δt − (Δt/τ) x_new, i.e.
-        // x_new = w x_trial with w = τ/(τ + Δt) (x_trial = x_old + v_t Δt, the excess of the
-        // incremented spring). Steady sliding keeps x = v_t τ exactly; τ → 0 gives w = 0, the
-        // Coulomb cap. The force is the capped force plus the same fraction of the trial
-        // force's excess (F = k_t D_t + γ_t v_t, linear in D_t).
-        let w = R::splat(activation_time / (activation_time + dt));
-        let (mut history, mut force) = ([R::splat(0.0); 3], [R::splat(0.0); 3]);
-        for c in 0..N {
-            history[c] = at_cap[c] + w * (kept[c] - at_cap[c]);
-            force[c] = f[c] + w * (trial[c] - f[c]);
-        }
-        return (select3::<R>(sliding, force, f), select3::<R>(sliding, history, kept), sliding);
+        let (force, history) = slip_activation::relax_lanes::<R, N>(activation_time, dt, f, at_cap, trial, kept, sliding);
+        return (force, history, sliding);
     }
     let history = select3::<R>(sliding, at_cap, kept);
     (f, history, sliding)
