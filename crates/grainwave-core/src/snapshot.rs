@@ -113,10 +113,18 @@ pub struct Snapshot<D: Dim> {
     pub contacts: Vec<ContactRecord<D>>,
 }
 
-fn record<D: Dim>(law: &ContactLaw, kin: &Kinematics<D>, state: &ContactState<D>, i: u32, j: Counterpart, branch: D::Vector) -> ContactRecord<D> {
-    // Re-evaluate on a copy with dt = 0: histories are not advanced.
+/// The law's own history of a grain–grain contact: the list's column, its length, the pair's
+/// index and whether the record sees the pair from its other grain.
+type Stored<'a> = (&'a crate::contact::HistoryColumn, usize, usize, bool);
+
+fn record<D: Dim>(law: &ContactLaw, kin: &Kinematics<D>, state: &ContactState<D>, stored: Option<Stored<'_>>, i: u32, j: Counterpart, branch: D::Vector) -> ContactRecord<D> {
+    // Re-evaluate on a copy with dt = 0: histories are not advanced (a normal law with its own
+    // history reads the stored one: the branch the contact is on)
     let mut s = *state;
-    let o = law.evaluate(kin, &mut s, 0.0);
+    let o = match stored {
+        Some((history, len, pair, reversed)) => law.evaluate_stored(kin, &mut s, history, len, pair, reversed, 0.0),
+        None => law.evaluate(kin, &mut s, 0.0),
+    };
     ContactRecord {
         i,
         j,
@@ -142,25 +150,29 @@ impl<D: Dim> Simulation<D> {
         let g = &self.grains;
         let mut out = Vec::new();
         // Grain i is the pair's lower storage index, whichever grain owns it in the list.
-        let mut pairs: Vec<crate::neighbor::Pair<D>> = self
+        // (pair, its index in the list, whether it was seen from its other grain)
+        let mut pairs: Vec<(crate::neighbor::Pair<D>, usize, bool)> = self
             .nlist
             .pairs()
-            .filter(|p| p.state.in_contact())
-            .map(|mut p| {
-                if p.i > p.j {
+            .enumerate()
+            .filter(|(_, p)| p.state.in_contact())
+            .map(|(k, mut p)| {
+                let swapped = p.i > p.j;
+                if swapped {
                     std::mem::swap(&mut p.i, &mut p.j);
                     p.state.spring = -p.state.spring;
                     p.state.rolling = -p.state.rolling;
                 }
-                p
+                (p, k, swapped)
             })
             .collect();
-        pairs.sort_unstable_by_key(|p| (p.i, p.j));
-        for p in &pairs {
+        pairs.sort_unstable_by_key(|(p, _, _)| (p.i, p.j));
+        let (history, len) = (&self.nlist.list.extra, self.nlist.list.len());
+        for (p, k, swapped) in &pairs {
             let (i, j) = (p.i as usize, p.j as usize);
             let r = self.domain.displacement(g.pos[i], g.pos[j]);
             if let Some(kin) = pair_kinematics::<D>(r, g.radius[i], g.radius[j], g.mass[i], g.mass[j], g.vel[i], g.vel[j], g.omega[i], g.omega[j]) {
-                out.push(record(&self.law, &kin, &p.state, g.id[i], Counterpart::Grain(g.id[j]), r));
+                out.push(record(&self.law, &kin, &p.state, Some((history, len, *k, *swapped)), g.id[i], Counterpart::Grain(g.id[j]), r));
             }
         }
         for wp in &self.nlist.wall_pairs {
@@ -172,7 +184,8 @@ impl<D: Dim> Simulation<D> {
             let h = wall.distance(g.pos[k]);
             if let Some(kin) = wall_kinematics::<D>(h, wall.normal, wall.velocity(), g.radius[k], g.mass[k], g.vel[k], g.omega[k]) {
                 let branch = kin.normal * h;
-                out.push(record(&wall.law, &kin, &wp.state, g.id[k], Counterpart::Wall(wp.wall), branch));
+                // grain–wall contacts keep no law history (such a wall law is refused)
+                out.push(record(&wall.law, &kin, &wp.state, None, g.id[k], Counterpart::Wall(wp.wall), branch));
             }
         }
         out

@@ -229,6 +229,27 @@ impl HistoryColumn {
         &mut self.0.as_mut().unwrap().as_any_mut().downcast_mut::<Typed<H>>().unwrap().0
     }
 
+    /// Entry `p` of a column for a list of `len` pairs, read without changing the column: the
+    /// stored value, decoded where the column is still a checkpoint's encoding, or
+    /// `H::default()` (the state of a contact that has just formed) where none is stored, the
+    /// stored one is of another law or of another list (its length not `len`), as
+    /// [`HistoryColumn::typed_mut`] would give it.
+    pub fn get<H: LawHistory>(&self, len: usize, p: usize) -> H {
+        if std::mem::size_of::<H>() == 0 || p >= len {
+            return H::default();
+        }
+        let Some(c) = self.0.as_ref().filter(|c| c.len() == len) else {
+            return H::default();
+        };
+        if let Some(t) = c.as_any().downcast_ref::<Typed<H>>() {
+            return t.0[p];
+        }
+        c.as_any()
+            .downcast_ref::<Encoded>()
+            .filter(|e| e.name == H::NAME && e.width as usize == H::WIDTH)
+            .map_or_else(H::default, |e| H::decode(&e.values[p * H::WIDTH..(p + 1) * H::WIDTH]))
+    }
+
     /// The column for a rebuilt list: entry `p` is the old entry `from[p].0`, reversed
     /// ([`LawHistory::reversed`]) where `from[p].1`, or the default where `from[p].0` is
     /// `u32::MAX` (a pair that is new to the list). Empty stays empty.

@@ -337,13 +337,73 @@ impl ContactLaw {
         evaluate_parts(self, kin, state, &mut (), dt)
     }
 
+    /// [`ContactLaw::evaluate`] for pair `pair` of a list of `len` pairs whose law history
+    /// column is `history` (for a normal law with history: the response on the branch its
+    /// stored history puts it on; `reversed` where the pair is seen from its other grain,
+    /// [`LawHistory::reversed`]). The history read is not written back: with `dt = 0` nothing
+    /// of the contact advances (what contact records and snapshots evaluate).
+    pub fn evaluate_stored<D: Dim>(&self, kin: &Kinematics<D>, state: &mut ContactState<D>, history: &HistoryColumn, len: usize, pair: usize, reversed: bool, dt: f64) -> ContactOutput<D> {
+        struct Stored<'a, D: Dim> {
+            kin: &'a Kinematics<D>,
+            state: &'a mut ContactState<D>,
+            history: &'a HistoryColumn,
+            len: usize,
+            pair: usize,
+            reversed: bool,
+            dt: f64,
+        }
+        impl<D: Dim> VisitParts for Stored<'_, D> {
+            type Out = ContactOutput<D>;
+            fn visit<P: LawParts>(self, law: &P) -> ContactOutput<D> {
+                let mut h: P::Extra = self.history.get(self.len, self.pair);
+                if self.reversed {
+                    h = h.reversed();
+                }
+                evaluate_parts(law, self.kin, self.state, &mut h, self.dt)
+            }
+        }
+        NormalElastic::route(self, Stored { kin, state, history, len, pair, reversed, dt })
+    }
+
     /// Elastic energy stored in a contact: normal part + tangential spring (½ k_t s² for the
-    /// linear law, |F|²/(2 k_t) for Mindlin) + rolling spring ½ k_r θ².
+    /// linear law, |F|²/(2 k_t) for Mindlin) + rolling spring ½ k_r θ². A normal law with its
+    /// own history is read as for a contact that has just formed (its history the default);
+    /// [`ContactLaw::elastic_energy_stored`] reads the contact's stored history.
     pub fn elastic_energy<D: Dim>(&self, overlap: f64, r_eff: f64, state: &ContactState<D>) -> f64 {
         if overlap <= 0.0 {
             return 0.0;
         }
-        let mut e = self.normal.energy(overlap, r_eff);
+        self.elastic_energy_with(self.normal.energy(overlap, r_eff), overlap, r_eff, state)
+    }
+
+    /// [`ContactLaw::elastic_energy`] of pair `pair` of a list of `len` pairs whose law history
+    /// column is `history`: the normal part's energy reads the stored history (for the
+    /// hysteretic law, ½ k₂ (ξ − ξ₀)² with ξ₀ from the stored ξ_max, not the loading branch's).
+    pub fn elastic_energy_stored<D: Dim>(&self, overlap: f64, r_eff: f64, state: &ContactState<D>, history: &HistoryColumn, len: usize, pair: usize) -> f64 {
+        if overlap <= 0.0 {
+            return 0.0;
+        }
+        struct Normal<'a> {
+            history: &'a HistoryColumn,
+            len: usize,
+            pair: usize,
+            overlap: f64,
+            r_eff: f64,
+        }
+        impl VisitParts for Normal<'_> {
+            type Out = f64;
+            fn visit<P: LawParts>(self, law: &P) -> f64 {
+                law.normal_energy(self.overlap, self.r_eff, &self.history.get(self.len, self.pair))
+            }
+        }
+        let normal = NormalElastic::route(self, Normal { history, len, pair, overlap, r_eff });
+        self.elastic_energy_with(normal, overlap, r_eff, state)
+    }
+
+    /// The energy of a contact at `overlap` (> 0) whose normal part holds `normal`, plus its
+    /// tangential, rolling and twisting springs.
+    fn elastic_energy_with<D: Dim>(&self, normal: f64, overlap: f64, r_eff: f64, state: &ContactState<D>) -> f64 {
+        let mut e = normal;
         let k_t = self.tangential.stiffness(overlap, r_eff);
         match self.tangential.read(state.spring) {
             HistoryValue::None => {}

@@ -22,6 +22,13 @@ pub trait LawParts: Copy + Send + Sync {
         let _ = extra;
         self.normal().response_lanes(xi, r_eff)
     }
+    /// The elastic energy of the normal part at overlap `xi` with the law's own history
+    /// `extra` ([`NormalLaw::energy`]). The default: the stateless [`LawParts::normal`] part's.
+    #[inline]
+    fn normal_energy(&self, xi: f64, r_eff: f64, extra: &Self::Extra) -> f64 {
+        let _ = extra;
+        self.normal().energy(xi, r_eff)
+    }
     /// Normal elastic part.
     fn normal(&self) -> NormalElastic;
     /// Normal damping part.
@@ -95,6 +102,10 @@ impl<N: NormalLaw> LawParts for WithNormal<N> {
     #[inline(always)]
     fn normal_response<R: Real>(&self, xi: R, r_eff: R, extra: &mut <Self::Extra as LawHistory>::Lanes<R>) -> NormalResponse<R> {
         self.normal.response_lanes(xi, r_eff, extra)
+    }
+    #[inline]
+    fn normal_energy(&self, xi: f64, r_eff: f64, extra: &N::History) -> f64 {
+        self.normal.energy(xi, r_eff, extra)
     }
     #[inline(always)]
     fn normal(&self) -> NormalElastic {

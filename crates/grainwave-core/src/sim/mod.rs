@@ -369,13 +369,15 @@ impl<D: Dim> Simulation<D> {
     pub fn elastic_energy(&self) -> f64 {
         let g = &self.grains;
         let pairs: Vec<crate::neighbor::Pair<D>> = self.nlist.pairs().collect();
+        // the law's own history column is in list order, the order of `pairs`
+        let history = &self.nlist.list.extra;
         let e_pairs = crate::util::det_sum(pairs.len(), |k| {
             let p = &pairs[k];
             let (i, j) = (p.i as usize, p.j as usize);
             let d = self.domain.displacement(g.pos[i], g.pos[j]).norm();
             let xi = g.radius[i] + g.radius[j] - d;
             let r_eff = g.radius[i] * g.radius[j] / (g.radius[i] + g.radius[j]);
-            self.law.elastic_energy(xi, r_eff, &p.state)
+            self.law.elastic_energy_stored(xi, r_eff, &p.state, history, pairs.len(), k)
         });
         let mut e_walls = 0.0;
         for wp in &self.nlist.wall_pairs {
