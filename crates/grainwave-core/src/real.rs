@@ -17,6 +17,14 @@ use std::ops::{Add, Div, Mul, Neg, Sub};
 pub trait Real: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Self> + Div<Output = Self> + Neg<Output = Self> {
     /// Per-lane truth value.
     type Mask: Copy;
+    /// Number of lanes.
+    const LANES: usize;
+    /// The lanes `f(0), f(1), …` in order (a per-contact value gathered lane by lane: the
+    /// law's own history, `LawHistory::gather`).
+    fn from_fn(f: impl FnMut(usize) -> f64) -> Self;
+    /// `f(l, x)` for every lane `l` and its value `x`, in lane order (a per-contact value
+    /// scattered lane by lane: `LawHistory::scatter`).
+    fn for_each_lane(self, f: impl FnMut(usize, f64));
     /// Every lane `x`.
     fn splat(x: f64) -> Self;
     /// √x lane by lane.
@@ -51,6 +59,15 @@ pub trait Real: Copy + Add<Output = Self> + Sub<Output = Self> + Mul<Output = Se
 
 impl Real for f64 {
     type Mask = bool;
+    const LANES: usize = 1;
+    #[inline(always)]
+    fn from_fn(mut f: impl FnMut(usize) -> f64) -> Self {
+        f(0)
+    }
+    #[inline(always)]
+    fn for_each_lane(self, mut f: impl FnMut(usize, f64)) {
+        f(0, self)
+    }
     #[inline(always)]
     fn splat(x: f64) -> Self {
         x

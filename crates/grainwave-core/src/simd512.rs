@@ -95,6 +95,19 @@ impl Neg for Wide8 {
 
 impl Real for Wide8 {
     type Mask = __mmask8;
+    const LANES: usize = 8;
+    #[inline(always)]
+    fn from_fn(mut f: impl FnMut(usize) -> f64) -> Self {
+        let a = [f(0), f(1), f(2), f(3), f(4), f(5), f(6), f(7)];
+        // SAFETY: as above; unaligned load of eight f64.
+        unsafe { Wide8(_mm512_loadu_pd(a.as_ptr())) }
+    }
+    #[inline(always)]
+    fn for_each_lane(self, mut f: impl FnMut(usize, f64)) {
+        for (l, x) in self.lanes().into_iter().enumerate() {
+            f(l, x);
+        }
+    }
     #[inline(always)]
     fn splat(x: f64) -> Self {
         // SAFETY: as above.

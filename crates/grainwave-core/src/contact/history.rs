@@ -37,6 +37,13 @@ pub trait LawHistory: Copy + Default + PartialEq + Debug + Send + Sync + 'static
     fn from_lane(l: Self::Lanes<f64>) -> Self;
     /// This value on every lane of `R`.
     fn splat<R: crate::real::Real>(self) -> Self::Lanes<R>;
+    /// The histories of several contacts, one per lane of `R`: lane `l` is `at(l)` for
+    /// `l < R::LANES` (the fused kernels gather their contacts' histories so, beside the
+    /// tangential springs; with `R::from_fn` per `f64` of the history).
+    fn gather<R: crate::real::Real>(at: impl FnMut(usize) -> Self) -> Self::Lanes<R>;
+    /// Back from one history per lane: `put(l, h)` with the history `h` of lane `l`, for every
+    /// lane of `R` in lane order (with `Real::for_each_lane` per `f64` of the history).
+    fn scatter<R: crate::real::Real>(lanes: Self::Lanes<R>, put: impl FnMut(usize, Self));
     /// Appends the `WIDTH` values of the encoding.
     fn encode(&self, out: &mut Vec<f64>);
     /// Reads the `WIDTH` values written by [`LawHistory::encode`].
@@ -56,6 +63,16 @@ pub trait LawHistory: Copy + Default + PartialEq + Debug + Send + Sync + 'static
     fn route_normal<N: super::NormalLaw<History = Self>, V: super::parts::VisitParts>(law: &super::ContactLaw, normal: N, v: V) -> V::Out {
         v.visit(&super::WithNormal { law: *law, normal })
     }
+    /// Runs `v` with `normal`, whose law declares this history, as its type
+    /// ([`VisitNormal::visit`](super::VisitNormal::visit)): the specialised compositions of a
+    /// normal law with history (`Specialized::NormalHistory`, [`HistoryNormal`](super::HistoryNormal)).
+    /// For `()` [`VisitNormal::without_history`](super::VisitNormal::without_history) instead,
+    /// so that no kernel is compiled through this route for a law without history (those have
+    /// their own specialised compositions).
+    #[inline(always)]
+    fn route_history<N: super::NormalLaw<History = Self>, V: super::parts::VisitNormal>(normal: N, v: V) -> V::Out {
+        v.visit(normal)
+    }
 }
 
 /// No history beyond the shared parts: every existing law.
@@ -70,8 +87,16 @@ impl LawHistory for () {
     #[inline(always)]
     fn splat<R: crate::real::Real>(self) {}
     #[inline(always)]
+    fn gather<R: crate::real::Real>(_: impl FnMut(usize) -> Self) {}
+    #[inline(always)]
+    fn scatter<R: crate::real::Real>(_: (), _: impl FnMut(usize, Self)) {}
+    #[inline(always)]
     fn route_normal<N: super::NormalLaw<History = ()>, V: super::parts::VisitParts>(law: &super::ContactLaw, _normal: N, v: V) -> V::Out {
         v.visit(law)
+    }
+    #[inline(always)]
+    fn route_history<N: super::NormalLaw<History = ()>, V: super::parts::VisitNormal>(_normal: N, v: V) -> V::Out {
+        v.without_history()
     }
     #[inline(always)]
     fn encode(&self, _: &mut Vec<f64>) {}
@@ -335,6 +360,22 @@ mod tests {
         fn splat<R: crate::real::Real>(self) -> (R, R) {
             (R::splat(self.0), R::splat(self.1))
         }
+        fn gather<R: crate::real::Real>(mut at: impl FnMut(usize) -> Self) -> (R, R) {
+            let mut h = [(0.0, 0.0); 16];
+            for (l, x) in h.iter_mut().enumerate().take(R::LANES) {
+                let v = at(l);
+                *x = (v.0, v.1);
+            }
+            (R::from_fn(|l| h[l].0), R::from_fn(|l| h[l].1))
+        }
+        fn scatter<R: crate::real::Real>(lanes: (R, R), mut put: impl FnMut(usize, Self)) {
+            let mut h = [(0.0, 0.0); 16];
+            lanes.0.for_each_lane(|l, x| h[l].0 = x);
+            lanes.1.for_each_lane(|l, x| h[l].1 = x);
+            for (l, &(a, b)) in h.iter().enumerate().take(R::LANES) {
+                put(l, Self(a, b));
+            }
+        }
         fn encode(&self, out: &mut Vec<f64>) {
             out.extend([self.0, self.1]);
         }
@@ -385,6 +426,22 @@ mod tests {
         }
         fn splat<R: crate::real::Real>(self) -> (R, R) {
             (R::splat(self.0), R::splat(self.1))
+        }
+        fn gather<R: crate::real::Real>(mut at: impl FnMut(usize) -> Self) -> (R, R) {
+            let mut h = [(0.0, 0.0); 16];
+            for (l, x) in h.iter_mut().enumerate().take(R::LANES) {
+                let v = at(l);
+                *x = (v.0, v.1);
+            }
+            (R::from_fn(|l| h[l].0), R::from_fn(|l| h[l].1))
+        }
+        fn scatter<R: crate::real::Real>(lanes: (R, R), mut put: impl FnMut(usize, Self)) {
+            let mut h = [(0.0, 0.0); 16];
+            lanes.0.for_each_lane(|l, x| h[l].0 = x);
+            lanes.1.for_each_lane(|l, x| h[l].1 = x);
+            for (l, &(a, b)) in h.iter().enumerate().take(R::LANES) {
+                put(l, Self(a, b));
+            }
         }
         fn encode(&self, out: &mut Vec<f64>) {
             out.extend([self.0, self.1]);

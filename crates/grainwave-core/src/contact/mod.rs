@@ -40,7 +40,7 @@ pub use families::{DampingTable, ResistanceTable, TangentialTable};
 pub use history::{HistoryColumn, LawHistory};
 pub(crate) use history::{decoding_without_columns, zero_sized_slice};
 pub use params::{ContactParams, Partner, PRESETS};
-pub use parts::{HertzMindlin, HookeCundallStrack, HookeSlipActivation, LawParts, Specialized, VisitParts, WithNormal, WithRolling};
+pub use parts::{HertzMindlin, HistoryNormal, HistoryRest, HookeCundallStrack, HookeSlipActivation, LawParts, Specialized, VisitNormal, VisitParts, WithNormal, WithRolling};
 pub use rolling::{Rolling, Twisting};
 pub use tangential::{HistoryValue, SlipActivationParams, Tangential, TangentialDamping, TangentialHistory};
 pub(crate) use coulomb::coulomb_cap_lanes;

@@ -9,13 +9,14 @@
 //! * [`NormalTable`], the `[contact.normal]` table (`law = "<name>"` and the law's
 //!   [`NormalLaw::Params`], unknown keys refused), its schema for the config reference and reader,
 //!   and its build into the law ([`NormalLaw::build`]);
-//! * the routing of a law with its own per-contact history ([`NormalLaw::History`]) to a
-//!   force pass compiled for that history (`NormalElastic::route`).
+//! * the routing of a law with its own per-contact history ([`NormalLaw::History`]) to the
+//!   force passes compiled for that history: the general kernel (`NormalElastic::route`) and
+//!   the window and fused kernels (`NormalElastic::route_history`).
 //!
 //! A new normal law is one file here implementing [`NormalLaw`] and one line in the registry
 //! at the end of this file.
 
-use super::parts::VisitParts;
+use super::parts::{VisitNormal, VisitParts};
 use super::{ContactLaw, DampingTable, LawHistory, Partner};
 use crate::error::Result;
 use crate::real::Real;
@@ -218,6 +219,16 @@ macro_rules! normal_laws {
             pub(crate) fn route<V: VisitParts>(law: &ContactLaw, v: V) -> V::Out {
                 match law.normal {
                     $(NormalElastic::$Law(n) => <<$Law as NormalLaw>::History as LawHistory>::route_normal(law, n, v),)*
+                }
+            }
+
+            /// Runs `v` with this law as its type where it keeps a per-contact history, and
+            /// `v.without_history()` otherwise ([`LawHistory::route_history`]): the specialised
+            /// kernels of a normal law with history, compiled for those laws only.
+            #[inline(always)]
+            pub(crate) fn route_history<V: VisitNormal>(&self, v: V) -> V::Out {
+                match *self {
+                    $(NormalElastic::$Law(n) => <<$Law as NormalLaw>::History as LawHistory>::route_history(n, v),)*
                 }
             }
         }

@@ -137,6 +137,84 @@ impl<N: NormalLaw> LawParts for WithNormal<N> {
     }
 }
 
+/// Something run with a normal law that keeps a per-contact history as its type
+/// (`NormalElastic::route_history`, [`LawHistory::route_history`]): the specialised kernels of
+/// [`HistoryNormal`].
+pub trait VisitNormal {
+    /// What the run gives.
+    type Out;
+    /// Runs with the normal law `normal` (its [`NormalLaw::History`] not `()`).
+    fn visit<N: NormalLaw>(self, normal: N) -> Self::Out;
+    /// Runs for a normal law without history, which this route does not compile kernels for.
+    fn without_history(self) -> Self::Out;
+}
+
+/// A normal law `N` with its own per-contact history in place of the normal part of a
+/// specialised law `L` without history ([`HookeCundallStrack`], [`HookeSlipActivation`], with
+/// or without [`WithRolling`]): the normal response is `N`'s, reading and updating the history
+/// ([`LawParts::Extra`] = `N::History`); every other part is a constant variant of `L`, whose own
+/// normal part is not read. The window and fused kernels of such a law are those of `L` with
+/// the history gathered and scattered beside the tangential spring; one composition for every
+/// registered normal law with history (`Specialized::NormalHistory`).
+#[derive(Clone, Copy, Debug)]
+pub struct HistoryNormal<N, L> {
+    pub(crate) normal: N,
+    /// `normal` as the contact law's enum ([`LawParts::normal`]).
+    pub(crate) elastic: NormalElastic,
+    pub(crate) law: L,
+}
+
+impl<N: NormalLaw, L: LawParts<Extra = ()>> LawParts for HistoryNormal<N, L> {
+    type Extra = N::History;
+    #[inline(always)]
+    fn normal_response<R: Real>(&self, xi: R, r_eff: R, extra: &mut <Self::Extra as LawHistory>::Lanes<R>) -> NormalResponse<R> {
+        self.normal.response_lanes(xi, r_eff, extra)
+    }
+    #[inline(always)]
+    fn normal(&self) -> NormalElastic {
+        self.elastic
+    }
+    #[inline(always)]
+    fn damping(&self) -> NormalDamping {
+        self.law.damping()
+    }
+    #[inline(always)]
+    fn tangential(&self) -> Tangential {
+        self.law.tangential()
+    }
+    #[inline(always)]
+    fn tangential_damping(&self) -> TangentialDamping {
+        self.law.tangential_damping()
+    }
+    #[inline(always)]
+    fn friction(&self) -> f64 {
+        self.law.friction()
+    }
+    #[inline(always)]
+    fn rolling(&self) -> Rolling {
+        self.law.rolling()
+    }
+    #[inline(always)]
+    fn twisting(&self) -> Twisting {
+        self.law.twisting()
+    }
+}
+
+/// The parts beside a normal law with its own history that have specialised kernels
+/// ([`HistoryNormal`]): the tangential laws of the Hooke composition, with and without rolling
+/// resistance. Their normal stiffness is NaN: it is not read (the normal part is the law's).
+#[derive(Clone, Copy, Debug)]
+pub enum HistoryRest {
+    /// The linear Cundall–Strack spring.
+    Linear(HookeCundallStrack),
+    /// The linear spring with rolling resistance.
+    LinearRolling(WithRolling<HookeCundallStrack>),
+    /// The linear spring with a slip-activation time.
+    SlipActivation(HookeSlipActivation),
+    /// The slip-activation spring with rolling resistance.
+    SlipActivationRolling(WithRolling<HookeSlipActivation>),
+}
+
 /// Hertz normal force, incremental Mindlin (no rescaling on unloading), any damping, Coulomb
 /// friction, no rolling or twisting resistance: the `hertz_mindlin` preset.
 #[derive(Clone, Copy, Debug)]
@@ -298,9 +376,12 @@ pub enum Specialized {
     HookeSlipActivation(HookeSlipActivation),
     /// [`HookeSlipActivation`] with rolling resistance (E2's law with a slip-activation time).
     HookeSlipActivationRolling(WithRolling<HookeSlipActivation>),
+    /// A normal law with its own per-contact history and the parts `HistoryRest` beside it: run
+    /// as [`HistoryNormal`] with the law's normal part as its type (`NormalElastic::route_history`).
+    NormalHistory(ContactLaw, HistoryRest),
     /// Anything else (twisting resistance, no friction, rescaled Mindlin, mixed parts, a
-    /// normal law with its own history): evaluated through [`ContactLaw`] itself, or through
-    /// [`WithNormal`] for a normal law with history (`NormalElastic::route`).
+    /// normal law with its own history beside other parts): evaluated through [`ContactLaw`]
+    /// itself, or through [`WithNormal`] for a normal law with history (`NormalElastic::route`).
     General(ContactLaw),
 }
 
@@ -320,7 +401,7 @@ impl ContactLaw {
 
     /// The fastest evaluation path for this law.
     pub fn specialize(&self) -> Specialized {
-        if self.twisting != Twisting::None || self.normal.has_history() {
+        if self.twisting != Twisting::None {
             return self.general();
         }
         let (damping, tangential_damping, friction) = (self.damping, self.tangential_damping, self.friction);
@@ -328,6 +409,28 @@ impl ContactLaw {
             Rolling::None => None,
             Rolling::SpringDashpot { stiffness, damping, friction } => Some((stiffness, damping, friction)),
         };
+        if self.normal.has_history() {
+            // the normal part is the law's own (`HistoryNormal`): the rest's is not read
+            let normal_stiffness = f64::NAN;
+            let rest = match (self.tangential, rolling) {
+                (Tangential::Linear { stiffness: tangential_stiffness }, r) => {
+                    let law = HookeCundallStrack { normal_stiffness, tangential_stiffness, damping, tangential_damping, friction };
+                    match r {
+                        None => HistoryRest::Linear(law),
+                        Some((stiffness, damping, friction)) => HistoryRest::LinearRolling(WithRolling { law, stiffness, damping, friction }),
+                    }
+                }
+                (Tangential::SlipActivation { stiffness: tangential_stiffness, activation_time }, r) => {
+                    let law = HookeSlipActivation { normal_stiffness, tangential_stiffness, activation_time, damping, tangential_damping, friction };
+                    match r {
+                        None => HistoryRest::SlipActivation(law),
+                        Some((stiffness, damping, friction)) => HistoryRest::SlipActivationRolling(WithRolling { law, stiffness, damping, friction }),
+                    }
+                }
+                _ => return self.general(),
+            };
+            return Specialized::NormalHistory(*self, rest);
+        }
         match (self.normal, self.tangential, rolling) {
             (NormalElastic::Hertz(Hertz { effective_modulus }), Tangential::Mindlin { effective_shear_modulus, rescale_on_unloading: false }, r) => {
                 let law = HertzMindlin { effective_modulus, effective_shear_modulus, damping, tangential_damping, friction };
@@ -385,6 +488,101 @@ mod tests {
             sliding += oa.sliding as usize;
         }
         assert!(contacts > 1000 && sliding > 200 && sliding < contacts - 200, "{contacts} contacts, {sliding} sliding");
+    }
+
+    /// Random contacts with a random stored history of the law's own (`extra`) evaluated through
+    /// a specialised composition and through the general one: same bits, same histories.
+    fn same_bits_with_history<D: Dim, P: LawParts, G: LawParts<Extra = P::Extra>>(
+        special: &P,
+        general: &G,
+        mk: impl Fn(&mut ChaCha8Rng) -> (D::Vector, D::Vector, D::AngVector, D::Vector),
+        extra: impl Fn(&mut ChaCha8Rng, f64) -> P::Extra,
+    ) {
+        let mut rng = ChaCha8Rng::seed_from_u64(12);
+        let (mut contacts, mut sliding) = (0, 0);
+        for _ in 0..2000 {
+            let (r, v, w, spring) = mk(&mut rng);
+            let (ri, rj) = (0.4 + 0.2 * rng.random::<f64>(), 0.4 + 0.2 * rng.random::<f64>());
+            let Some(kin) = pair_kinematics::<D>(r, ri, rj, 1.0 + rng.random::<f64>(), 0.5 + rng.random::<f64>(), D::Vector::ZERO, v, w, w * 0.3) else {
+                continue;
+            };
+            let spring = crate::contact::TangentialHistory(spring);
+            let state = ContactState::<D> { spring, overlap: if rng.random::<f64>() < 0.2 { 0.0 } else { kin.overlap * 1.01 }, ..Default::default() };
+            let e = extra(&mut rng, kin.overlap);
+            let (mut a, mut b, mut ea, mut eb) = (state, state, e, e);
+            let oa = evaluate_parts(special, &kin, &mut a, &mut ea, 1e-3);
+            let ob = evaluate_parts(general, &kin, &mut b, &mut eb, 1e-3);
+            assert_eq!(format!("{oa:?} {a:?} {ea:?}"), format!("{ob:?} {b:?} {eb:?}"));
+            contacts += 1;
+            sliding += oa.sliding as usize;
+        }
+        assert!(contacts > 1000 && sliding > 100 && sliding < contacts - 100, "{contacts} contacts, {sliding} sliding");
+    }
+
+    /// The specialised compositions of a normal law with history (`HistoryNormal`, every
+    /// `HistoryRest`) give the bits of its general composition (`WithNormal`), loading (ξ_max
+    /// below the overlap), unloading (above) and with a contact that has just formed (0).
+    #[test]
+    fn history_compositions_give_the_bits_of_the_general_law() {
+        use crate::contact::{Hysteretic, MaxOverlap, NormalTable};
+        let mut seen = [false; 4];
+        for (slip, rolling) in [(None, false), (None, true), (Some(1e-2), false), (Some(1e-2), true)] {
+            let hysteretic = Hysteretic { loading_stiffness: 1e4, unloading_stiffness: 3e4 };
+            let mut p = ContactParams { normal: Some(NormalTable::Hysteretic(hysteretic)), ..Default::default() };
+            (p.friction, p.normal_damping_rate, p.slip_activation_time) = (Some(0.3), Some(50.0), slip);
+            if rolling {
+                (p.rolling_stiffness, p.rolling_friction) = (Some(50.0), Some(0.01));
+            }
+            let law = p.build(Partner::Grain, "contact").unwrap();
+            let Specialized::NormalHistory(_, rest) = law.specialize() else { panic!("{law:?} should be specialised") };
+            let NormalElastic::Hysteretic(normal) = law.normal else { panic!("{law:?}") };
+            let general = WithNormal { law, normal };
+            let v3 = |rng: &mut ChaCha8Rng| DVec3::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5);
+            let mk3 = |rng: &mut ChaCha8Rng| (DVec3::new(0.9 + 0.1 * rng.random::<f64>(), 0.2 * rng.random::<f64>(), 0.1), v3(rng), v3(rng), v3(rng) * 10f64.powf(7.0 * rng.random::<f64>() - 3.0));
+            let mk2 = |rng: &mut ChaCha8Rng| {
+                let v = DVec2::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5);
+                (DVec2::new(0.9 + 0.1 * rng.random::<f64>(), 0.2 * rng.random::<f64>()), v, rng.random::<f64>() - 0.5, v * 10f64.powf(7.0 * rng.random::<f64>() - 3.0))
+            };
+            let extra = |rng: &mut ChaCha8Rng, xi: f64| {
+                let u = rng.random::<f64>();
+                MaxOverlap(if u < 0.2 { 0.0 } else { xi * (0.5 + 1.5 * u) })
+            };
+            let elastic = law.normal;
+            match rest {
+                HistoryRest::Linear(l) => {
+                    let s = HistoryNormal { normal, elastic, law: l };
+                    same_bits_with_history::<D3, _, _>(&s, &general, mk3, extra);
+                    same_bits_with_history::<D2, _, _>(&s, &general, mk2, extra);
+                    seen[0] = true;
+                }
+                HistoryRest::LinearRolling(l) => {
+                    let s = HistoryNormal { normal, elastic, law: l };
+                    same_bits_with_history::<D3, _, _>(&s, &general, mk3, extra);
+                    same_bits_with_history::<D2, _, _>(&s, &general, mk2, extra);
+                    seen[1] = true;
+                }
+                HistoryRest::SlipActivation(l) => {
+                    let s = HistoryNormal { normal, elastic, law: l };
+                    same_bits_with_history::<D3, _, _>(&s, &general, mk3, extra);
+                    same_bits_with_history::<D2, _, _>(&s, &general, mk2, extra);
+                    seen[2] = true;
+                }
+                HistoryRest::SlipActivationRolling(l) => {
+                    let s = HistoryNormal { normal, elastic, law: l };
+                    same_bits_with_history::<D3, _, _>(&s, &general, mk3, extra);
+                    same_bits_with_history::<D2, _, _>(&s, &general, mk2, extra);
+                    seen[3] = true;
+                }
+            }
+        }
+        assert_eq!(seen, [true; 4]);
+        // frictionless (no tangential part) and twisting resistance keep the general kernel
+        let hysteretic = Hysteretic { loading_stiffness: 1e4, unloading_stiffness: 3e4 };
+        let mut p = ContactParams { normal: Some(NormalTable::Hysteretic(hysteretic)), ..Default::default() };
+        p.friction = Some(0.0);
+        assert!(matches!(p.build(Partner::Grain, "contact").unwrap().specialize(), Specialized::General(_)));
+        (p.friction, p.rolling_stiffness, p.twisting_stiffness) = (Some(0.3), Some(1.0), Some(1.0));
+        assert!(matches!(p.build(Partner::Grain, "contact").unwrap().specialize(), Specialized::General(_)));
     }
 
     #[test]
@@ -450,7 +648,7 @@ mod tests {
                     same_bits::<D3, _>(&s, &law, mk3);
                     same_bits::<D2, _>(&s, &law, mk2);
                 }
-                Specialized::General(_) => panic!("{law:?} should be specialised"),
+                Specialized::NormalHistory(..) | Specialized::General(_) => panic!("{law:?} should be specialised"),
             }
             checked += 1;
         }

@@ -112,8 +112,8 @@ struct Inputs<'a, D: Dim> {
 }
 
 /// The mutable history of a contiguous range of pairs starting at pair `base`: the shared parts
-/// and the law's own history `extra` ([`LawParts::Extra`]; `()` for the window and fused
-/// kernels' laws, which stores nothing).
+/// and the law's own history `extra` ([`LawParts::Extra`]; `()`, which stores nothing, for the
+/// laws without one).
 struct History<'a, D: Dim, H: LawHistory = ()> {
     base: usize,
     spring: &'a mut [TangentialHistory<D::Vector>],
@@ -468,7 +468,7 @@ struct Velocities<'a, D: Dim> {
 /// pairs of the block being processed; they are checked in debug builds.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn push_pair<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &mut History<D>, v: Velocities<D>, a: &Body<D>, p: usize, i: usize, j: usize, st: &mut ForceStats) {
+fn push_pair<D: Dim, H: LawHistory>(w: &mut Window, inp: &Inputs<D>, h: &mut History<D, H>, v: Velocities<D>, a: &Body<D>, p: usize, i: usize, j: usize, st: &mut ForceStats) {
     let k = w.len & (CAP - 1);
     let q = p - h.base;
     debug_assert!(w.len < CAP && j < inp.pos.len() && i >= v.base && j - v.base < v.vel.len() && q < h.spring.len());
@@ -510,7 +510,7 @@ fn push_pair<D: Dim>(w: &mut Window, inp: &Inputs<D>, h: &mut History<D>, v: Vel
 /// `eval_pair`). With `VEC` the window was filled by `window512::push_pairs` and the caller enables
 /// AVX-512.
 #[inline(always)]
-fn eval_window<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D>, h: &mut History<D>, w: &mut Window, st: &mut ForceStats) {
+fn eval_window<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D>, h: &mut History<D, L::Extra>, w: &mut Window, st: &mut ForceStats) {
     let len = w.len.min(CAP);
     if law.rolls() {
         // the rolling springs, gathered here (the window's fillers do not know the law)
@@ -521,11 +521,21 @@ fn eval_window<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D>, 
             lanes::put(&mut w.rolling, k, unsafe { *h.rolling.get_unchecked(q) });
         }
     }
+    // the law's own histories, gathered here too (none for `()`: no code)
+    let mut extra: lanes::Extras<L> = [L::Extra::default(); CAP];
+    if std::mem::size_of::<L::Extra>() != 0 {
+        for (k, e) in extra.iter_mut().enumerate().take(len) {
+            let q = w.pair[k] as usize - h.base;
+            debug_assert!(q < h.extra.len());
+            // SAFETY: the window only holds pairs of this history range (`push_pair`, `push_pairs`).
+            *e = unsafe { *h.extra.get_unchecked(q) };
+        }
+    }
     if VEC {
         // compiled into the caller, which enables AVX-512
-        lanes::compute_inline::<D, L>(law, w, inp.dt);
+        lanes::compute_inline::<D, L>(law, w, &mut extra, inp.dt);
     } else {
-        lanes::compute::<D, L>(law, w, inp.dt);
+        lanes::compute::<D, L>(law, w, &mut extra, inp.dt);
     }
     let (mut changes, mut sliding) = (0, 0);
     for k in 0..len {
@@ -538,6 +548,9 @@ fn eval_window<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D>, 
             *h.sliding.get_unchecked_mut(q) = w.sliding[k];
             if law.rolls() {
                 *h.rolling.get_unchecked_mut(q) = lanes::get(&w.new_rolling, k);
+            }
+            if std::mem::size_of::<L::Extra>() != 0 {
+                *h.extra.get_unchecked_mut(q) = extra[k];
             }
         }
         changes += (w.was[k] <= 0.0) as u64;
@@ -567,17 +580,17 @@ fn eval_window<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D>, 
 /// window with `flush` whenever it is full.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn push_owner<D: Dim>(
+fn push_owner<D: Dim, H: LawHistory>(
     w: &mut Window,
     inp: &Inputs<D>,
-    h: &mut History<D>,
+    h: &mut History<D, H>,
     v: Velocities<D>,
     a: &Body<D>,
     i: usize,
     s: usize,
     e: usize,
     st: &mut ForceStats,
-    mut flush: impl FnMut(&mut Window, &mut History<D>, &mut ForceStats),
+    mut flush: impl FnMut(&mut Window, &mut History<D, H>, &mut ForceStats),
 ) {
     for p in s..e {
         push_pair(w, inp, h, v, a, p, i, inp.partner[p] as usize, st);
@@ -648,7 +661,8 @@ struct CrossPairs<'a, 'h, D: Dim> {
 impl<D: Dim> lanes::WithLaw for CrossPairs<'_, '_, D> {
     type Out = ForceStats;
     fn special<L: WindowLaw>(self, law: &L) -> ForceStats {
-        cross_pairs_windowed(law, self.inp, self.vel, self.omega, self.cross, 0..self.blocks, self.h, self.out, 0, self.path)
+        let h = self.h.with_extra::<L::Extra>(self.extra);
+        cross_pairs_windowed(law, self.inp, self.vel, self.omega, self.cross, 0..self.blocks, h, self.out, 0, self.path)
     }
     fn general<P: LawParts>(self, law: &P) -> ForceStats {
         let h = self.h.with_extra::<P::Extra>(self.extra);
@@ -673,7 +687,8 @@ struct BlocksPass<'a, 'h, D: Dim> {
 impl<D: Dim> lanes::WithLaw for BlocksPass<'_, '_, D> {
     type Out = ForceStats;
     fn special<L: WindowLaw>(self, law: &L) -> ForceStats {
-        blocks_pass_windowed(law, self.inp, self.cross, self.fin, 0..self.blocks, self.h, self.g, self.path)
+        let h = self.h.with_extra::<L::Extra>(self.extra);
+        blocks_pass_windowed(law, self.inp, self.cross, self.fin, 0..self.blocks, h, self.g, self.path)
     }
     fn general<P: LawParts>(self, law: &P) -> ForceStats {
         let h = self.h.with_extra::<P::Extra>(self.extra);
@@ -690,7 +705,7 @@ fn cross_pairs_windowed<D: Dim, L: WindowLaw>(
     omega: &[D::AngVector],
     cross: &CrossIndex<D>,
     blocks: std::ops::Range<usize>,
-    h: History<D>,
+    h: History<D, L::Extra>,
     out: &mut [CrossForce<D>],
     slot_base: usize,
     path: Path,
@@ -733,7 +748,7 @@ fn cross_block_avx512<D: Dim, L: WindowLaw>(
     omega: &[D::AngVector],
     cross: &CrossIndex<D>,
     b: usize,
-    h: History<D>,
+    h: History<D, L::Extra>,
     out: &mut [CrossForce<D>],
     slot_base: usize,
     w: &mut Window,
@@ -751,7 +766,7 @@ fn cross_block<D: Dim, L: WindowLaw, const VEC: bool>(
     omega: &[D::AngVector],
     cross: &CrossIndex<D>,
     b: usize,
-    mut h: History<D>,
+    mut h: History<D, L::Extra>,
     out: &mut [CrossForce<D>],
     slot_base: usize,
     w: &mut Window,
@@ -771,7 +786,7 @@ fn cross_block<D: Dim, L: WindowLaw, const VEC: bool>(
             // SAFETY: the slots of block b hold pairs of `h` (cross index); w.len + 8 ≤ CAP;
             // `VEC` only with AVX-512 enabled.
             unsafe {
-                window512::push_pairs::<D, true>(w, inp, &mut h, v, &cross.owner, &cross.slot_pair, g1, false, s, q, &mut st);
+                window512::push_pairs::<D, L::Extra, true>(w, inp, &mut h, v, &cross.owner, &cross.slot_pair, g1, false, s, q, &mut st);
             }
             s = q;
         }
@@ -795,7 +810,7 @@ fn flush_cross<D: Dim, L: WindowLaw, const VEC: bool>(
     law: &L,
     inp: &Inputs<D>,
     cross: &CrossIndex<D>,
-    h: &mut History<D>,
+    h: &mut History<D, L::Extra>,
     w: &mut Window,
     st: &mut ForceStats,
     out: &mut [CrossForce<D>],
@@ -820,7 +835,7 @@ fn blocks_pass_windowed<D: Dim, L: WindowLaw>(
     cross: &CrossIndex<D>,
     fin: &Finish<D>,
     blocks: std::ops::Range<usize>,
-    h: History<D>,
+    h: History<D, L::Extra>,
     g: Grain<D>,
     path: Path,
 ) -> ForceStats {
@@ -852,7 +867,7 @@ fn blocks_pass_windowed<D: Dim, L: WindowLaw>(
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx512f,avx512vl,popcnt")]
 #[allow(clippy::too_many_arguments)]
-fn block_windowed_avx512<D: Dim, L: WindowLaw>(law: &L, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, h: History<D>, g: Grain<D>, w: &mut Window) -> ForceStats {
+fn block_windowed_avx512<D: Dim, L: WindowLaw>(law: &L, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, h: History<D, L::Extra>, g: Grain<D>, w: &mut Window) -> ForceStats {
     block_windowed::<D, L, true>(law, inp, cross, fin, b, h, g, w)
 }
 
@@ -863,7 +878,7 @@ fn flush_block<D: Dim, L: WindowLaw, const VEC: bool>(
     law: &L,
     inp: &Inputs<D>,
     g0: usize,
-    h: &mut History<D>,
+    h: &mut History<D, L::Extra>,
     w: &mut Window,
     st: &mut ForceStats,
     force: &mut [D::Vector],
@@ -898,7 +913,7 @@ fn flush_block<D: Dim, L: WindowLaw, const VEC: bool>(
 /// Phase B for block `b`.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-fn block_windowed<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, mut h: History<D>, g: Grain<D>, w: &mut Window) -> ForceStats {
+fn block_windowed<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, mut h: History<D, L::Extra>, g: Grain<D>, w: &mut Window) -> ForceStats {
     let mut st = ForceStats::new();
     let (g0, g1) = (b * cross.block_len, ((b + 1) * cross.block_len).min(cross.n));
     let Grain { force, torque, vel, omega, .. } = g;
@@ -923,7 +938,7 @@ fn block_windowed<D: Dim, L: WindowLaw, const VEC: bool>(law: &L, inp: &Inputs<D
             // SAFETY: the block's pairs are pairs of `h` with owners in the block; intra-block
             // partners lie in the block; w.len + 8 ≤ CAP; `VEC` only with AVX-512 enabled.
             unsafe {
-                window512::push_pairs::<D, false>(w, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &cross.owner, &[], g1, true, p, q, &mut st);
+                window512::push_pairs::<D, L::Extra, false>(w, inp, &mut h, Velocities { base: g0, vel: &*vel, omega: &*omega }, &cross.owner, &[], g1, true, p, q, &mut st);
             }
             p = q;
         }

@@ -10,7 +10,7 @@
 //! runs).
 
 use crate::contact::VisitParts;
-use crate::contact::{contact_loads_lanes, NormalElastic, law_lanes, pair_kinematics_lanes, HertzMindlin, LawIn, Specialized, HookeCundallStrack, HookeSlipActivation, LawParts, NormalDamping, Rolling, TangentialDamping, WithRolling};
+use crate::contact::{contact_loads_lanes, NormalElastic, law_lanes, pair_kinematics_lanes, ContactLaw, HertzMindlin, HistoryNormal, HistoryRest, LawHistory, LawIn, NormalLaw, Specialized, HookeCundallStrack, HookeSlipActivation, LawParts, NormalDamping, Rolling, TangentialDamping, VisitNormal, WithRolling};
 use crate::real::dot;
 use crate::dim::{Dim, VectorOps};
 
@@ -106,8 +106,10 @@ pub(crate) use crate::real::Real;
 
 /// A law with a specialised kernel: its normal and tangential parts are fixed at compile time
 /// (the [`LawParts`] of the presets return a constant variant, so every `match` on a part
-/// folds away in the kernel), and so is whether it has rolling resistance.
-pub(super) trait WindowLaw: LawParts<Extra = ()> {
+/// folds away in the kernel), and so is whether it has rolling resistance. Its own per-contact
+/// history ([`LawParts::Extra`]) is gathered per lane beside the tangential spring and scattered
+/// back as the spring is; `()` (the presets) gathers nothing and compiles to no code.
+pub(super) trait WindowLaw: LawParts {
     /// Whether the law has rolling resistance: its contacts then read and write the rolling
     /// spring (a constant of the law's type).
     #[inline(always)]
@@ -119,6 +121,7 @@ impl WindowLaw for HertzMindlin {}
 impl WindowLaw for HookeCundallStrack {}
 impl WindowLaw for HookeSlipActivation {}
 impl<L: WindowLaw> WindowLaw for WithRolling<L> {}
+impl<N: NormalLaw, L: WindowLaw + LawParts<Extra = ()>> WindowLaw for HistoryNormal<N, L> {}
 
 pub(crate) use crate::contact::Dampers;
 
@@ -145,7 +148,35 @@ pub(super) fn with_law<V: WithLaw>(specialized: Specialized, v: V) -> V::Out {
         Specialized::HookeCundallStrackRolling(law) => v.special(&law),
         Specialized::HookeSlipActivation(law) => v.special(&law),
         Specialized::HookeSlipActivationRolling(law) => v.special(&law),
+        Specialized::NormalHistory(law, rest) => law.normal.route_history(WithHistory { v, law, rest }),
         Specialized::General(law) => NormalElastic::route(&law, General(v)),
+    }
+}
+
+/// A visitor of the specialised kernels of a normal law with history and the parts `rest`
+/// beside it ([`HistoryNormal`]), with the normal law as its type (`NormalElastic::route_history`).
+struct WithHistory<V> {
+    v: V,
+    law: ContactLaw,
+    rest: HistoryRest,
+}
+
+impl<V: WithLaw> VisitNormal for WithHistory<V> {
+    type Out = V::Out;
+    #[inline(always)]
+    fn visit<N: NormalLaw>(self, normal: N) -> V::Out {
+        let elastic = self.law.normal;
+        match self.rest {
+            HistoryRest::Linear(law) => self.v.special(&HistoryNormal { normal, elastic, law }),
+            HistoryRest::LinearRolling(law) => self.v.special(&HistoryNormal { normal, elastic, law }),
+            HistoryRest::SlipActivation(law) => self.v.special(&HistoryNormal { normal, elastic, law }),
+            HistoryRest::SlipActivationRolling(law) => self.v.special(&HistoryNormal { normal, elastic, law }),
+        }
+    }
+    /// (not reached: `specialize` gives `NormalHistory` for laws with history only) the general kernel
+    #[inline(always)]
+    fn without_history(self) -> V::Out {
+        NormalElastic::route(&self.law, General(self.v))
     }
 }
 
@@ -220,23 +251,29 @@ pub(super) fn with_dampers<L: WindowLaw, V: WithDampers>(law: &L, v: V) -> V::Ou
     }
 }
 
-/// Evaluates the window (lanes `len..CAP` hold stale but finite data and are ignored). Uses AVX2
-/// when the processor has it (same bits either way).
-pub(super) fn compute<D: Dim, L: WindowLaw>(law: &L, w: &mut Window, dt: f64) {
-    with_dampers(law, Run::<D, L, false> { law, w, dt, dim: std::marker::PhantomData });
+/// The law's own history of each contact of a window, lane `k` that of contact `k` (gathered
+/// from the pair list and scattered back by the force pass; nothing for `()`).
+pub(super) type Extras<L> = [<L as LawParts>::Extra; CAP];
+
+/// Evaluates the window (lanes `len..CAP` hold stale but finite data and are ignored), reading
+/// and updating the law's own history of each contact in `extra`. Uses AVX2 when the processor
+/// has it (same bits either way).
+pub(super) fn compute<D: Dim, L: WindowLaw>(law: &L, w: &mut Window, extra: &mut Extras<L>, dt: f64) {
+    with_dampers(law, Run::<D, L, false> { law, w, extra, dt, dim: std::marker::PhantomData });
 }
 
 /// [`compute`] compiled into the caller (which enables the vector extensions it wants).
 #[inline(always)]
-pub(super) fn compute_inline<D: Dim, L: WindowLaw>(law: &L, w: &mut Window, dt: f64) {
-    with_dampers(law, Run::<D, L, true> { law, w, dt, dim: std::marker::PhantomData });
+pub(super) fn compute_inline<D: Dim, L: WindowLaw>(law: &L, w: &mut Window, extra: &mut Extras<L>, dt: f64) {
+    with_dampers(law, Run::<D, L, true> { law, w, extra, dt, dim: std::marker::PhantomData });
 }
 
 /// The window kernel with the dampers resolved: inline (`INLINE`) or through the run-time AVX2
 /// dispatch.
-struct Run<'a, D, L, const INLINE: bool> {
+struct Run<'a, D, L: LawParts, const INLINE: bool> {
     law: &'a L,
     w: &'a mut Window,
+    extra: &'a mut Extras<L>,
     dt: f64,
     dim: std::marker::PhantomData<D>,
 }
@@ -246,38 +283,38 @@ impl<D: Dim, L: WindowLaw, const INLINE: bool> WithDampers for Run<'_, D, L, INL
     #[inline(always)]
     fn run<P: Dampers>(self, damp: P) {
         if INLINE {
-            compute_impl::<D, L, P>(self.law, damp, self.w, self.dt)
+            compute_impl::<D, L, P>(self.law, damp, self.w, self.extra, self.dt)
         } else {
-            dispatch::<D, L, P>(self.law, damp, self.w, self.dt)
+            dispatch::<D, L, P>(self.law, damp, self.w, self.extra, self.dt)
         }
     }
 }
 
 #[inline(always)]
-fn dispatch<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, w: &mut Window, dt: f64) {
+fn dispatch<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, w: &mut Window, extra: &mut Extras<L>, dt: f64) {
     #[cfg(target_arch = "x86_64")]
     {
         if std::arch::is_x86_feature_detected!("avx2") {
             // SAFETY: the processor supports AVX2.
-            unsafe { compute_avx2::<D, L, P>(law, damp, w, dt) };
+            unsafe { compute_avx2::<D, L, P>(law, damp, w, extra, dt) };
             return;
         }
     }
-    compute_impl::<D, L, P>(law, damp, w, dt);
+    compute_impl::<D, L, P>(law, damp, w, extra, dt);
 }
 
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2")]
-unsafe fn compute_avx2<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, w: &mut Window, dt: f64) {
-    compute_impl::<D, L, P>(law, damp, w, dt);
+unsafe fn compute_avx2<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, w: &mut Window, extra: &mut Extras<L>, dt: f64) {
+    compute_impl::<D, L, P>(law, damp, w, extra, dt);
 }
 
 
 #[inline(always)]
-fn compute_impl<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, w: &mut Window, dt: f64) {
+fn compute_impl<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, w: &mut Window, extra: &mut Extras<L>, dt: f64) {
     match D::D {
-        2 => lanes::<2, 1, L, P>(law, damp, w, dt),
-        _ => lanes::<3, 3, L, P>(law, damp, w, dt),
+        2 => lanes::<2, 1, L, P>(law, damp, w, extra, dt),
+        _ => lanes::<3, 3, L, P>(law, damp, w, extra, dt),
     }
 }
 
@@ -320,7 +357,7 @@ pub(super) struct ContactOut<R: Real> {
 }
 
 #[inline(always)]
-fn lanes<const DIM: usize, const ROT: usize, L: WindowLaw, P: Dampers>(law: &L, damp: P, w: &mut Window, dt: f64) {
+fn lanes<const DIM: usize, const ROT: usize, L: WindowLaw, P: Dampers>(law: &L, damp: P, w: &mut Window, extra: &mut Extras<L>, dt: f64) {
     for k in 0..CAP {
         let get = |a: &[Lane; 3]| [a[0][k], a[1][k], if DIM == 3 { a[2][k] } else { 0.0 }];
         let input = ContactIn {
@@ -337,7 +374,9 @@ fn lanes<const DIM: usize, const ROT: usize, L: WindowLaw, P: Dampers>(law: &L, 
             spring: get(&w.spring),
             rolling: [w.rolling[0][k], if ROT == 3 { w.rolling[1][k] } else { 0.0 }, if ROT == 3 { w.rolling[2][k] } else { 0.0 }],
         };
-        let o = contact::<f64, DIM, ROT, L, P>(law, damp, &input, dt);
+        let mut e = extra[k].to_lane();
+        let o = contact::<f64, DIM, ROT, L, P>(law, damp, &input, &mut e, dt);
+        extra[k] = L::Extra::from_lane(e);
         w.overlap[k] = o.overlap;
         w.sliding[k] = o.sliding;
         for c in 0..DIM {
@@ -356,8 +395,15 @@ fn lanes<const DIM: usize, const ROT: usize, L: WindowLaw, P: Dampers>(law: &L, 
 
 /// The specialised contact law on touching contacts, branch-free: the pair kinematics, the one
 /// statement of the law ([`law_lanes`], which the general kernel runs on one lane) and the loads.
+/// `extra`: the law's own history of each lane's contact, read and updated.
 #[inline(always)]
-pub(super) fn contact<R: Real, const DIM: usize, const ROT: usize, L: WindowLaw, P: Dampers>(law: &L, damp: P, x: &ContactIn<R>, dt: f64) -> ContactOut<R> {
+pub(super) fn contact<R: Real, const DIM: usize, const ROT: usize, L: WindowLaw, P: Dampers>(
+    law: &L,
+    damp: P,
+    x: &ContactIn<R>,
+    extra: &mut <L::Extra as LawHistory>::Lanes<R>,
+    dt: f64,
+) -> ContactOut<R> {
     let zero = R::splat(0.0);
     let k = pair_kinematics_lanes::<R, DIM, ROT>(x.r, x.dist2, x.rad_i, x.rad_j, x.v_rel, x.w_i, x.w_j);
     let n = k.normal;
@@ -393,7 +439,7 @@ pub(super) fn contact<R: Real, const DIM: usize, const ROT: usize, L: WindowLaw,
         twist: zero,
         was: zero,
     };
-    let o = law_lanes::<R, DIM, ROT, L, P>(law, damp, &input, &mut (), dt);
+    let o = law_lanes::<R, DIM, ROT, L, P>(law, damp, &input, extra, dt);
     // forces and torques (M_r = 0 without rolling resistance: adding the zero keeps the bits)
     let (force, torque_i, torque_j) = contact_loads_lanes::<R, DIM, ROT>(n, o.tangential_force, o.normal_force, k.lever_i, k.lever_j, o.torque);
     ContactOut { overlap: k.overlap, sliding: o.sliding, new_spring: o.spring, new_rolling: o.rolling, force, torque_i, torque_j }

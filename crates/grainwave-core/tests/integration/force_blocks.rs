@@ -213,3 +213,64 @@ fn masses_changed_by_hand_reach_the_close_list() {
         assert_eq!(run(false, simd), reference, "simd {simd}");
     }
 }
+
+#[test]
+fn a_normal_law_with_history_gives_the_bits_of_the_general_kernel_on_every_path() {
+    // The hysteretic normal law (history ξ_max per contact) through its specialised composition
+    // (`Specialized::NormalHistory`: the history gathered and scattered beside the tangential
+    // spring) against the general kernel: the linear spring and the slip-activation spring,
+    // with and without rolling resistance, three dampers; 2D and 3D, neighbor lists rebuilt
+    // every 37 steps besides their own rebuilds, 1 and 2 threads with several blocks, and one
+    // block; every vector path the processor has (the others are reported as skipped).
+    use grainwave_core::contact::{Hysteretic, NormalTable, Specialized};
+    let levels = simd_levels("a_normal_law_with_history_gives_the_bits_of_the_general_kernel_on_every_path", &[0, 1, 2, 3]);
+    let law = |k2: f64, damping: u8, slip: Option<f64>, rolling: bool| {
+        let mut p = ContactParams { normal: Some(NormalTable::Hysteretic(Hysteretic { loading_stiffness: 1.0e3, unloading_stiffness: k2 })), ..Default::default() };
+        p.friction = Some(0.3);
+        match damping {
+            0 => p.normal_damping_rate = Some(5.0),
+            1 => p.damping_fraction = Some(0.1),
+            _ => p.normal_damping = Some(0.5),
+        }
+        p.slip_activation_time = slip;
+        if rolling {
+            (p.rolling_stiffness, p.rolling_friction) = (Some(0.5), Some(0.05));
+        }
+        p.build(Partner::Grain, "contact").unwrap()
+    };
+    fn run<D: Dim>(mut sim: Simulation<D>, general: bool, simd: u8, len: Option<usize>) -> u64 {
+        sim.set_general_kernel(general);
+        sim.set_simd_level(simd);
+        sim.set_force_block_len(len);
+        for s in 0..300 {
+            if s % 37 == 0 {
+                sim.nlist.stale = true;
+            }
+            sim.step().unwrap();
+        }
+        assert!(sim.counters.contacts > 0 && sim.nlist.builds > 8);
+        sim.state_hash()
+    }
+    let laws = [law(3.0e3, 0, None, false), law(3.0e3, 1, None, true), law(2.0e3, 2, Some(0.05), false), law(4.0e3, 0, Some(0.05), true)];
+    for law in laws {
+        assert!(matches!(law.specialize(), Specialized::NormalHistory(..)), "{law:?}");
+        let make2 = || dense_2d(30, 40, law, 0.5, 21).expected_overlap(0.05).build().unwrap();
+        let make3 = || dense_3d(4, law, 0.3, 22).expected_overlap(0.05).build().unwrap();
+        let reference = (pool(1).install(|| run(make2(), true, 0, Some(300))), pool(1).install(|| run(make3(), true, 0, Some(50))));
+        for threads in [1, 2] {
+            for &simd in &levels {
+                let got = pool(threads).install(|| (run(make2(), false, simd, Some(300)), run(make3(), false, simd, Some(50))));
+                assert_eq!(got, reference, "{law:?}, {threads} threads, simd {simd}");
+            }
+        }
+        for &simd in &levels {
+            let got = pool(1).install(|| (run(make2(), false, simd, None), run(make3(), false, simd, None)));
+            assert_eq!(got, reference, "{law:?}, one block, simd {simd}");
+        }
+    }
+    // the history acts: with k₂ = k₁ (no hysteresis) the same packing at the same time step
+    // ends elsewhere
+    let (a, b) = (law(3.0e3, 0, None, false), law(1.0e3, 0, None, false));
+    let end = |law: ContactLaw| pool(1).install(|| run(dense_2d(30, 40, law, 0.5, 21).dt(5e-4).build().unwrap(), false, 3, Some(300)));
+    assert_ne!(end(a), end(b));
+}

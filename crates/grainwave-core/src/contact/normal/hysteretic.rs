@@ -57,6 +57,14 @@ impl LawHistory for MaxOverlap {
     fn splat<R: Real>(self) -> R {
         R::splat(self.0)
     }
+    #[inline(always)]
+    fn gather<R: Real>(mut at: impl FnMut(usize) -> Self) -> R {
+        R::from_fn(|l| at(l).0)
+    }
+    #[inline(always)]
+    fn scatter<R: Real>(lanes: R, mut put: impl FnMut(usize, Self)) {
+        lanes.for_each_lane(|l, x| put(l, MaxOverlap(x)))
+    }
     fn encode(&self, out: &mut Vec<f64>) {
         out.push(self.0);
     }
@@ -289,7 +297,12 @@ mod tests {
         p.damping = Some(DampingTable::Dashpot { coefficient: 0.1, tangential_ratio: None, tangential_rate: None });
         let law = p.build(Partner::Grain, "contact").unwrap();
         assert_eq!(law.normal, NormalElastic::Hysteretic(Hysteretic { loading_stiffness: 1e4, unloading_stiffness: 2e4 }));
+        // frictionless: no tangential part, the general kernel; with friction, the specialised
+        // composition of a normal law with history
         assert!(!law.specialize().has_window_kernel());
+        p.friction = Some(0.3);
+        let law = p.build(Partner::Grain, "contact").unwrap();
+        assert!(matches!(law.specialize(), crate::contact::Specialized::NormalHistory(..)));
     }
 
     /// The energy read from the history is the work the contact returns on unloading, ∫ F dξ

@@ -25,7 +25,7 @@
 //! (indices, and three times them, are held in 32-bit lanes; larger ones take the portable path).
 
 use super::{finish_grain, start_block, CrossForce, CrossIndex, Finish, ForceStats, Grain, History, Inputs, Velocities};
-use crate::contact::TangentialHistory;
+use crate::contact::{LawHistory, LawParts, TangentialHistory};
 use crate::dim::{Dim, VectorOps};
 use crate::domain::nearest_image_axis;
 use crate::sim::lanes::{self, ContactIn, Dampers, Real, WindowLaw, WithDampers};
@@ -76,6 +76,19 @@ impl Neg for F64x4 {
 
 impl Real for F64x4 {
     type Mask = __m256d;
+    const LANES: usize = 4;
+    #[inline(always)]
+    fn from_fn(mut f: impl FnMut(usize) -> f64) -> Self {
+        let a = [f(0), f(1), f(2), f(3)];
+        // SAFETY: as above; unaligned load of four f64.
+        unsafe { F64x4(_mm256_loadu_pd(a.as_ptr())) }
+    }
+    #[inline(always)]
+    fn for_each_lane(self, mut f: impl FnMut(usize, f64)) {
+        for (l, x) in lanes_of(self.0).into_iter().enumerate() {
+            f(l, x);
+        }
+    }
     #[inline(always)]
     fn splat(x: f64) -> Self {
         // SAFETY: as above.
@@ -264,6 +277,17 @@ impl<H: Real> Neg for Pair<H> {
 
 impl<H: Real> Real for Pair<H> {
     type Mask = (H::Mask, H::Mask);
+    const LANES: usize = 2 * H::LANES;
+    #[inline(always)]
+    fn from_fn(mut f: impl FnMut(usize) -> f64) -> Self {
+        let a = H::from_fn(&mut f);
+        Pair(a, H::from_fn(|l| f(H::LANES + l)))
+    }
+    #[inline(always)]
+    fn for_each_lane(self, mut f: impl FnMut(usize, f64)) {
+        self.0.for_each_lane(&mut f);
+        self.1.for_each_lane(|l, x| f(H::LANES + l, x));
+    }
     #[inline(always)]
     fn splat(x: f64) -> Self {
         Pair(H::splat(x), H::splat(x))
@@ -575,7 +599,7 @@ fn arrays<V: Lanes>(v: &[V; 3], n: usize) -> [V::F; 3] {
 /// `v.base`); AVX2 is available.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: P, inp: &Inputs<D>, h: &mut History<D>, v: Velocities<D>, g: &Group<V>, known: Option<[V; 3]>, st: &mut ForceStats, out: &mut Out<V>) -> bool {
+unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: P, inp: &Inputs<D>, h: &mut History<D, L::Extra>, v: Velocities<D>, g: &Group<V>, known: Option<[V; 3]>, st: &mut ForceStats, out: &mut Out<V>) -> bool {
     let (dd, rot) = (D::D, <D::AngVector as VectorOps>::LEN);
     // SAFETY: the caller's contract.
     unsafe {
@@ -649,9 +673,15 @@ unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: 
             spring: V::rows(h.spring.as_ptr() as *const f64, dd, &qd),
             rolling: if law.rolls() { V::rows(h.rolling.as_ptr() as *const f64, rot, if rot == dd { &qd } else { &q }) } else { [zero; 3] },
         };
+        // the law's own histories, beside the springs (nothing for `()`: `at` is not called)
+        let mut extra = L::Extra::gather::<V>(|l| {
+            let k = q[l] as usize;
+            debug_assert!(k < h.extra.len());
+            *h.extra.get_unchecked(k)
+        });
         let o = match dd {
-            2 => lanes::contact::<V, 2, 1, L, P>(law, damp, &input, inp.dt),
-            _ => lanes::contact::<V, 3, 3, L, P>(law, damp, &input, inp.dt),
+            2 => lanes::contact::<V, 2, 1, L, P>(law, damp, &input, &mut extra, inp.dt),
+            _ => lanes::contact::<V, 3, 3, L, P>(law, damp, &input, &mut extra, inp.dt),
         };
         out.touch = touch;
         out.force = o.force;
@@ -694,6 +724,14 @@ unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: 
                 *h.rolling.get_unchecked_mut(q[l] as usize) = lane_of(&rolling, l);
             }
         }
+        // the touching lanes' histories back, in lane (list) order (nothing for `()`)
+        L::Extra::scatter::<V>(extra, |l, x| {
+            if touch >> l & 1 != 0 {
+                let k = q[l] as usize;
+                debug_assert!(k < h.extra.len());
+                *h.extra.get_unchecked_mut(k) = x;
+            }
+        });
         // Deepest contact (as `eval_pair`: overlap / smaller radius, the first pair reaching a
         // new maximum). The division only where it may exceed the maximum so far d: for
         // positive o, m and d, fl(o/m) > d implies o > d·m·(1 − ε) > fl(fl(d·m)·(1 − 4ε)), so
@@ -727,7 +765,7 @@ unsafe fn eval_group<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: 
 /// AVX2 is available.
 #[target_feature(enable = "avx2,popcnt")]
 #[allow(clippy::too_many_arguments)]
-unsafe fn block<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, h: History<D>, g: Grain<D>) -> ForceStats {
+unsafe fn block<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, h: History<D, L::Extra>, g: Grain<D>) -> ForceStats {
     // SAFETY: AVX2 is enabled here (the caller's contract).
     unsafe {
         if cross.close_ok {
@@ -743,7 +781,7 @@ unsafe fn block<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs
 /// AVX-512 F and VL are available.
 #[target_feature(enable = "avx2,avx512f,avx512vl,popcnt")]
 #[allow(clippy::too_many_arguments)]
-unsafe fn block_wide<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, h: History<D>, g: Grain<D>) -> ForceStats {
+unsafe fn block_wide<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, h: History<D, L::Extra>, g: Grain<D>) -> ForceStats {
     // SAFETY: AVX-512 F and VL are enabled here (the caller's contract).
     unsafe {
         if cross.close_ok {
@@ -795,7 +833,7 @@ unsafe fn load_live(a: &[u32], s: usize, live: __m256i, fallback: __m256i) -> __
 /// AVX2 and what `V` needs are available.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-unsafe fn block_plain<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, mut h: History<D>, g: Grain<D>) -> ForceStats {
+unsafe fn block_plain<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, mut h: History<D, L::Extra>, g: Grain<D>) -> ForceStats {
     let mut st = ForceStats::new();
     let (g0, g1) = (b * cross.block_len, ((b + 1) * cross.block_len).min(cross.n));
     let Grain { force, torque, vel, omega, .. } = g;
@@ -852,7 +890,7 @@ unsafe fn block_plain<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp:
 #[target_feature(enable = "avx2,popcnt")]
 #[inline(never)]
 #[allow(clippy::too_many_arguments)]
-unsafe fn block_close<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, h: History<D>, g: Grain<D>) -> ForceStats {
+unsafe fn block_close<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, h: History<D, L::Extra>, g: Grain<D>) -> ForceStats {
     // SAFETY: AVX2 is enabled here (the caller's contract).
     unsafe { block_close_impl::<D, L, P, F64x8>(law, damp, inp, cross, fin, b, h, g) }
 }
@@ -864,7 +902,7 @@ unsafe fn block_close<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &
 #[target_feature(enable = "avx2,avx512f,avx512vl,popcnt")]
 #[inline(never)]
 #[allow(clippy::too_many_arguments)]
-unsafe fn block_close_wide<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, h: History<D>, g: Grain<D>) -> ForceStats {
+unsafe fn block_close_wide<D: Dim, L: WindowLaw, P: Dampers>(law: &L, damp: P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, h: History<D, L::Extra>, g: Grain<D>) -> ForceStats {
     // SAFETY: AVX-512 F and VL are enabled here (the caller's contract).
     unsafe { block_close_impl::<D, L, P, WideLanes>(law, damp, inp, cross, fin, b, h, g) }
 }
@@ -881,7 +919,7 @@ const FILTER_AHEAD: usize = 32;
 /// AVX2 and what `V` needs are available.
 #[inline(always)]
 #[allow(clippy::too_many_arguments)]
-unsafe fn block_close_impl<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, mut h: History<D>, g: Grain<D>) -> ForceStats {
+unsafe fn block_close_impl<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(law: &L, damp: P, inp: &Inputs<D>, cross: &CrossIndex<D>, fin: &Finish<D>, b: usize, mut h: History<D, L::Extra>, g: Grain<D>) -> ForceStats {
     let mut st = ForceStats::new();
     let (g0, g1) = (b * cross.block_len, ((b + 1) * cross.block_len).min(cross.n));
     let Grain { force, torque, vel, omega, .. } = g;
@@ -1055,7 +1093,7 @@ unsafe fn cross_block_impl<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(
     omega: &[D::AngVector],
     cross: &CrossIndex<D>,
     b: usize,
-    mut h: History<D>,
+    mut h: History<D, L::Extra>,
     out: &mut [CrossForce<D>],
     slot_base: usize,
 ) -> ForceStats {
@@ -1092,13 +1130,13 @@ unsafe fn cross_block_impl<D: Dim, L: WindowLaw, P: Dampers, V: Lanes>(
 }
 
 /// Phase B of one block through the fused kernel, with the law's dampers resolved.
-pub(super) struct BlockPass<'a, 'b, D: Dim, L> {
+pub(super) struct BlockPass<'a, 'b, D: Dim, L: LawParts> {
     pub law: &'a L,
     pub inp: &'a Inputs<'b, D>,
     pub cross: &'a CrossIndex<D>,
     pub fin: &'a Finish<'b, D>,
     pub b: usize,
-    pub h: History<'a, D>,
+    pub h: History<'a, D, L::Extra>,
     pub g: Grain<'a, D>,
     /// On 512-bit lanes ([`Wide8`]).
     pub wide: bool,
@@ -1121,14 +1159,14 @@ impl<D: Dim, L: WindowLaw> WithDampers for BlockPass<'_, '_, D, L> {
 }
 
 /// Phase A of one block through the fused kernel, with the law's dampers resolved.
-pub(super) struct CrossPass<'a, 'b, D: Dim, L> {
+pub(super) struct CrossPass<'a, 'b, D: Dim, L: LawParts> {
     pub law: &'a L,
     pub inp: &'a Inputs<'b, D>,
     pub vel: &'a [D::Vector],
     pub omega: &'a [D::AngVector],
     pub cross: &'a CrossIndex<D>,
     pub b: usize,
-    pub h: History<'a, D>,
+    pub h: History<'a, D, L::Extra>,
     pub out: &'a mut [CrossForce<D>],
     pub slot_base: usize,
     /// On 512-bit lanes ([`Wide8`]).

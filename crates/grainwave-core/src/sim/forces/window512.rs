@@ -14,6 +14,7 @@
 //! every consumer ignores.
 
 use super::{ForceStats, History, Inputs, Velocities};
+use crate::contact::LawHistory;
 use crate::dim::{Dim, VectorOps};
 use crate::simd512::Wide8;
 use crate::sim::lanes::{Window, CAP};
@@ -137,10 +138,10 @@ unsafe fn contiguous(base: *const f64, n: usize, count: usize) -> [__m512d; 3] {
 #[inline]
 #[target_feature(enable = "avx512f,avx512vl,popcnt")]
 #[allow(clippy::too_many_arguments)]
-pub(super) unsafe fn push_pairs<D: Dim, const LIST: bool>(
+pub(super) unsafe fn push_pairs<D: Dim, H: LawHistory, const LIST: bool>(
     w: &mut Window,
     inp: &Inputs<D>,
-    h: &mut History<D>,
+    h: &mut History<D, H>,
     v: Velocities<D>,
     owner: &[u32],
     list: &[u32],
