@@ -15,10 +15,13 @@ use std::path::Path;
 /// Magic bytes at the start of every checkpoint.
 pub const MAGIC: &[u8; 8] = b"GRNWCKPT";
 /// Version of the file layout and of the serialized state. Version 3 added the laws' own
-/// per-contact history ([`crate::contact::HistoryColumn`]) after each pair list's histories.
-pub const FORMAT_VERSION: u32 = 3;
+/// per-contact history ([`crate::contact::HistoryColumn`]) after each pair list's histories;
+/// version 4 that of the grain–wall contacts ([`crate::contact::WallHistory`]) after the
+/// neighbor list's other fields.
+pub const FORMAT_VERSION: u32 = 4;
 /// The oldest version read: version 2 files are read with every history column absent (their
-/// laws had none), and resume bit for bit.
+/// laws had none), version 3 files without the grain–wall columns (their wall laws could keep
+/// no history); both resume bit for bit.
 pub const OLDEST_READ_VERSION: u32 = 2;
 
 /// Writes `bytes` to `path` atomically: a temporary file in the same directory, flushed and
@@ -152,7 +155,7 @@ pub fn decode<T: DeserializeOwned>(bytes: &[u8], tag: &str, path: &str) -> Resul
     use bincode::Options;
     // (version and length verified above)
     let version = u32::from_le_bytes(bytes[8..12].try_into().unwrap());
-    crate::contact::decoding_without_columns(version < 3, || {
+    crate::contact::decoding_version(version, || {
         bincode::DefaultOptions::new().with_fixint_encoding().allow_trailing_bytes().with_limit(body.len() as u64).deserialize(body)
     })
     .map_err(|e| {
@@ -315,12 +318,13 @@ mod tests {
         assert!(e.contains("content tag of 3000000000 bytes"), "{e}");
     }
 
-    /// A checkpoint of format version 2 (before the laws' own history columns) loads and
-    /// resumes to the bits of the run it was taken from; versions 1 and 4 are refused by name.
-    /// (The version 2 bytes are written by this encoder with the columns left out, which is
-    /// that layout: a pair list then ends with its twist springs.)
+    /// Checkpoints of format versions 2 (before the laws' own history columns) and 3 (before
+    /// the grain–wall columns) load and resume to the bits of the run they were taken from;
+    /// versions 1 and 5 are refused by name. (The old bytes are written by this encoder with
+    /// the columns of the later versions left out, which is those layouts: a pair list then
+    /// ends with its twist springs, a neighbor list with its build counters.)
     #[test]
-    fn version_2_checkpoints_still_load() {
+    fn version_2_and_3_checkpoints_still_load() {
         use crate::contact::{ContactParams, Partner};
         use crate::dim::D2;
         use crate::domain::Domain;
@@ -341,21 +345,27 @@ mod tests {
             a.step().unwrap();
         }
         assert_eq!(a.counters.contacts, 1);
-        let mut v2 = crate::contact::decoding_without_columns(true, || encode("simulation-2d", &a)).unwrap();
-        v2[8..12].copy_from_slice(&2u32.to_le_bytes());
-        let v3 = encode("simulation-2d", &a).unwrap();
-        assert!(v2.len() < v3.len());
+        let old = |version: u32| {
+            let mut bytes = crate::contact::decoding_version(version, || encode("simulation-2d", &a)).unwrap();
+            bytes[8..12].copy_from_slice(&version.to_le_bytes());
+            bytes
+        };
+        let (v2, v3, v4) = (old(2), old(3), encode("simulation-2d", &a).unwrap());
+        assert!(v2.len() < v3.len() && v3.len() < v4.len());
         let mut b: Simulation<D2> = decode(&v2, "simulation-2d", "v2").unwrap();
+        let mut c: Simulation<D2> = decode(&v3, "simulation-2d", "v3").unwrap();
         for _ in 0..200 {
             a.step().unwrap();
             b.step().unwrap();
+            c.step().unwrap();
         }
         assert_eq!(a.state_hash(), b.state_hash());
-        for version in [1u32, 4] {
-            let mut other = v3.clone();
+        assert_eq!(a.state_hash(), c.state_hash());
+        for version in [1u32, 5] {
+            let mut other = v4.clone();
             other[8..12].copy_from_slice(&version.to_le_bytes());
             let e = decode::<Simulation<D2>>(&other, "simulation-2d", "c").unwrap_err().to_string();
-            assert!(e.contains(&format!("format version {version}")) && e.contains("versions 2 to 3"), "{e}");
+            assert!(e.contains(&format!("format version {version}")) && e.contains("versions 2 to 4"), "{e}");
         }
     }
 }

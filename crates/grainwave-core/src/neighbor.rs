@@ -11,7 +11,7 @@
 //! The list is rebuilt when a grain has moved more than half the skin since the last build (or a
 //! wall has moved so that a new grain–wall contact could have formed).
 
-use crate::contact::{ContactState, HistoryColumn, TangentialHistory};
+use crate::contact::{ContactState, HistoryColumn, TangentialHistory, WallHistory};
 use crate::dim::{Dim, VectorOps};
 use crate::domain::{Domain, PeriodicImage};
 use rayon::prelude::*;
@@ -123,6 +123,10 @@ pub struct NeighborList<D: Dim> {
     pub builds: u64,
     /// Force a rebuild at the next check (radii or domain changed).
     pub stale: bool,
+    /// The wall laws' own history of each grain–wall candidate ([`WallHistory`]; empty when no
+    /// wall law keeps one), carried across rebuilds with the other grain–wall histories.
+    #[serde(default)]
+    pub(crate) wall_extra: WallHistory,
 }
 
 /// Per-grain index of the grain–wall candidates (not stored in checkpoints: rebuilt on demand).
@@ -145,6 +149,7 @@ impl<D: Dim> NeighborList<D> {
             ref_ids: Vec::new(),
             builds: 0,
             stale: true,
+            wall_extra: WallHistory::default(),
         }
     }
 
@@ -283,27 +288,38 @@ impl<D: Dim> NeighborList<D> {
             list.extra = old.extra.remap(&from);
         }
         let ref_ids = if self.ref_ids.is_empty() { ids } else { &self.ref_ids };
-        let mut old_wall: Vec<((u32, u32), ContactState<D>)> = self
+        // (key, state, index in the old list) of the grain–wall contacts
+        let mut old_wall: Vec<((u32, u32), ContactState<D>, u32)> = self
             .wall_pairs
             .iter()
-            .filter(|p| p.state.in_contact() && (p.grain as usize) < ref_ids.len())
-            .map(|p| ((ref_ids[p.grain as usize], p.wall), p.state))
+            .enumerate()
+            .filter(|(_, p)| p.state.in_contact() && (p.grain as usize) < ref_ids.len())
+            .map(|(k, p)| ((ref_ids[p.grain as usize], p.wall), p.state, k as u32))
             .collect();
         old_wall.sort_unstable_by_key(|e| e.0);
         self.list = list;
 
         let mut wall_pairs = Vec::new();
+        // where each new wall pair's law history comes from (only when a wall law keeps one)
+        let carry = self.wall_extra.is_stored();
+        let mut from = Vec::new();
         for g in 0..n {
             for (w, wall) in domain.walls.iter().enumerate() {
                 if wall.distance(pos[g]) < radius[g] + self.skin {
                     let key = (ids[g], w as u32);
-                    let state = match old_wall.binary_search_by_key(&key, |e| e.0) {
-                        Ok(k) => old_wall[k].1,
-                        Err(_) => ContactState::default(),
+                    let (state, old) = match old_wall.binary_search_by_key(&key, |e| e.0) {
+                        Ok(k) => (old_wall[k].1, old_wall[k].2),
+                        Err(_) => (ContactState::default(), u32::MAX),
                     };
                     wall_pairs.push(WallPair { grain: g as u32, wall: w as u32, state });
+                    if carry {
+                        from.push((old, false));
+                    }
                 }
             }
+        }
+        if carry {
+            self.wall_extra = self.wall_extra.remap(&from);
         }
         self.wall_pairs = wall_pairs;
         self.ref_pos = pos.to_vec();

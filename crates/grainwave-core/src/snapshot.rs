@@ -113,18 +113,17 @@ pub struct Snapshot<D: Dim> {
     pub contacts: Vec<ContactRecord<D>>,
 }
 
-/// The law's own history of a grain–grain contact: the list's column, its length, the pair's
-/// index and whether the record sees the pair from its other grain.
+/// The law's own history of a contact: the column of its list (the grain–grain pair list, or
+/// the wall's column of the grain–wall pairs), the list's length, the pair's index and whether
+/// the record sees the pair from its other grain.
 type Stored<'a> = (&'a crate::contact::HistoryColumn, usize, usize, bool);
 
-fn record<D: Dim>(law: &ContactLaw, kin: &Kinematics<D>, state: &ContactState<D>, stored: Option<Stored<'_>>, i: u32, j: Counterpart, branch: D::Vector) -> ContactRecord<D> {
+fn record<D: Dim>(law: &ContactLaw, kin: &Kinematics<D>, state: &ContactState<D>, stored: Stored<'_>, i: u32, j: Counterpart, branch: D::Vector) -> ContactRecord<D> {
     // Re-evaluate on a copy with dt = 0: histories are not advanced (a normal law with its own
     // history reads the stored one: the branch the contact is on)
     let mut s = *state;
-    let o = match stored {
-        Some((history, len, pair, reversed)) => law.evaluate_stored(kin, &mut s, history, len, pair, reversed, 0.0),
-        None => law.evaluate(kin, &mut s, 0.0),
-    };
+    let (history, len, pair, reversed) = stored;
+    let o = law.evaluate_stored(kin, &mut s, history, len, pair, reversed, 0.0);
     ContactRecord {
         i,
         j,
@@ -172,10 +171,11 @@ impl<D: Dim> Simulation<D> {
             let (i, j) = (p.i as usize, p.j as usize);
             let r = self.domain.displacement(g.pos[i], g.pos[j]);
             if let Some(kin) = pair_kinematics::<D>(r, g.radius[i], g.radius[j], g.mass[i], g.mass[j], g.vel[i], g.vel[j], g.omega[i], g.omega[j]) {
-                out.push(record(&self.law, &kin, &p.state, Some((history, len, *k, *swapped)), g.id[i], Counterpart::Grain(g.id[j]), r));
+                out.push(record(&self.law, &kin, &p.state, (history, len, *k, *swapped), g.id[i], Counterpart::Grain(g.id[j]), r));
             }
         }
-        for wp in &self.nlist.wall_pairs {
+        let wall_pairs = &self.nlist.wall_pairs;
+        for (n, wp) in wall_pairs.iter().enumerate() {
             if !wp.state.in_contact() {
                 continue;
             }
@@ -184,8 +184,8 @@ impl<D: Dim> Simulation<D> {
             let h = wall.distance(g.pos[k]);
             if let Some(kin) = wall_kinematics::<D>(h, wall.normal, wall.velocity(), g.radius[k], g.mass[k], g.vel[k], g.omega[k]) {
                 let branch = kin.normal * h;
-                // grain–wall contacts keep no law history (such a wall law is refused)
-                out.push(record(&wall.law, &kin, &wp.state, None, g.id[k], Counterpart::Wall(wp.wall), branch));
+                let history = self.nlist.wall_extra.column(wp.wall as usize);
+                out.push(record(&wall.law, &kin, &wp.state, (history, wall_pairs.len(), n, false), g.id[k], Counterpart::Wall(wp.wall), branch));
             }
         }
         out

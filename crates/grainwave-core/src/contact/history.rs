@@ -297,23 +297,34 @@ pub(crate) fn zero_sized_slice<'a, H: LawHistory>(len: usize) -> &'a mut [H] {
 }
 
 thread_local! {
-    /// Set while a checkpoint of a format without history columns (version 2) is decoded.
-    static LEGACY: Cell<bool> = const { Cell::new(false) };
+    /// The checkpoint format version being decoded (or written, in the compatibility tests):
+    /// the history columns a file of that version holds. `u32::MAX`: the current layout.
+    static VERSION: Cell<u32> = const { Cell::new(u32::MAX) };
 }
 
-/// Runs `f` (a decoder, or an encoder in tests) with history columns absent from the bytes
-/// when `legacy`: the layout of checkpoints written before history columns existed (format
-/// version 2), whose laws had none.
-pub(crate) fn decoding_without_columns<T>(legacy: bool, f: impl FnOnce() -> T) -> T {
-    let before = LEGACY.with(|l| l.replace(legacy));
+/// The first format version with the grain–grain pair list's column ([`HistoryColumn`]).
+const PAIR_COLUMNS_SINCE: u32 = 3;
+/// The first format version with the grain–wall columns ([`WallHistory`]).
+const WALL_COLUMNS_SINCE: u32 = 4;
+
+/// Runs `f` (a decoder, or an encoder in tests) with the history columns of format `version`:
+/// none before version 3 (whose laws had no history), the pair list's but no grain–wall
+/// columns in version 3 (whose wall laws could not have history), all of them since 4.
+pub(crate) fn decoding_version<T>(version: u32, f: impl FnOnce() -> T) -> T {
+    let before = VERSION.with(|v| v.replace(version));
     let out = f();
-    LEGACY.with(|l| l.set(before));
+    VERSION.with(|v| v.set(before));
     out
+}
+
+/// True when the format being decoded holds the columns written since `since`.
+fn has_columns(since: u32) -> bool {
+    VERSION.with(|v| v.get()) >= since
 }
 
 impl Serialize for HistoryColumn {
     fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
-        if LEGACY.with(|l| l.get()) {
+        if !has_columns(PAIR_COLUMNS_SINCE) {
             // (the version 2 layout, for the compatibility tests: nothing)
             return s.serialize_unit();
         }
@@ -323,7 +334,7 @@ impl Serialize for HistoryColumn {
 
 impl<'de> Deserialize<'de> for HistoryColumn {
     fn deserialize<De: Deserializer<'de>>(d: De) -> Result<Self, De::Error> {
-        if LEGACY.with(|l| l.get()) {
+        if !has_columns(PAIR_COLUMNS_SINCE) {
             return Ok(HistoryColumn(None));
         }
         let e = Option::<Encoded>::deserialize(d)?;
@@ -341,51 +352,119 @@ impl<'de> Deserialize<'de> for HistoryColumn {
     }
 }
 
+/// The laws' own history of the grain–wall contacts: one [`HistoryColumn`] per wall (indexed by
+/// wall; a column is stored only for a wall whose law keeps a history), each with one entry per
+/// grain–wall candidate pair in the order of the neighbor list's `wall_pairs` (entries of other
+/// walls' pairs stay the default). Carried across rebuilds and written to checkpoints like the
+/// pair list's column; empty when no wall law keeps a history.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct WallHistory(pub(crate) Vec<HistoryColumn>);
+
+/// The column of no wall: nothing stored.
+static NO_COLUMN: HistoryColumn = HistoryColumn(None);
+
+impl WallHistory {
+    /// The column of wall `w` (an empty one where none is stored).
+    pub fn column(&self, w: usize) -> &HistoryColumn {
+        self.0.get(w).unwrap_or(&NO_COLUMN)
+    }
+
+    /// The column of wall `w` to write, of `walls` walls (the columns made as needed).
+    pub(crate) fn column_mut(&mut self, w: usize, walls: usize) -> &mut HistoryColumn {
+        if self.0.len() < walls.max(w + 1) {
+            self.0.resize_with(walls.max(w + 1), HistoryColumn::default);
+        }
+        &mut self.0[w]
+    }
+
+    /// True when some wall's column is stored.
+    pub fn is_stored(&self) -> bool {
+        self.0.iter().any(HistoryColumn::is_stored)
+    }
+
+    /// The columns for a rebuilt list of wall pairs ([`HistoryColumn::remap`], no reversal: a
+    /// wall pair has one grain).
+    pub(crate) fn remap(&self, from: &[(u32, bool)]) -> WallHistory {
+        WallHistory(self.0.iter().map(|c| c.remap(from)).collect())
+    }
+
+    /// Every stored entry as its encoding, wall by wall (nothing when none is stored).
+    pub fn values(&self) -> Vec<f64> {
+        self.0.iter().flat_map(|c| c.values()).collect()
+    }
+}
+
+impl Serialize for WallHistory {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        if !has_columns(WALL_COLUMNS_SINCE) {
+            // (the layout of versions 2 and 3, for the compatibility tests: nothing)
+            return s.serialize_unit();
+        }
+        self.0.serialize(s)
+    }
+}
+
+impl<'de> Deserialize<'de> for WallHistory {
+    fn deserialize<De: Deserializer<'de>>(d: De) -> Result<Self, De::Error> {
+        if !has_columns(WALL_COLUMNS_SINCE) {
+            return Ok(WallHistory::default());
+        }
+        Ok(WallHistory(Vec::<HistoryColumn>::deserialize(d)?))
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    #[derive(Clone, Copy, Debug, Default, PartialEq)]
-    struct Two(f64, f64);
-    impl LawHistory for Two {
-        const NAME: &'static str = "two";
-        const WIDTH: usize = 2;
-        type Lanes<R: crate::real::Real> = (R, R);
-        fn to_lane(self) -> (f64, f64) {
-            (self.0, self.1)
-        }
-        fn from_lane(l: (f64, f64)) -> Self {
-            Two(l.0, l.1)
-        }
-        fn splat<R: crate::real::Real>(self) -> (R, R) {
-            (R::splat(self.0), R::splat(self.1))
-        }
-        fn gather<R: crate::real::Real>(mut at: impl FnMut(usize) -> Self) -> (R, R) {
-            let mut h = [(0.0, 0.0); 16];
-            for (l, x) in h.iter_mut().enumerate().take(R::LANES) {
-                let v = at(l);
-                *x = (v.0, v.1);
+    /// A history of two values named `$name` (two laws with histories of the same shape).
+    macro_rules! pair_history {
+        ($t:ident, $name:literal) => {
+            #[derive(Clone, Copy, Debug, Default, PartialEq)]
+            struct $t(f64, f64);
+            impl LawHistory for $t {
+                const NAME: &'static str = $name;
+                const WIDTH: usize = 2;
+                type Lanes<R: crate::real::Real> = (R, R);
+                fn to_lane(self) -> (f64, f64) {
+                    (self.0, self.1)
+                }
+                fn from_lane(l: (f64, f64)) -> Self {
+                    $t(l.0, l.1)
+                }
+                fn splat<R: crate::real::Real>(self) -> (R, R) {
+                    (R::splat(self.0), R::splat(self.1))
+                }
+                fn gather<R: crate::real::Real>(mut at: impl FnMut(usize) -> Self) -> (R, R) {
+                    let mut h = [(0.0, 0.0); 16];
+                    for (l, x) in h.iter_mut().enumerate().take(R::LANES) {
+                        let v = at(l);
+                        *x = (v.0, v.1);
+                    }
+                    (R::from_fn(|l| h[l].0), R::from_fn(|l| h[l].1))
+                }
+                fn scatter<R: crate::real::Real>(lanes: (R, R), mut put: impl FnMut(usize, Self)) {
+                    let mut h = [(0.0, 0.0); 16];
+                    lanes.0.for_each_lane(|l, x| h[l].0 = x);
+                    lanes.1.for_each_lane(|l, x| h[l].1 = x);
+                    for (l, &(a, b)) in h.iter().enumerate().take(R::LANES) {
+                        put(l, Self(a, b));
+                    }
+                }
+                fn encode(&self, out: &mut Vec<f64>) {
+                    out.extend([self.0, self.1]);
+                }
+                fn decode(v: &[f64]) -> Self {
+                    $t(v[0], v[1])
+                }
+                fn reversed(self) -> Self {
+                    $t(-self.0, self.1)
+                }
             }
-            (R::from_fn(|l| h[l].0), R::from_fn(|l| h[l].1))
-        }
-        fn scatter<R: crate::real::Real>(lanes: (R, R), mut put: impl FnMut(usize, Self)) {
-            let mut h = [(0.0, 0.0); 16];
-            lanes.0.for_each_lane(|l, x| h[l].0 = x);
-            lanes.1.for_each_lane(|l, x| h[l].1 = x);
-            for (l, &(a, b)) in h.iter().enumerate().take(R::LANES) {
-                put(l, Self(a, b));
-            }
-        }
-        fn encode(&self, out: &mut Vec<f64>) {
-            out.extend([self.0, self.1]);
-        }
-        fn decode(v: &[f64]) -> Self {
-            Two(v[0], v[1])
-        }
-        fn reversed(self) -> Self {
-            Two(-self.0, self.1)
-        }
+        };
     }
+    pair_history!(Two, "two");
+    pair_history!(TwoOther, "other");
 
     /// A column survives a serialize/deserialize round trip to the bit (as the encoding, typed
     /// again on first use), is remapped with reversal and defaults, and `()` stores nothing.
@@ -408,46 +487,7 @@ mod tests {
         assert_eq!(r.typed_mut::<TwoOther>(3), &[TwoOther::default(); 3]);
         // legacy layout: nothing read
         let empty = bincode::serialize(&0u8).unwrap();
-        let legacy: HistoryColumn = decoding_without_columns(true, || bincode::deserialize(&empty[..0]).unwrap());
+        let legacy: HistoryColumn = decoding_version(2, || bincode::deserialize(&empty[..0]).unwrap());
         assert!(!legacy.is_stored());
-    }
-
-    #[derive(Clone, Copy, Debug, Default, PartialEq)]
-    struct TwoOther(f64, f64);
-    impl LawHistory for TwoOther {
-        const NAME: &'static str = "other";
-        const WIDTH: usize = 2;
-        type Lanes<R: crate::real::Real> = (R, R);
-        fn to_lane(self) -> (f64, f64) {
-            (self.0, self.1)
-        }
-        fn from_lane(l: (f64, f64)) -> Self {
-            TwoOther(l.0, l.1)
-        }
-        fn splat<R: crate::real::Real>(self) -> (R, R) {
-            (R::splat(self.0), R::splat(self.1))
-        }
-        fn gather<R: crate::real::Real>(mut at: impl FnMut(usize) -> Self) -> (R, R) {
-            let mut h = [(0.0, 0.0); 16];
-            for (l, x) in h.iter_mut().enumerate().take(R::LANES) {
-                let v = at(l);
-                *x = (v.0, v.1);
-            }
-            (R::from_fn(|l| h[l].0), R::from_fn(|l| h[l].1))
-        }
-        fn scatter<R: crate::real::Real>(lanes: (R, R), mut put: impl FnMut(usize, Self)) {
-            let mut h = [(0.0, 0.0); 16];
-            lanes.0.for_each_lane(|l, x| h[l].0 = x);
-            lanes.1.for_each_lane(|l, x| h[l].1 = x);
-            for (l, &(a, b)) in h.iter().enumerate().take(R::LANES) {
-                put(l, Self(a, b));
-            }
-        }
-        fn encode(&self, out: &mut Vec<f64>) {
-            out.extend([self.0, self.1]);
-        }
-        fn decode(v: &[f64]) -> Self {
-            TwoOther(v[0], v[1])
-        }
     }
 }

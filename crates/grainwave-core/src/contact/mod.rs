@@ -37,8 +37,8 @@ pub use damping::{
 pub use kinematics::{pair_kinematics, wall_kinematics, Kinematics};
 pub use normal::*;
 pub use families::{DampingTable, ResistanceTable, TangentialTable};
-pub use history::{HistoryColumn, LawHistory};
-pub(crate) use history::{decoding_without_columns, zero_sized_slice};
+pub use history::{HistoryColumn, LawHistory, WallHistory};
+pub(crate) use history::{decoding_version, zero_sized_slice};
 pub use params::{ContactParams, Partner, PRESETS};
 pub use parts::{HertzMindlin, HistoryNormal, HistoryRest, HookeCundallStrack, HookeSlipActivation, LawParts, Specialized, VisitNormal, VisitParts, WithNormal, WithRolling};
 pub use rolling::{Rolling, Twisting};

@@ -71,16 +71,57 @@ pub enum Composition {
     },
 }
 
-/// Where a normal law is built: for which partner, under which key, beside which damping table.
-#[derive(Clone, Copy, Debug)]
+/// Where a normal law is built: for which partner, under which key, beside which damping law.
+#[derive(Clone, Debug)]
 pub struct NormalContext<'a> {
     /// Grain–grain or grain–wall contacts.
     pub partner: Partner,
     /// The contact law's key (`contact`, `contact.wall`, …): the law's keys are
     /// `{field}.normal.<key>`.
     pub field: &'a str,
-    /// The `[contact.damping]` table, if one is given.
-    pub damping: Option<&'a DampingTable>,
+    /// The normal damping the contact is given, in either form of the config, if any.
+    pub damping: Option<DampingChoice>,
+}
+
+/// A normal damping law as the config chose it: its name (the `law` of `[contact.damping]`:
+/// `"restitution"`, `"tsuji"`, `"dashpot"`, `"critical_fraction"`, `"mass_proportional"`,
+/// `"none"`), the key that chose it — `{field}.damping.law` for the table, the flat key
+/// (`{field}.restitution`, `{field}.tsuji_restitution`, …) otherwise — and that key's value,
+/// for errors to name.
+#[derive(Clone, Debug, PartialEq)]
+pub struct DampingChoice {
+    /// The damping law's name in `[contact.damping]`.
+    pub law: &'static str,
+    /// The key that chose it.
+    pub key: String,
+    /// The key's value as the config wrote it (`"restitution"`, or the flat key's number).
+    pub value: String,
+}
+
+impl DampingChoice {
+    /// The damping given by a `[contact.damping]` table, or else by the flat keys, under `field`.
+    pub(crate) fn of(table: Option<&DampingTable>, flat: &super::ContactParams, field: &str) -> Option<DampingChoice> {
+        if let Some(t) = table {
+            let law = match t {
+                DampingTable::None {} => "none",
+                DampingTable::Restitution { .. } => "restitution",
+                DampingTable::Dashpot { .. } => "dashpot",
+                DampingTable::CriticalFraction { .. } => "critical_fraction",
+                DampingTable::MassProportional { .. } => "mass_proportional",
+                DampingTable::Tsuji { .. } => "tsuji",
+            };
+            return Some(DampingChoice { law, key: format!("{field}.damping.law"), value: format!("\"{law}\"") });
+        }
+        [
+            ("restitution", "restitution", flat.restitution),
+            ("tsuji", "tsuji_restitution", flat.tsuji_restitution),
+            ("dashpot", "normal_damping", flat.normal_damping),
+            ("critical_fraction", "damping_fraction", flat.damping_fraction),
+            ("mass_proportional", "normal_damping_rate", flat.normal_damping_rate),
+        ]
+        .into_iter()
+        .find_map(|(law, key, given)| given.map(|v| DampingChoice { law, key: format!("{field}.{key}"), value: v.to_string() }))
+    }
 }
 
 /// A normal elastic law: F_el(ξ) ≥ 0 at overlap ξ > 0, its differential stiffness k_n = dF_el/dξ
@@ -159,15 +200,6 @@ macro_rules! normal_laws {
                 match self {
                     $(NormalElastic::$Law(_) => stringify!($module),)*
                 }
-            }
-
-            /// The config names of the laws without per-contact history.
-            pub fn without_history() -> Vec<&'static str> {
-                [$((stringify!($module), <<$Law as NormalLaw>::History as LawHistory>::WIDTH == 0)),*]
-                    .iter()
-                    .filter(|(_, without)| *without)
-                    .map(|(name, _)| *name)
-                    .collect()
             }
 
             /// True when the law keeps a per-contact history ([`NormalLaw::History`] not `()`).

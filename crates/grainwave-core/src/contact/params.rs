@@ -1,7 +1,7 @@
 //! Named presets: the keyword table at the boundary between configs and contact laws.
 
 use super::families::{DampingTable, ResistanceTable, TangentialTable};
-use super::{ContactLaw, Hertz, Hooke, NormalContext, NormalDamping, NormalElastic, NormalTable, Rolling, SlipActivationParams, Tangential, TangentialDamping, Twisting};
+use super::{ContactLaw, DampingChoice, Hertz, Hooke, NormalContext, NormalDamping, NormalElastic, NormalTable, Rolling, SlipActivationParams, Tangential, TangentialDamping, Twisting};
 use crate::error::{require_non_negative, require_positive, CoreError, Result};
 use serde::{Deserialize, Serialize};
 
@@ -137,7 +137,7 @@ impl ContactParams {
             let mut law = flat.build(partner, field).map_err(|e| super::families::rename_keys(e, field, &renames))?;
             // the normal law itself: built from its own table by its own type
             if let Some(normal) = &self.normal {
-                law.normal = normal.build(&NormalContext { partner, field, damping: self.damping.as_ref() })?;
+                law.normal = normal.build(&NormalContext { partner, field, damping: DampingChoice::of(self.damping.as_ref(), self, field) })?;
             }
             return Ok(law);
         }

@@ -86,6 +86,19 @@ pub trait VisitParts {
     fn visit<P: LawParts>(self, law: &P) -> Self::Out;
 }
 
+/// The accessors of [`LawParts`] named, each read from the inner law `self.law` (a composition
+/// that changes some parts of a law and keeps the others).
+macro_rules! delegate_parts {
+    ($($part:ident: $ty:ty),* $(,)?) => {
+        $(
+            #[inline(always)]
+            fn $part(&self) -> $ty {
+                self.law.$part()
+            }
+        )*
+    };
+}
+
 /// A contact law whose normal part `N` keeps a per-contact history: the normal response reads
 /// and updates it ([`LawParts::Extra`] = `N::History`); every other part is that of `law`, read
 /// at each contact as on the general kernel. The engine runs a law with such a normal part
@@ -107,34 +120,7 @@ impl<N: NormalLaw> LawParts for WithNormal<N> {
     fn normal_energy(&self, xi: f64, r_eff: f64, extra: &N::History) -> f64 {
         self.normal.energy(xi, r_eff, extra)
     }
-    #[inline(always)]
-    fn normal(&self) -> NormalElastic {
-        self.law.normal
-    }
-    #[inline(always)]
-    fn damping(&self) -> NormalDamping {
-        self.law.damping
-    }
-    #[inline(always)]
-    fn tangential(&self) -> Tangential {
-        self.law.tangential
-    }
-    #[inline(always)]
-    fn tangential_damping(&self) -> TangentialDamping {
-        self.law.tangential_damping
-    }
-    #[inline(always)]
-    fn friction(&self) -> f64 {
-        self.law.friction
-    }
-    #[inline(always)]
-    fn rolling(&self) -> Rolling {
-        self.law.rolling
-    }
-    #[inline(always)]
-    fn twisting(&self) -> Twisting {
-        self.law.twisting
-    }
+    delegate_parts!(normal: NormalElastic, damping: NormalDamping, tangential: Tangential, tangential_damping: TangentialDamping, friction: f64, rolling: Rolling, twisting: Twisting);
 }
 
 /// Something run with a normal law that keeps a per-contact history as its type
@@ -174,30 +160,7 @@ impl<N: NormalLaw, L: LawParts<Extra = ()>> LawParts for HistoryNormal<N, L> {
     fn normal(&self) -> NormalElastic {
         self.elastic
     }
-    #[inline(always)]
-    fn damping(&self) -> NormalDamping {
-        self.law.damping()
-    }
-    #[inline(always)]
-    fn tangential(&self) -> Tangential {
-        self.law.tangential()
-    }
-    #[inline(always)]
-    fn tangential_damping(&self) -> TangentialDamping {
-        self.law.tangential_damping()
-    }
-    #[inline(always)]
-    fn friction(&self) -> f64 {
-        self.law.friction()
-    }
-    #[inline(always)]
-    fn rolling(&self) -> Rolling {
-        self.law.rolling()
-    }
-    #[inline(always)]
-    fn twisting(&self) -> Twisting {
-        self.law.twisting()
-    }
+    delegate_parts!(damping: NormalDamping, tangential: Tangential, tangential_damping: TangentialDamping, friction: f64, rolling: Rolling, twisting: Twisting);
 }
 
 /// The parts beside a normal law with its own history that have specialised kernels
@@ -331,26 +294,7 @@ impl<L: LawParts> LawParts for WithRolling<L> {
     fn normal_response<R: Real>(&self, xi: R, r_eff: R, extra: &mut <Self::Extra as LawHistory>::Lanes<R>) -> NormalResponse<R> {
         self.law.normal_response(xi, r_eff, extra)
     }
-    #[inline(always)]
-    fn normal(&self) -> NormalElastic {
-        self.law.normal()
-    }
-    #[inline(always)]
-    fn damping(&self) -> NormalDamping {
-        self.law.damping()
-    }
-    #[inline(always)]
-    fn tangential(&self) -> Tangential {
-        self.law.tangential()
-    }
-    #[inline(always)]
-    fn tangential_damping(&self) -> TangentialDamping {
-        self.law.tangential_damping()
-    }
-    #[inline(always)]
-    fn friction(&self) -> f64 {
-        self.law.friction()
-    }
+    delegate_parts!(normal: NormalElastic, damping: NormalDamping, tangential: Tangential, tangential_damping: TangentialDamping, friction: f64);
     #[inline(always)]
     fn rolling(&self) -> Rolling {
         Rolling::SpringDashpot { stiffness: self.stiffness, damping: self.damping, friction: self.friction }

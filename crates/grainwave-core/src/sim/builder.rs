@@ -175,18 +175,6 @@ impl<D: Dim> SimulationBuilder<D> {
         let skin = self.skin.unwrap_or(0.2 * r_max);
         require_positive("skin", skin)?;
         self.domain.validate(2.0 * r_max + skin)?;
-        // grain–wall contacts keep no law history
-        if let Some(wall) = self.domain.walls.iter().find(|w| w.law.normal.has_history()) {
-            let without: Vec<String> = crate::contact::NormalElastic::without_history().iter().map(|n| format!("\"{n}\"")).collect();
-            return Err(CoreError::invalid(
-                format!("walls.{}.contact.normal.law", wall.name),
-                format!("\"{}\"", wall.law.normal.name()),
-                format!(
-                    "a normal law without per-contact history for wall contacts ({}, e.g. `[wall_contact.normal]` or the wall's `contact.normal` table): grain–wall contacts do not store a normal law's history",
-                    without.join(" or ")
-                ),
-            ));
-        }
         for (k, load) in self.loads.iter().enumerate() {
             if grains.index_of(load.grain).is_none() {
                 return Err(CoreError::invalid(format!("loads[{k}].grain"), load.grain, "the id of an existing grain"));

@@ -1087,43 +1087,35 @@ impl<D: Dim> Simulation<D> {
         let Simulation { grains, domain, nlist, work, loads, gravity, .. } = self;
         let n = grains.len();
 
-        // Grain–wall contacts, into their buffer.
+        // Grain–wall contacts, into their buffer: the walls whose law keeps no history of its
+        // own in one pass over the wall pairs, then each wall whose law keeps one in a pass of
+        // its own over its column ([`WallHistory`](crate::contact::WallHistory))
         let walls = &domain.walls;
         let (pos, radius, mass) = (&grains.pos, &grains.radius, &grains.mass);
         let (vel, omega) = if use_eval { (&work.vel_eval[..], &work.omega_eval[..]) } else { (&grains.vel[..], &grains.omega[..]) };
-        let wall_stats = nlist
+        let at = WallInputs { walls, pos, radius, mass, vel, omega, dt: dt_hist, grain_law, overlap_limit };
+        let with_history = walls.iter().any(|w| w.law.normal.has_history());
+        let mut wall_stats = nlist
             .wall_pairs
             .par_iter_mut()
             .zip(work.wall_force.par_iter_mut())
             .enumerate()
             .with_min_len(512)
             .map(|(k, (wp, out))| {
-                let g = wp.grain as usize;
-                let wall = &walls[wp.wall as usize];
-                let kin = wall_kinematics::<D>(wall.distance(pos[g]), wall.normal, wall.velocity(), radius[g], mass[g], vel[g], omega[g]);
-                let was = wp.state.in_contact();
-                match kin {
-                    None => {
-                        *out = WallForce::default();
-                        if was {
-                            wp.state = ContactState::default();
-                        }
-                        ForceStats { changes: was as u64, ..ForceStats::new() }
-                    }
-                    Some(kin) => {
-                        let o = wall.law.evaluate(&kin, &mut wp.state, dt_hist);
-                        (out.force, out.torque, _) = contact_loads(&kin, &o);
-                        ForceStats {
-                            changes: !was as u64,
-                            contacts: 1,
-                            sliding: o.sliding as u64,
-                            deepest: (kin.overlap / radius[g] * wall_overlap_scale(&grain_law, &wall.law, overlap_limit), 1, k),
-                            bad: usize::MAX,
-                        }
-                    }
+                let law = &walls[wp.wall as usize].law;
+                if with_history && law.normal.has_history() {
+                    return ForceStats::new();
                 }
+                wall_contact(law, &at, k, wp, out, &mut ())
             })
             .reduce(ForceStats::new, ForceStats::merge);
+        if with_history {
+            for (w, wall) in walls.iter().enumerate().filter(|(_, wall)| wall.law.normal.has_history()) {
+                let column = nlist.wall_extra.column_mut(w, walls.len());
+                let pass = WallPass { wall: w as u32, at: &at, pairs: &mut nlist.wall_pairs, out: &mut work.wall_force, column };
+                wall_stats = ForceStats::merge(wall_stats, NormalElastic::route(&wall.law, pass));
+            }
+        }
 
         // External loads now, by grain.
         work.loads.clear();
@@ -1397,6 +1389,80 @@ impl<D: Dim> CrossIndex<D> {
 
 /// Margin of the close list as a fraction of the neighbor-list skin.
 const CLOSE_FRACTION: f64 = 0.3;
+
+/// Read-only inputs of the grain–wall evaluations.
+struct WallInputs<'a, D: Dim> {
+    walls: &'a [crate::domain::Wall<D>],
+    pos: &'a [D::Vector],
+    radius: &'a [f64],
+    mass: &'a [f64],
+    vel: &'a [D::Vector],
+    omega: &'a [D::AngVector],
+    dt: f64,
+    grain_law: ContactLaw,
+    overlap_limit: f64,
+}
+
+/// Evaluates grain–wall pair `k` (`wp`) with the parts `law` of its wall's law, reading and
+/// updating the law's own history `extra` (`()` for a law without: the code of the general
+/// evaluation); forgets its histories when the contact has opened. Its force and torque on the
+/// grain go to `out`.
+#[inline(always)]
+fn wall_contact<D: Dim, P: LawParts>(law: &P, at: &WallInputs<D>, k: usize, wp: &mut crate::neighbor::WallPair<D>, out: &mut WallForce<D>, extra: &mut P::Extra) -> ForceStats {
+    let g = wp.grain as usize;
+    let wall = &at.walls[wp.wall as usize];
+    let kin = wall_kinematics::<D>(wall.distance(at.pos[g]), wall.normal, wall.velocity(), at.radius[g], at.mass[g], at.vel[g], at.omega[g]);
+    let was = wp.state.in_contact();
+    match kin {
+        None => {
+            *out = WallForce::default();
+            if was {
+                wp.state = ContactState::default();
+                *extra = Default::default();
+            }
+            ForceStats { changes: was as u64, ..ForceStats::new() }
+        }
+        Some(kin) => {
+            let o = evaluate_parts(law, &kin, &mut wp.state, extra, at.dt);
+            (out.force, out.torque, _) = contact_loads(&kin, &o);
+            ForceStats {
+                changes: !was as u64,
+                contacts: 1,
+                sliding: o.sliding as u64,
+                deepest: (kin.overlap / at.radius[g] * wall_overlap_scale(&at.grain_law, &wall.law, at.overlap_limit), 1, k),
+                bad: usize::MAX,
+            }
+        }
+    }
+}
+
+/// The pass over the pairs of one wall whose law keeps a history of its own: run with the law's
+/// parts as a type (`NormalElastic::route`), so that the wall's column is opened as that law's
+/// history (one entry per wall pair; those of other walls' pairs are left as they are).
+struct WallPass<'a, 'b, D: Dim> {
+    wall: u32,
+    at: &'a WallInputs<'b, D>,
+    pairs: &'a mut [crate::neighbor::WallPair<D>],
+    out: &'a mut [WallForce<D>],
+    column: &'a mut HistoryColumn,
+}
+
+impl<D: Dim> crate::contact::VisitParts for WallPass<'_, '_, D> {
+    type Out = ForceStats;
+    fn visit<P: LawParts>(self, law: &P) -> ForceStats {
+        let WallPass { wall, at, pairs, out, column } = self;
+        let history = column.typed_mut::<P::Extra>(pairs.len());
+        pairs
+            .par_iter_mut()
+            .zip(out.par_iter_mut())
+            .zip(history.par_iter_mut())
+            .enumerate()
+            .with_min_len(512)
+            .filter(|(_, ((wp, _), _))| wp.wall == wall)
+            .map(|(k, ((wp, out), extra))| wall_contact(law, at, k, wp, out, extra))
+            .reduce(ForceStats::new, ForceStats::merge)
+    }
+}
 
 /// Factor applied to a grain–wall overlap ratio ξ/R before the blow-up guard compares it with
 /// `limit` (`max_overlap_fraction`): a linear wall softer than the linear grain law by k_g/k_w

@@ -380,11 +380,13 @@ impl<D: Dim> Simulation<D> {
             self.law.elastic_energy_stored(xi, r_eff, &p.state, history, pairs.len(), k)
         });
         let mut e_walls = 0.0;
-        for wp in &self.nlist.wall_pairs {
+        let wall_pairs = &self.nlist.wall_pairs;
+        for (k, wp) in wall_pairs.iter().enumerate() {
             let gi = wp.grain as usize;
             let wall = &self.domain.walls[wp.wall as usize];
             let xi = g.radius[gi] - wall.distance(g.pos[gi]);
-            e_walls += wall.law.elastic_energy(xi, g.radius[gi], &wp.state);
+            let history = self.nlist.wall_extra.column(wp.wall as usize);
+            e_walls += wall.law.elastic_energy_stored(xi, g.radius[gi], &wp.state, history, wall_pairs.len(), k);
         }
         e_pairs + e_walls
     }
@@ -431,6 +433,9 @@ impl<D: Dim> Simulation<D> {
         // the law's own history, where it has one (none for the laws without: their hashes
         // are those of before history columns existed)
         for c in self.nlist.list.extra.values() {
+            h.write_f64(c);
+        }
+        for c in self.nlist.wall_extra.values() {
             h.write_f64(c);
         }
         for w in &self.domain.walls {

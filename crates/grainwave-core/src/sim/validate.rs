@@ -64,6 +64,16 @@ impl<D: Dim> Simulation<D> {
             }
             last = Some((wp.grain, wp.wall));
         }
+        // the wall laws' own history: at most one column per wall, each stored one an entry per
+        // wall pair (a shorter one would be silently reset to fresh contacts)
+        if nl.wall_extra.0.len() > walls {
+            return Err(format!("{} grain–wall history columns for {walls} walls", nl.wall_extra.0.len()));
+        }
+        for (w, c) in nl.wall_extra.0.iter().enumerate() {
+            if c.is_stored() && c.len() != nl.wall_pairs.len() {
+                return Err(format!("the grain–wall history of wall {w} has {} entries for {} wall pairs", c.len(), nl.wall_pairs.len()));
+            }
+        }
         if !(self.dt.is_finite() && self.dt > 0.0) {
             return Err(format!("time step dt = {}, must be finite and > 0", self.dt));
         }

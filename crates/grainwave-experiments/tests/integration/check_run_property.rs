@@ -333,15 +333,21 @@ fn run_case(case: &Case, dir: &Path, counts: &mut Counts) {
     let watchdog = Watchdog::start(BUDGET);
     let flag = watchdog.flag();
     // the run in a thread of its own, so that one that does not stop after the interrupt is
-    // reported (and the cases stop) instead of holding the test for ever
+    // reported (and the cases stop) instead of holding the test for ever; and in a worker pool
+    // of its own, as the command-line program runs it: on the process's global pool it would
+    // queue behind the units of the tests running beside it (a unit holds a worker until it
+    // ends, tens of seconds for the examples' runs), and that wait is not the run's
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().expect("a pool of two worker threads");
     let (finished, outcome) = mpsc::channel();
     {
         let (dir, base, text) = (dir.to_path_buf(), case.base, case.text.clone());
         std::thread::spawn(move || {
             let src = ConfigSource::from_text(base, &text);
-            let result = std::panic::catch_unwind(|| {
-                let mut rep = SilentReporter;
-                RunContext::new(&dir, &mut rep, flag).and_then(|mut ctx| registry::run(&src, &mut ctx))
+            let result = pool.install(|| {
+                std::panic::catch_unwind(|| {
+                    let mut rep = SilentReporter;
+                    RunContext::new(&dir, &mut rep, flag).and_then(|mut ctx| registry::run(&src, &mut ctx))
+                })
             });
             let _ = finished.send(result);
         });

@@ -125,7 +125,10 @@ fn check_and_run(text: &str, dir: &Path) -> Result<End, TestCaseError> {
     let _ = std::fs::remove_dir_all(dir);
     let watchdog = Watchdog::start(BUDGET);
     let mut rep = SilentReporter;
-    let result = RunContext::new(dir, &mut rep, watchdog.flag()).and_then(|mut ctx| registry::run(&src, &mut ctx));
+    // a worker pool of its own, as the command-line program has: on the process's global pool
+    // the run would queue behind the units of the tests running beside it, and its budget with it
+    let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().expect("a pool of two worker threads");
+    let result = pool.install(|| RunContext::new(dir, &mut rep, watchdog.flag()).and_then(|mut ctx| registry::run(&src, &mut ctx)));
     drop(watchdog);
     let _ = std::fs::remove_dir_all(dir);
     Ok(match result {
