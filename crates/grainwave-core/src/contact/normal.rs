@@ -112,15 +112,9 @@ impl DampingChoice {
             };
             return Some(DampingChoice { law, key: format!("{field}.damping.law"), value: format!("\"{law}\"") });
         }
-        [
-            ("restitution", "restitution", flat.restitution),
-            ("tsuji", "tsuji_restitution", flat.tsuji_restitution),
-            ("dashpot", "normal_damping", flat.normal_damping),
-            ("critical_fraction", "damping_fraction", flat.damping_fraction),
-            ("mass_proportional", "normal_damping_rate", flat.normal_damping_rate),
-        ]
-        .into_iter()
-        .find_map(|(law, key, given)| given.map(|v| DampingChoice { law, key: format!("{field}.{key}"), value: v.to_string() }))
+        flat.flat_damping()
+            .into_iter()
+            .find_map(|(key, law, given)| given.map(|v| DampingChoice { law, key: format!("{field}.{key}"), value: v.to_string() }))
     }
 }
 

@@ -119,6 +119,18 @@ impl ContactParams {
         ContactParams { preset: name.to_string(), ..Default::default() }
     }
 
+    /// The flat keys that choose a normal damping law, each with the name of that law in
+    /// `[contact.damping]` and its value (`None`: not given), in the order of precedence.
+    pub(crate) fn flat_damping(&self) -> [(&'static str, &'static str, Option<f64>); 5] {
+        [
+            ("restitution", "restitution", self.restitution),
+            ("normal_damping", "dashpot", self.normal_damping),
+            ("damping_fraction", "critical_fraction", self.damping_fraction),
+            ("normal_damping_rate", "mass_proportional", self.normal_damping_rate),
+            ("tsuji_restitution", "tsuji", self.tsuji_restitution),
+        ]
+    }
+
     /// Tsuji's α from `tsuji_restitution`, if given (checked to lie in [0, 1]).
     fn tsuji_alpha(&self, key: &dyn Fn(&str) -> String) -> Result<Option<f64>> {
         match self.tsuji_restitution {
@@ -279,17 +291,7 @@ impl ContactParams {
                 // τ = 0 (or absent) is the Coulomb cap itself: the linear law, not a limit of the other
                 let slip = SlipActivationParams { slip_activation_time: self.slip_activation_time };
                 let tangential = slip.build(ratio * k_n, &key("slip_activation_time"))?;
-                let given: Vec<&str> = [
-                    ("restitution", self.restitution.is_some()),
-                    ("normal_damping", self.normal_damping.is_some()),
-                    ("damping_fraction", self.damping_fraction.is_some()),
-                    ("normal_damping_rate", self.normal_damping_rate.is_some()),
-                    ("tsuji_restitution", self.tsuji_restitution.is_some()),
-                ]
-                .iter()
-                .filter(|(_, g)| *g)
-                .map(|(n, _)| *n)
-                .collect();
+                let given: Vec<&str> = self.flat_damping().iter().filter(|(_, _, v)| v.is_some()).map(|(key, _, _)| *key).collect();
                 if given.len() > 1 {
                     return Err(CoreError::Inconsistent(format!(
                         "give at most one of `{0}.restitution`, `{0}.normal_damping`, `{0}.damping_fraction`, \

@@ -197,6 +197,59 @@ mod tests {
         s.grains.vel[1].get(0) - s.grains.vel[0].get(0)
     }
 
+    /// Steps `s` until its contacts have formed and all ended again.
+    fn through_contact<D: Dim>(s: &mut Simulation<D>) {
+        let mut touched = false;
+        for _ in 0..100_000 {
+            s.step().unwrap();
+            touched |= s.counters.contacts > 0;
+            if touched && s.counters.contacts == 0 {
+                break;
+            }
+        }
+        assert!(touched && s.counters.contacts == 0);
+    }
+
+    /// Positions and velocities, to the bit.
+    fn bits(s: &Simulation<D3>) -> String {
+        format!("{:?} {:?}", s.grains.pos, s.grains.vel)
+    }
+
+    /// `steps` steps of `s`, with a list rebuild forced before each where `rebuild`.
+    fn run_steps(s: &mut Simulation<D3>, steps: usize, rebuild: bool) {
+        for _ in 0..steps {
+            if rebuild {
+                s.nlist.stale = true;
+            }
+            s.step().unwrap();
+        }
+    }
+
+    /// Runs `make()` 130 steps into a contact (where `check` looks at it) and 300 more three ways — on from there, from a checkpoint taken there, and
+    /// with a list rebuild at every step — and a fresh `make()` 430 steps on 2 workers with a
+    /// rebuild at every step: all four the same bits. Returns the first run.
+    fn same_bits_across_checkpoint_rebuilds_and_threads(make: impl Fn() -> Simulation<D3>, check: impl Fn(&Simulation<D3>)) -> Simulation<D3> {
+        let mut a = make();
+        run_steps(&mut a, 130, false);
+        check(&a);
+        let ckpt = crate::checkpoint::encode("simulation-3d", &a).unwrap();
+        let mut b: Simulation<D3> = crate::checkpoint::decode(&ckpt, "simulation-3d", "test").unwrap();
+        let mut c = a.clone();
+        run_steps(&mut a, 300, false);
+        run_steps(&mut b, 300, false);
+        let builds = c.nlist.builds;
+        run_steps(&mut c, 300, true);
+        assert!(c.nlist.builds >= builds + 300);
+        assert_eq!(bits(&a), bits(&b));
+        assert_eq!(bits(&a), bits(&c));
+        let two = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+        let mut d = make();
+        two.install(|| run_steps(&mut d, 430, true));
+        assert_eq!(bits(&a), bits(&d));
+        assert_eq!(a.state_hash(), d.state_hash());
+        a
+    }
+
     /// An undamped head-on collision leaves with e = √(k₁/k₂) of its impact speed, in 2D and
     /// 3D, for three stiffness ratios. With ≥ 200 steps per contact the discrete loading and
     /// unloading turn points are within one step's overlap change v Δt of the exact ones,
@@ -209,15 +262,7 @@ mod tests {
             // contact time ≥ π √(m*/k₂) = π √(0.5/k₂): Δt a 200th of it
             let dt = std::f64::consts::PI * (0.5 / (k1 / ratio)).sqrt() / 200.0;
             let mut s = pair::<D>(law, 1e-3, v, dt);
-            let mut touched = false;
-            for _ in 0..100_000 {
-                s.step().unwrap();
-                touched |= s.counters.contacts > 0;
-                if touched && s.counters.contacts == 0 {
-                    break;
-                }
-            }
-            assert!(touched && s.counters.contacts == 0);
+            through_contact(&mut s);
             relative_speed(&s) / v
         }
         for ratio in [1.0, 0.5, 0.1] {
@@ -234,48 +279,22 @@ mod tests {
     fn history_survives_checkpoints_rebuilds_and_threads() {
         let law = params(1e4, 4e4).build(Partner::Grain, "contact").unwrap();
         let dt = std::f64::consts::PI * (0.5f64 / 4e4).sqrt() / 100.0;
-        let bits = |s: &Simulation<D3>| format!("{:?} {:?}", s.grains.pos, s.grains.vel);
-        let run = |s: &mut Simulation<D3>, steps: usize, rebuild: bool| {
-            for _ in 0..steps {
-                if rebuild {
-                    s.nlist.stale = true;
-                }
-                s.step().unwrap();
-            }
-        };
         // contact after 10 steps, loading for ≈ 100 steps, unloading along k₂ for ≈ 50 steps
-        // with force and ≈ 95 more without
-        let mut a = pair::<D3>(law, 10.0 * 0.1 * dt, 0.1, dt);
-        // into the contact, past the turn (unloading along k₂)
-        run(&mut a, 130, false);
-        assert!(a.counters.contacts == 1);
-        let ckpt = crate::checkpoint::encode("simulation-3d", &a).unwrap();
-        let mut b: Simulation<D3> = crate::checkpoint::decode(&ckpt, "simulation-3d", "test").unwrap();
-        let mut c = a.clone();
-        run(&mut a, 300, false);
-        run(&mut b, 300, false);
-        let builds = c.nlist.builds;
-        run(&mut c, 300, true);
-        assert!(c.nlist.builds >= builds + 300);
-        assert_eq!(bits(&a), bits(&b));
-        assert_eq!(bits(&a), bits(&c));
+        // with force and ≈ 95 more without: at step 130 past the turn (unloading along k₂)
+        let a = same_bits_across_checkpoint_rebuilds_and_threads(|| pair::<D3>(law, 10.0 * 0.1 * dt, 0.1, dt), |a| assert!(a.counters.contacts == 1));
         // without the history the rebuilt run would have unloaded along k₁ (e = 1): it did not
         assert!(relative_speed(&a) / 0.1 < 0.6, "{}", relative_speed(&a) / 0.1);
-        let two = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
-        let mut d = pair::<D3>(law, 10.0 * 0.1 * dt, 0.1, dt);
-        two.install(|| run(&mut d, 430, true));
-        assert_eq!(bits(&a), bits(&d));
         // grains stored right one first, re-sorted mid-contact: the rebuild that matches
         // contacts by id pair (the two grains swapped storage order) carries ξ_max too
         let mut e = pair::<D3>(law, 10.0 * 0.1 * dt, 0.1, dt);
         e.grains.pos.swap(0, 1);
         e.grains.vel.swap(0, 1);
         e.nlist.stale = true;
-        run(&mut e, 130, false);
+        run_steps(&mut e, 130, false);
         let first = e.grains.id[0];
         e.sort_spatially();
         assert_ne!(e.grains.id[0], first);
-        run(&mut e, 300, false);
+        run_steps(&mut e, 300, false);
         let speed = (e.grains.vel[e.grains.index_of(0).unwrap()].x - e.grains.vel[e.grains.index_of(1).unwrap()].x) / 0.1;
         assert!((speed - 0.5).abs() < 0.005, "{speed}");
     }
@@ -404,15 +423,7 @@ mod tests {
             // contact time ≥ π √(m/k₂), m = 1 against a wall: Δt a 200th of it
             let dt = std::f64::consts::PI * (1.0 / (k1 / ratio)).sqrt() / 200.0;
             let mut s = on_walls::<D>(k1, k1 / ratio, 1e-3, v, dt, true);
-            let mut touched = false;
-            for _ in 0..100_000 {
-                s.step().unwrap();
-                touched |= s.counters.contacts > 0;
-                if touched && s.counters.contacts == 0 {
-                    break;
-                }
-            }
-            assert!(touched && s.counters.contacts == 0);
+            through_contact(&mut s);
             let (floor, left) = (s.grains.index_of(0).unwrap(), s.grains.index_of(1).unwrap());
             (s.grains.vel[floor].get(1) / v, s.grains.vel[left].get(0) / v)
         }
@@ -422,41 +433,20 @@ mod tests {
                 assert!((left - 1.0).abs() < 0.01, "Hooke wall: e = {left}");
             }
         }
-        // checkpoint, rebuilds, threads: loading ≈ 100 steps from step ≈ 10, then unloading
+        // checkpoint, rebuilds, threads: at step 130 the floor contact unloads along k₂
+        // (loading ≈ 100 steps from step ≈ 10, unloading ≈ 50); the Hooke wall's (≈ 100 steps
+        // from step ≈ 10) has just ended
         let (k1, k2) = (1e4, 4e4);
         let dt = std::f64::consts::PI * (1.0f64 / k2).sqrt() / 100.0;
-        let bits = |s: &Simulation<D3>| format!("{:?} {:?}", s.grains.pos, s.grains.vel);
-        let run = |s: &mut Simulation<D3>, steps: usize, rebuild: bool| {
-            for _ in 0..steps {
-                if rebuild {
-                    s.nlist.stale = true;
-                }
-                s.step().unwrap();
-            }
-        };
-        let mut a = on_walls::<D3>(k1, k2, 10.0 * 0.1 * dt, 0.1, dt, true);
-        // at step 130 the floor contact unloads along k₂ (loading ≈ 100 steps from step ≈ 10,
-        // unloading ≈ 50); the Hooke wall's (≈ 100 steps from step ≈ 10) has just ended
-        run(&mut a, 130, false);
-        assert_eq!(a.counters.contacts, 1);
-        assert!(a.nlist.wall_extra.is_stored());
-        let ckpt = crate::checkpoint::encode("simulation-3d", &a).unwrap();
-        let mut b: Simulation<D3> = crate::checkpoint::decode(&ckpt, "simulation-3d", "test").unwrap();
-        let mut c = a.clone();
-        run(&mut a, 300, false);
-        run(&mut b, 300, false);
-        let builds = c.nlist.builds;
-        run(&mut c, 300, true);
-        assert!(c.nlist.builds >= builds + 300);
-        assert_eq!(bits(&a), bits(&b));
-        assert_eq!(bits(&a), bits(&c));
+        let a = same_bits_across_checkpoint_rebuilds_and_threads(
+            || on_walls::<D3>(k1, k2, 10.0 * 0.1 * dt, 0.1, dt, true),
+            |a| {
+                assert_eq!(a.counters.contacts, 1);
+                assert!(a.nlist.wall_extra.is_stored());
+            },
+        );
         let floor = a.grains.index_of(0).unwrap();
         assert!(a.grains.vel[floor].get(1) / 0.1 < 0.6, "{}", a.grains.vel[floor].get(1) / 0.1);
-        let two = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
-        let mut d = on_walls::<D3>(k1, k2, 10.0 * 0.1 * dt, 0.1, dt, true);
-        two.install(|| run(&mut d, 430, true));
-        assert_eq!(bits(&a), bits(&d));
-        assert_eq!(a.state_hash(), d.state_hash());
     }
 
     /// The energy and the contact record of a grain–wall contact read its stored ξ_max: on the
