@@ -20,7 +20,7 @@
 //! config gives the same plan.
 
 use super::biaxial::{self, StrainCheckpoint};
-use super::config::{E2Config, Modification, PulseWall};
+use super::config::{E2Config, GrainOrder, Modification, PulseWall};
 use super::model;
 use super::outputs::{self, ReplayReport, SingleReport};
 use super::replay;
@@ -190,7 +190,11 @@ pub fn run_loading(st: &mut E2State, ctx: &mut RunContext<'_>) -> Result<bool> {
     if st.stage == Stage::Preparing {
         if st.sim.is_none() {
             ctx.log(&format!("e2: preparing {} disks", cfg.packing.columns * cfg.packing.rows));
-            st.sim = Some(model::build_gas(&cfg.packing, &cfg.material, &cfg.preparation, cfg.seed)?);
+            let mut gas = model::build_gas(&cfg.packing, &cfg.material, &cfg.preparation, cfg.seed)?;
+            if cfg.packing.grain_order == GrainOrder::Sorted {
+                gas.sort_spatially();
+            }
+            st.sim = Some(gas);
         }
         let mut sim = st.sim.take().expect("engine state");
         let snapshot = |stage: Stage, sim: &Simulation<D2>, info: &biaxial::PreparationInfo| E2State {
@@ -213,6 +217,10 @@ pub fn run_loading(st: &mut E2State, ctx: &mut RunContext<'_>) -> Result<bool> {
             return Ok(false);
         }
         let sim = st.sim.as_mut().expect("engine state");
+        if cfg.packing.grain_order == GrainOrder::Sorted {
+            // the grains have moved since the gas was sorted: sort the packing the loading runs on
+            sim.sort_spatially();
+        }
         ctx.log(&format!(
             "preparation converged: {} steps, {:.3} t*, Φ = {:.4}, max |F| = {:.2e} p* d̄, {} quenches",
             st.preparation.steps, st.preparation.time, st.preparation.packing_fraction, st.preparation.max_force, st.preparation.quenches

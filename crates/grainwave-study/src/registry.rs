@@ -374,8 +374,11 @@ pub struct RunSummary {
 /// Checks that a checkpoint belongs to output directory `dir`: the config it carries (every
 /// state holds its resolved config) must be the one in the directory's `config.resolved.toml`
 /// (experiment, seed and every other key). A checkpoint copied from another run is refused,
-/// naming the first key that differs.
-pub fn belongs_to<C: serde::Serialize>(dir: &Path, config: &C) -> Result<()> {
+/// naming the first key that differs. The directory's file is read as a config of the same type
+/// first, so that a key added to the config since the run started (absent from its
+/// `config.resolved.toml`) compares with its default: a run started by an earlier version
+/// resumes when the checkpoint holds that default, and is refused naming the key otherwise.
+pub fn belongs_to<C: serde::Serialize + serde::de::DeserializeOwned>(dir: &Path, config: &C) -> Result<()> {
     let path = dir.join(crate::outputs::RESOLVED_CONFIG_FILE);
     let refuse = |reason: String| ExperimentError::Resume { path: dir.to_path_buf(), reason };
     // written at the start of a run; absent before (then there is nothing to compare)
@@ -387,8 +390,14 @@ pub fn belongs_to<C: serde::Serialize>(dir: &Path, config: &C) -> Result<()> {
     let bytes = grainwave_core::files::read_bounded(&path, crate::config::MAX_CONFIG_BYTES, "the run's config.resolved.toml").map_err(|e| refuse(e.to_string()))?;
     let text = String::from_utf8(bytes).map_err(|_| refuse("its config.resolved.toml is not UTF-8 text (allowed: the file grainwave wrote)".into()))?;
     let on_disk: toml::Table = toml::from_str(&text).map_err(|e| refuse(format!("its config.resolved.toml cannot be read: {}", crate::config::clip(e.message(), 200))))?;
+    // with the keys it lacks at their defaults, when it reads as a config (else as it is, for
+    // the comparison to name what differs)
+    let on_disk = match toml::from_str::<C>(&text).ok().and_then(|c| toml::Value::try_from(&c).ok()) {
+        Some(filled) => filled,
+        None => toml::Value::Table(on_disk),
+    };
     let carried = toml::Value::try_from(config).map_err(|e| refuse(format!("the checkpoint's config cannot be compared: {e}")))?;
-    if let Some((key, a, b)) = first_difference(&carried, &toml::Value::Table(on_disk), "") {
+    if let Some((key, a, b)) = first_difference(&carried, &on_disk, "") {
         return Err(refuse(format!(
             "its checkpoint belongs to another run: key `{key}` is {} in the checkpoint but {} in the directory's config.resolved.toml \
              (copy a run's whole directory, or start a new run)",

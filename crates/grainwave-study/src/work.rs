@@ -301,39 +301,16 @@ impl<'w, W: Work> Scheduler<'w, W> {
         let shared = Mutex::new(ctx);
         let env = UnitEnv { ctx: &shared, flag: flag.clone(), running: AtomicUsize::new(0), report_every, shown: Mutex::new(String::new()) };
         let done = std::mem::take(&mut self.done);
-        let queue = Mutex::new(Queue { started: done.clone(), done, stops: Vec::new() });
+        let queue = Mutex::new(Queue { started: done.clone(), done, stops: Vec::new(), local: workers });
         let wake = Condvar::new();
         let work = self.work;
         // per process (0: this one, r: rank r): units run and seconds spent running them
         let busy: Vec<Mutex<(usize, f64)>> = (0..=ranks).map(|_| Mutex::new((0, 0.0))).collect();
         let started_at = std::time::Instant::now();
-        // One slot: a local worker (`rank` None) or the slot of another process (`rank` r ≥ 1).
-        let slot = |rank: Option<usize>| loop {
-            // the first unit in the plan's order whose inputs are done (and that may run on the
-            // slot's process); none: wait while units run or another slot can take a ready unit
-            // (their results may make one ready), else this slot is done
-            let k = {
-                let Ok(mut q) = queue.lock() else { return };
-                loop {
-                    if env.interrupted() {
-                        return;
-                    }
-                    let ready = |k: usize, q: &Queue| !q.started[k] && units[k].inputs.iter().all(|&i| q.done[i]);
-                    if let Some(k) = (0..total).find(|&k| ready(k, &q) && (rank.is_none() || work.anywhere(k))) {
-                        q.started[k] = true;
-                        // counted under the lock, so that a slot deciding to stop sees it
-                        env.running.fetch_add(1, Ordering::SeqCst);
-                        break k;
-                    }
-                    if env.running.load(Ordering::SeqCst) == 0 && !(0..total).any(|k| ready(k, &q)) {
-                        return;
-                    }
-                    match wake.wait(q) {
-                        Ok(g) => q = g,
-                        Err(_) => return,
-                    }
-                }
-            };
+        // Runs unit `k` (already marked started and counted running) on this process (`rank`
+        // None) or on rank r, records its result and wakes the waiting slots; true when rank r
+        // cannot be reached (its slot then takes no more units).
+        let run_unit = |k: usize, rank: Option<usize>| -> bool {
             let mut broken = false;
             let unit_started = std::time::Instant::now();
             let result = match (rank, link.as_deref()) {
@@ -372,20 +349,49 @@ impl<'w, W: Work> Scheduler<'w, W> {
                 env.running.fetch_sub(1, Ordering::SeqCst);
             }
             wake.notify_all();
-            if broken {
-                // the process cannot be reached: its slot takes no more units
+            broken
+        };
+        // The slot of another process (rank r ≥ 1): the first unit in the plan's order whose
+        // inputs are done and that may run elsewhere; none: wait while units run or another
+        // slot can take a ready unit (their results may make one ready), else this slot is done.
+        // It waits on a thread of its own, not on one of the pool's workers.
+        let remote = |r: usize| loop {
+            let k = {
+                let Ok(mut q) = queue.lock() else { return };
+                loop {
+                    if env.interrupted() {
+                        return;
+                    }
+                    if let Some(k) = (0..total).find(|&k| q.ready(units, k) && work.anywhere(k)) {
+                        q.started[k] = true;
+                        // counted under the lock, so that a slot deciding to stop sees it
+                        env.running.fetch_add(1, Ordering::SeqCst);
+                        break k;
+                    }
+                    if env.running.load(Ordering::SeqCst) == 0 && !(0..total).any(|k| q.ready(units, k)) {
+                        return;
+                    }
+                    match wake.wait(q) {
+                        Ok(g) => q = g,
+                        Err(_) => return,
+                    }
+                }
+            };
+            if run_unit(k, Some(r)) {
                 return;
             }
         };
+        let interrupted = || env.interrupted();
+        let local = LocalSlots { queue: &queue, wake: &wake, units, running: &env.running, interrupted: &interrupted, workers, run_unit: &run_unit };
         std::thread::scope(|threads| {
             // a slot of another process waits on messages most of the time: a thread of its own
             for r in 1..=ranks {
-                let slot = &slot;
-                threads.spawn(move || slot(Some(r)));
+                let remote = &remote;
+                threads.spawn(move || remote(r));
             }
             rayon::scope(|s| {
                 for _ in 0..workers {
-                    s.spawn(|_| slot(None));
+                    s.spawn(|s| local.slot(s));
                 }
             });
         });
@@ -404,7 +410,7 @@ impl<'w, W: Work> Scheduler<'w, W> {
                 }
             }
         }
-        let Queue { done, started, mut stops } = queue.into_inner().map_err(|_| ExperimentError::Core(CoreError::Inconsistent("a worker thread panicked".into())))?;
+        let Queue { done, started, mut stops, .. } = queue.into_inner().map_err(|_| ExperimentError::Core(CoreError::Inconsistent("a worker thread panicked".into())))?;
         self.done = done;
         stops.sort_by_key(|(k, _)| *k);
         let mut failures = Vec::new();
@@ -665,6 +671,70 @@ struct Queue {
     done: Vec<bool>,
     started: Vec<bool>,
     stops: Vec<(usize, UnitStop)>,
+    /// Local slots alive ([`LocalSlots`]).
+    local: usize,
+}
+
+impl Queue {
+    /// Unit `k` is not started and its inputs are done.
+    fn ready(&self, units: &[Unit], k: usize) -> bool {
+        !self.started[k] && units[k].inputs.iter().all(|&i| self.done[i])
+    }
+}
+
+/// The slots of [`Scheduler::run`] on this process's worker pool. A slot takes the first
+/// ready unit in the plan's order, runs it, and takes the next. A slot that finds no ready
+/// unit gives its worker back to the pool instead of waiting on it, so that the units running
+/// can use it (the engine of a unit runs its passes on the same pool: the `e2` loading, alone
+/// for hours, runs on every worker); a slot that takes a unit while another is ready and fewer
+/// than `workers` slots are alive starts one more. The last slot alive waits while units run on
+/// other ranks (their results may make one ready).
+struct LocalSlots<'a> {
+    queue: &'a Mutex<Queue>,
+    wake: &'a Condvar,
+    units: &'a [Unit],
+    running: &'a AtomicUsize,
+    interrupted: &'a (dyn Fn() -> bool + Sync),
+    workers: usize,
+    run_unit: &'a (dyn Fn(usize, Option<usize>) -> bool + Sync),
+}
+
+impl<'a> LocalSlots<'a> {
+    fn slot(&'a self, s: &rayon::Scope<'a>) {
+        let total = self.units.len();
+        loop {
+            let k = {
+                let Ok(mut q) = self.queue.lock() else { return };
+                loop {
+                    if (self.interrupted)() {
+                        q.local -= 1;
+                        return;
+                    }
+                    if let Some(k) = (0..total).find(|&k| q.ready(self.units, k)) {
+                        q.started[k] = true;
+                        // counted under the lock, so that a slot deciding to stop sees it
+                        self.running.fetch_add(1, Ordering::SeqCst);
+                        if q.local < self.workers && (0..total).any(|j| q.ready(self.units, j)) {
+                            q.local += 1;
+                            s.spawn(move |s| self.slot(s));
+                        }
+                        break k;
+                    }
+                    // nothing ready: done when nothing runs; otherwise give the worker back,
+                    // unless this is the last slot (then units run only on other ranks)
+                    if q.local > 1 || self.running.load(Ordering::SeqCst) == 0 {
+                        q.local -= 1;
+                        return;
+                    }
+                    match self.wake.wait(q) {
+                        Ok(g) => q = g,
+                        Err(_) => return,
+                    }
+                }
+            };
+            (self.run_unit)(k, None);
+        }
+    }
 }
 
 /// The kinds of `units[ks]`, in the plan's order, joined ("reference states, response runs").
@@ -884,6 +954,81 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
     }
 
+    /// Unit 0 runs alone (units 1 and 2 read it) and splits its work in two with
+    /// `rayon::join`; units 1 and 2 each wait for the other to start.
+    struct Alone {
+        units: Vec<Unit>,
+        dir: std::path::PathBuf,
+        second_half: AtomicBool,
+        started: [AtomicBool; 3],
+    }
+
+    impl Alone {
+        /// Waits up to 20 s for `flag`; false when it never came.
+        fn wait_for(flag: &AtomicBool) -> bool {
+            let t = std::time::Instant::now();
+            while !flag.load(Ordering::SeqCst) {
+                if t.elapsed().as_secs() > 20 {
+                    return false;
+                }
+                std::thread::sleep(std::time::Duration::from_millis(1));
+            }
+            true
+        }
+    }
+
+    impl Work for Alone {
+        type Output = bool;
+        fn units(&self) -> &[Unit] {
+            &self.units
+        }
+        fn is_done(&self, _: usize) -> bool {
+            false
+        }
+        fn run(&self, k: usize, _: &UnitEnv<'_, '_, '_>) -> UnitResult<bool> {
+            self.started[k].store(true, Ordering::SeqCst);
+            Ok(match k {
+                // the first half waits for the second: they overlap only when another worker
+                // takes the second half while the first waits
+                0 => rayon::join(|| Alone::wait_for(&self.second_half), || self.second_half.store(true, Ordering::SeqCst)).0,
+                1 => Alone::wait_for(&self.started[2]),
+                _ => Alone::wait_for(&self.started[1]),
+            })
+        }
+        fn record(&self, k: usize, v: &bool) -> Result<()> {
+            store(&self.dir.join(format!("u{k}.gwck")), "test-unit", v, None)
+        }
+    }
+
+    #[test]
+    fn a_unit_running_alone_has_every_worker_and_units_made_ready_together_run_together() {
+        // With two workers and one ready unit, a slot that waited on its worker for a unit to
+        // become ready would leave the running unit one worker: the two halves of unit 0 would
+        // run one after the other (the first gives up after 20 s and records false). Then
+        // units 1 and 2, made ready together, must run at the same time.
+        let dir = temp("alone");
+        let w = Alone {
+            units: vec![
+                Unit { id: "alone".into(), kind: "units".into(), inputs: vec![] },
+                Unit { id: "one".into(), kind: "units".into(), inputs: vec![0] },
+                Unit { id: "two".into(), kind: "units".into(), inputs: vec![0] },
+            ],
+            dir: dir.clone(),
+            second_half: AtomicBool::new(false),
+            started: Default::default(),
+        };
+        let mut rep = SilentReporter;
+        let mut ctx = RunContext::new(&dir, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+        let mut s = Scheduler::new(&w);
+        assert_eq!(pool.install(|| s.run(&mut ctx)).unwrap(), Finished::Complete);
+        for (k, what) in [(0, "the two halves of the unit running alone did not overlap"), (1, "units 1 and 2 did not run together"), (2, "units 2 and 1 did not run together")] {
+            let v: bool = grainwave_core::checkpoint::load(&dir.join(format!("u{k}.gwck")), "test-unit").unwrap();
+            assert!(v, "{what}");
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
     /// Worker "processes" as threads, linked by channels: the coordinator's side.
     struct Channels {
         to: Vec<Mutex<std::sync::mpsc::Sender<Vec<u8>>>>,
@@ -977,7 +1122,14 @@ mod tests {
         // before it could run every unit itself (units of no duration let one thread run them all
         // before the workers' threads were scheduled on a loaded machine)
         coordinator.pause = std::time::Duration::from_millis(200);
-        let (outcome, log, ran) = distributed(&coordinator, 2, || Squares::new(&dir, n));
+        // and the workers' 50 ms: with units of no duration, one worker could run them all
+        // before the other's slot thread was scheduled (1 run in 35 on a loaded machine)
+        let worker = || {
+            let mut w = Squares::new(&dir, n);
+            w.pause = std::time::Duration::from_millis(50);
+            w
+        };
+        let (outcome, log, ran) = distributed(&coordinator, 2, worker);
         assert_eq!(outcome.unwrap(), Finished::Complete);
         assert_eq!((0..n).map(|k| coordinator.value(k)).collect::<Vec<_>>(), expected(n));
         // every unit ran exactly once, somewhere; the workers ran some of them (each takes a unit

@@ -53,6 +53,31 @@ fn resolved_config_that_is_a_fifo_a_device_or_too_long_is_refused_by_name() {
     std::fs::remove_dir_all(&dir).unwrap();
 }
 
+/// A config with a key added after a run started (`order`, with a default).
+#[derive(serde::Serialize, serde::Deserialize)]
+struct Later {
+    experiment: String,
+    seed: u64,
+    #[serde(default)]
+    order: String,
+}
+
+/// A run whose `config.resolved.toml` predates a key resumes when its checkpoint holds the key's
+/// default, and is refused naming the key when it holds another value; a key that differs is
+/// still named.
+#[test]
+fn a_key_added_since_the_run_started_compares_with_its_default() {
+    let dir = fresh("later");
+    std::fs::write(dir.join("config.resolved.toml"), "experiment = \"simulation\"\nseed = 1\n").unwrap();
+    let at = |order: &str, seed: u64| Later { experiment: "simulation".into(), seed, order: order.into() };
+    belongs_to(&dir, &at("", 1)).unwrap();
+    let e = belongs_to(&dir, &at("sorted", 1)).unwrap_err().to_string();
+    assert!(e.contains("key `order`") && e.contains("sorted"), "{e}");
+    let e = belongs_to(&dir, &at("", 2)).unwrap_err().to_string();
+    assert!(e.contains("key `seed`") && e.contains('2') && e.contains('1'), "{e}");
+    std::fs::remove_dir_all(&dir).unwrap();
+}
+
 #[test]
 fn run_log_that_is_a_fifo_is_refused_by_name() {
     let dir = fresh("log");
