@@ -1405,8 +1405,8 @@ fn a_checkpoint_index_passed_within_one_sample_names_the_state_of_that_sample() 
 /// `packing.grain_order = "sorted"` stores the packing the loading runs on bin by bin — grains
 /// close in space close in memory — with the same grain ids, where the placement order (the
 /// default) keeps the ids in storage order and scatters neighbours in memory. Measured by the
-/// mean distance between grains stored next to each other (≈ a diameter when sorted, a good
-/// part of the box when placed at random).
+/// share of grains stored next to each other that are also near in space (centres within two
+/// mean diameters).
 #[test]
 fn sorted_grain_order_stores_the_packing_bin_by_bin_with_the_same_ids() {
     let run = |order: &str| {
@@ -1422,9 +1422,9 @@ fn sorted_grain_order_stores_the_packing_bin_by_bin_with_the_same_ids() {
         let _ = std::fs::remove_dir_all(&out);
         ck.sim
     };
-    let step = |sim: &Simulation<D2>| {
+    let near = |sim: &Simulation<D2>| {
         let p = &sim.grains.pos;
-        p.windows(2).map(|w| (w[1] - w[0]).length()).sum::<f64>() / (p.len() - 1) as f64
+        p.windows(2).filter(|w| (w[1] - w[0]).length() < 2.0).count() as f64 / (p.len() - 1) as f64
     };
     let (placed, sorted) = (run("placement"), run("sorted"));
     let ids = |sim: &Simulation<D2>| sim.grains.id.clone();
@@ -1433,7 +1433,9 @@ fn sorted_grain_order_stores_the_packing_bin_by_bin_with_the_same_ids() {
     assert_ne!(s, ids(&placed), "the sort moved no grain");
     s.sort();
     assert_eq!(s, ids(&placed), "the same grains");
-    let (a, b) = (step(&placed), step(&sorted));
-    // 144 disks of diameter ≈ 1 in a box ≈ 11 wide: random order ≈ 5 apart, bin order ≈ 1–2
-    assert!(b < 0.4 * a && b < 2.5, "mean distance between grains stored next to each other: placed {a}, sorted {b}");
+    let (a, b) = (near(&placed), near(&sorted));
+    // 144 disks of diameter ≈ 1 in a box ≈ 11 wide: a random partner lies within 2 diameters
+    // with probability ≈ π 2² / 11² ≈ 0.1; in bin order only the wrap from one row of bins to
+    // the next (one in ≈ 6–12 grains) breaks the chain
+    assert!(a < 0.3 && b > 0.6, "share of grains stored next to each other within two diameters: placed {a}, sorted {b}");
 }
