@@ -22,6 +22,14 @@ use std::path::{Path, PathBuf};
 use std::sync::atomic::AtomicBool;
 use std::sync::{Arc, OnceLock};
 
+/// Runs the e2 config `text` (named `label` in errors) into the output directory `out`.
+fn run_e2(out: &Path, label: &str, text: &str) {
+    let src = ConfigSource::from_text(label, text);
+    let mut rep = SilentReporter;
+    let mut ctx = RunContext::new(out, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
+    crate::REGISTRY.run(&src, &mut ctx).unwrap();
+}
+
 fn tmp(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("grainwave-e2-{}-{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
@@ -221,10 +229,7 @@ state = "stopped_mu2"
 along_y = "py2"
 along_x = "px2"
 "#;
-        let src = ConfigSource::from_text("small e2", &text);
-        let mut rep = SilentReporter;
-        let mut ctx = RunContext::new(&out, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
-        crate::REGISTRY.run(&src, &mut ctx).unwrap();
+        run_e2(&out, "small e2", &text);
         out
     })
 }
@@ -445,10 +450,7 @@ amplitudes = [1e-9]
 duration = 2.0
 strips = 10
 "#;
-    let src = ConfigSource::from_text("top piston at rest", text);
-    let mut rep = SilentReporter;
-    let mut ctx = RunContext::new(&out, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
-    crate::REGISTRY.run(&src, &mut ctx).unwrap();
+    run_e2(&out, "top piston at rest", text);
     let summary: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
     let replay = |n: &str| summary["replays"].as_array().unwrap().iter().find(|r| r["name"] == n).unwrap().clone();
     // the case exercised: the top wall of checkpoint 0 moves at the loading speed
@@ -763,10 +765,7 @@ fn slip_activation_time_reaches_the_loading_law_in_acoustic_times() {
         let text = format!(
             "experiment = \"e2\"\nseed = 3\n[packing]\ncolumns = 10\nrows = 10\n[material]\n{extra}\n[loading]\nstrain_rate = 0.005\nfinal_strain = 1e-4\ncheckpoint_strain = 5e-5\nsample_every = 5\n"
         );
-        let src = ConfigSource::from_text("slip e2", &text);
-        let mut rep = SilentReporter;
-        let mut ctx = RunContext::new(&out, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
-        crate::REGISTRY.run(&src, &mut ctx).unwrap();
+        run_e2(&out, "slip e2", &text);
         load_checkpoint(&out, -1).unwrap()
     };
     let with = run("slip_activation_time = 2.5", "slip-on");
@@ -1030,10 +1029,7 @@ checkpoint = -1
 amplitudes = [1e-9, -1e-9]
 strips = 12
 "#;
-    let src = ConfigSource::from_text("gentle e2", text);
-    let mut rep = SilentReporter;
-    let mut ctx = RunContext::new(&out, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
-    crate::REGISTRY.run(&src, &mut ctx).unwrap();
+    run_e2(&out, "gentle e2", text);
     let summary: serde_json::Value = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
     let replay = |n: &str| summary["replays"].as_array().unwrap().iter().find(|r| r["name"] == n).unwrap().clone();
     let loaded = summary["loading"]["final_sliding"].as_u64().unwrap();
@@ -1142,11 +1138,7 @@ checkpoint = 2
 amplitudes = [1e-4, 0.0]
 duration = 1.5
 "#;
-    let src = ConfigSource::from_text("dense e2", text);
-    let mut rep = SilentReporter;
-    let mut ctx = RunContext::new(&dense, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
-    crate::REGISTRY.run(&src, &mut ctx).unwrap();
-    drop(ctx);
+    run_e2(&dense, "dense e2", text);
     use grainwave_e2::biaxial::{checkpoint_path, read_checkpoint, StoredCheckpoint};
     let indices = grainwave_e2::biaxial::checkpoint_indices(&dense);
     assert_eq!(indices, grainwave_e2::biaxial::checkpoint_indices(sparse));
@@ -1297,10 +1289,7 @@ checkpoint_strain = 2e-5
 sample_every = 5
 "#
         );
-        let mut rep = SilentReporter;
-        let mut ctx = RunContext::new(&out, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
-        crate::REGISTRY.run(&ConfigSource::from_text(name, &text), &mut ctx).unwrap();
-        drop(ctx);
+        run_e2(&out, name, &text);
         let summary = serde_json::from_slice(&std::fs::read(out.join("summary.json")).unwrap()).unwrap();
         (out, summary)
     };
@@ -1414,10 +1403,7 @@ fn sorted_grain_order_stores_the_packing_bin_by_bin_with_the_same_ids() {
         let text = format!(
             "experiment = \"e2\"\nseed = 3\n[packing]\ncolumns = 12\nrows = 12\ngrain_order = \"{order}\"\n[loading]\nstrain_rate = 0.005\nfinal_strain = 5e-5\ncheckpoint_strain = 5e-5\nreference_strain = 1e-5\nsample_every = 5\n[[replays]]\nname = \"pulse\"\ncheckpoint = 1\namplitudes = [1e-4]\nduration = 0.5\n"
         );
-        let src = ConfigSource::from_text("order", &text);
-        let mut rep = SilentReporter;
-        let mut ctx = RunContext::new(&out, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
-        crate::REGISTRY.run(&src, &mut ctx).unwrap();
+        run_e2(&out, "order", &text);
         let ck = load_checkpoint(&out, 0).unwrap();
         let _ = std::fs::remove_dir_all(&out);
         ck.sim

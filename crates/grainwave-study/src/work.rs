@@ -890,6 +890,32 @@ mod tests {
         let _ = std::fs::remove_dir_all(&dir);
     }
 
+    /// Waits up to 20 s for `flag`; false when it never came.
+    fn wait_for(flag: &AtomicBool) -> bool {
+        let t = std::time::Instant::now();
+        while !flag.load(Ordering::SeqCst) {
+            if t.elapsed().as_secs() > 20 {
+                return false;
+            }
+            std::thread::sleep(std::time::Duration::from_millis(1));
+        }
+        true
+    }
+
+    /// Runs `w` to completion with its outputs in `dir`, on a pool of two workers.
+    fn run_on_two_workers<W: Work>(w: &W, dir: &Path) {
+        let mut rep = SilentReporter;
+        let mut ctx = RunContext::new(dir, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
+        let mut s = Scheduler::new(w);
+        assert_eq!(pool.install(|| s.run(&mut ctx)).unwrap(), Finished::Complete);
+    }
+
+    /// The value unit `k` of [`Overtake`] or [`Alone`] recorded in `dir`.
+    fn recorded(dir: &Path, k: usize) -> bool {
+        grainwave_core::checkpoint::load(&dir.join(format!("u{k}.gwck")), "test-unit").unwrap()
+    }
+
     /// Unit 0 (no inputs) waits until unit 2 has started; unit 2 reads unit 1 (no inputs, quick).
     struct Overtake {
         units: Vec<Unit>,
@@ -907,16 +933,7 @@ mod tests {
         }
         fn run(&self, k: usize, _: &UnitEnv<'_, '_, '_>) -> UnitResult<bool> {
             match k {
-                0 => {
-                    let t = std::time::Instant::now();
-                    while !self.started2.load(Ordering::SeqCst) {
-                        if t.elapsed().as_secs() > 20 {
-                            return Ok(false);
-                        }
-                        std::thread::sleep(std::time::Duration::from_millis(1));
-                    }
-                    Ok(true)
-                }
+                0 => Ok(wait_for(&self.started2)),
                 2 => {
                     self.started2.store(true, Ordering::SeqCst);
                     Ok(true)
@@ -944,13 +961,8 @@ mod tests {
             dir: dir.clone(),
             started2: AtomicBool::new(false),
         };
-        let mut rep = SilentReporter;
-        let mut ctx = RunContext::new(&dir, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
-        let mut s = Scheduler::new(&w);
-        assert_eq!(pool.install(|| s.run(&mut ctx)).unwrap(), Finished::Complete);
-        let v: bool = grainwave_core::checkpoint::load(&dir.join("u0.gwck"), "test-unit").unwrap();
-        assert!(v, "unit 2 did not start before unit 0 ended");
+        run_on_two_workers(&w, &dir);
+        assert!(recorded(&dir, 0), "unit 2 did not start before unit 0 ended");
         let _ = std::fs::remove_dir_all(&dir);
     }
 
@@ -961,20 +973,6 @@ mod tests {
         dir: std::path::PathBuf,
         second_half: AtomicBool,
         started: [AtomicBool; 3],
-    }
-
-    impl Alone {
-        /// Waits up to 20 s for `flag`; false when it never came.
-        fn wait_for(flag: &AtomicBool) -> bool {
-            let t = std::time::Instant::now();
-            while !flag.load(Ordering::SeqCst) {
-                if t.elapsed().as_secs() > 20 {
-                    return false;
-                }
-                std::thread::sleep(std::time::Duration::from_millis(1));
-            }
-            true
-        }
     }
 
     impl Work for Alone {
@@ -990,9 +988,9 @@ mod tests {
             Ok(match k {
                 // the first half waits for the second: they overlap only when another worker
                 // takes the second half while the first waits
-                0 => rayon::join(|| Alone::wait_for(&self.second_half), || self.second_half.store(true, Ordering::SeqCst)).0,
-                1 => Alone::wait_for(&self.started[2]),
-                _ => Alone::wait_for(&self.started[1]),
+                0 => rayon::join(|| wait_for(&self.second_half), || self.second_half.store(true, Ordering::SeqCst)).0,
+                1 => wait_for(&self.started[2]),
+                _ => wait_for(&self.started[1]),
             })
         }
         fn record(&self, k: usize, v: &bool) -> Result<()> {
@@ -1017,14 +1015,9 @@ mod tests {
             second_half: AtomicBool::new(false),
             started: Default::default(),
         };
-        let mut rep = SilentReporter;
-        let mut ctx = RunContext::new(&dir, &mut rep, Arc::new(AtomicBool::new(false))).unwrap();
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(2).build().unwrap();
-        let mut s = Scheduler::new(&w);
-        assert_eq!(pool.install(|| s.run(&mut ctx)).unwrap(), Finished::Complete);
+        run_on_two_workers(&w, &dir);
         for (k, what) in [(0, "the two halves of the unit running alone did not overlap"), (1, "units 1 and 2 did not run together"), (2, "units 2 and 1 did not run together")] {
-            let v: bool = grainwave_core::checkpoint::load(&dir.join(format!("u{k}.gwck")), "test-unit").unwrap();
-            assert!(v, "{what}");
+            assert!(recorded(&dir, k), "{what}");
         }
         let _ = std::fs::remove_dir_all(&dir);
     }
