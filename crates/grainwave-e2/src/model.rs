@@ -9,6 +9,7 @@
 //! acoustic time t_a = L*/v_a.
 
 use super::config::{MaterialConfig, PackingConfig, PreparationConfig, PulseShape};
+use grainwave_core::contact::tangential::{Linear, SlipActivation};
 use grainwave_core::contact::{critical_fraction_for_restitution, Hooke, NormalDamping};
 use grainwave_core::prelude::*;
 use rand::{RngExt, SeedableRng};
@@ -92,7 +93,7 @@ pub fn box_size(sim: &Simulation<D2>) -> (f64, f64) {
 /// tangential force), rolling resistance k_r = `rolling_stiffness` K_n d̄² capped at μ_r R* F_n.
 /// With `material.slip_activation_time` > 0 the tangential spring has that slip-activation time
 /// (× `acoustic_time`, t_a in engine units) instead of the plain Coulomb cap
-/// ([`Tangential::SlipActivation`]).
+/// ([`SlipActivation`]).
 pub fn grain_law(m: &MaterialConfig, friction: f64, acoustic_time: f64) -> ContactLaw {
     let zeta = critical_fraction_for_restitution(m.restitution).unwrap_or(0.0);
     let stiffness = m.tangential_stiffness_ratio * m.normal_stiffness;
@@ -103,9 +104,9 @@ pub fn grain_law(m: &MaterialConfig, friction: f64, acoustic_time: f64) -> Conta
         tangential: if friction <= 0.0 {
             Tangential::None
         } else if activation_time > 0.0 {
-            Tangential::SlipActivation { stiffness, activation_time }
+            SlipActivation { stiffness, activation_time }.into()
         } else {
-            Tangential::Linear { stiffness }
+            Linear { stiffness }.into()
         },
         tangential_damping: TangentialDamping::FractionOfNormal { ratio: m.tangential_damping_ratio },
         friction,

@@ -4,6 +4,7 @@
 use grainwave_study::protocol::InterruptAfter as Interrupter;
 
 use glam::DVec2;
+use grainwave_core::contact::tangential::{Linear, SlipActivation};
 use grainwave_core::prelude::*;
 use grainwave_study::config::ConfigSource;
 use grainwave_e2::arrival::{arrival_of_first_lobe, arrival_of_maximum, strip_speed};
@@ -772,8 +773,8 @@ fn slip_activation_time_reaches_the_loading_law_in_acoustic_times() {
     let without = run("", "slip-off");
     let t_a = with.units.acoustic_time;
     assert!(t_a > 0.0);
-    assert_eq!(with.sim.law.tangential, Tangential::SlipActivation { stiffness: 0.5 * 2000.0, activation_time: 2.5 * t_a });
-    assert_eq!(without.sim.law.tangential, Tangential::Linear { stiffness: 0.5 * 2000.0 });
+    assert_eq!(with.sim.law.tangential, Tangential::SlipActivation(SlipActivation { stiffness: 0.5 * 2000.0, activation_time: 2.5 * t_a }));
+    assert_eq!(without.sim.law.tangential, Tangential::Linear(Linear { stiffness: 0.5 * 2000.0 }));
     // same preparation (frictionless, the same packing): the same units to the bit
     assert_eq!(with.units, without.units);
     assert_ne!(with.sim.state_hash(), without.sim.state_hash());

@@ -25,6 +25,7 @@
 use super::config::{IntegrationConfig, IntegratorName, MaterialConfig, RowLayout};
 use grainwave_study::Result;
 use glam::DVec2;
+use grainwave_core::contact::tangential::Linear;
 use grainwave_core::contact::{ContactLaw, Hooke, NormalDamping, NormalElastic, Rolling, Tangential, TangentialDamping, Twisting};
 use grainwave_core::prelude::*;
 use grainwave_core::sim::Safety;
@@ -195,7 +196,7 @@ impl Material {
         ContactLaw {
             normal: NormalElastic::Hooke(Hooke { stiffness: k }),
             damping: NormalDamping::Dashpot { coefficient: gamma_n },
-            tangential: if frictional { Tangential::Linear { stiffness: ratio * k } } else { Tangential::None },
+            tangential: if frictional { Tangential::Linear(Linear { stiffness: ratio * k }) } else { Tangential::None },
             tangential_damping: if frictional { TangentialDamping::Coefficient { coefficient: gamma_t } } else { TangentialDamping::None },
             friction,
             rolling: Rolling::None,

@@ -406,7 +406,7 @@ mod tests {
         b.damping = Some(DampingTable::MassProportional { rate: 30.0, tangential_ratio: None, tangential_rate: Some(10.0) });
         b.tangential = Some(TangentialTable::Linear { stiffness_ratio: None, slip_activation_time: Some(0.05) });
         both_partners_equal(&a, &b);
-        assert!(matches!(b.build(Partner::Grain, "contact").unwrap().tangential, crate::contact::Tangential::SlipActivation { .. }));
+        assert!(matches!(b.build(Partner::Grain, "contact").unwrap().tangential, crate::contact::Tangential::SlipActivation(_)));
         // a dashpot with a tangential ratio; Tsuji on Hooke
         let mut a = flat("hooke_cundall_strack");
         (a.normal_stiffness, a.normal_damping, a.tangential_damping_ratio) = (Some(1e3), Some(0.7), Some(0.25));

@@ -26,7 +26,7 @@ mod normal;
 mod params;
 mod parts;
 mod rolling;
-mod tangential;
+pub mod tangential;
 
 pub use coulomb::coulomb_cap;
 pub(crate) use damping::Dampers;
@@ -198,16 +198,7 @@ pub(crate) fn law_lanes<R: Real, const DIM: usize, const ROT: usize, P: LawParts
     } else {
         let gamma_t = damp.tangential(x.m_eff, k_t, gamma_n);
         let mut rotated = into_tangent_plane_lanes::<R, DIM>(x.spring, n);
-        if let Tangential::Mindlin { rescale_on_unloading: true, .. } = tangential {
-            // k_t ∝ √ξ: where the overlap decreased (ξ_old > 0 and ξ < ξ_old) the stored force
-            // × √(ξ/ξ_old), elsewhere × 1 (the same bits)
-            let one = R::splat(1.0);
-            let scale = R::select(x.was.gt(x.overlap), (x.overlap / x.was).sqrt(), one);
-            let scale = R::select(x.was.gt(zero), scale, one);
-            for c in 0..DIM {
-                rotated[c] = rotated[c] * scale;
-            }
-        }
+        rotated = tangential.unloading_lanes::<R, DIM>(rotated, x.was, x.overlap);
         let cap = R::splat(law.friction()) * f_n;
         spring_step::<R, DIM>(&tangential, rotated, x.v_t, k_t, gamma_t, dt, cap)
     };
@@ -452,14 +443,7 @@ impl ContactLaw {
             NormalDamping::MassProportional { rate } => require_non_negative(&format!("{field}.normal_damping_rate"), rate)?,
             NormalDamping::Tsuji { alpha } => require_non_negative(&format!("{field}.tsuji_alpha"), alpha)?,
         }
-        match self.tangential {
-            Tangential::None => {}
-            Tangential::Linear { stiffness } => require_positive(&format!("{field}.tangential_stiffness"), stiffness)?,
-            Tangential::SlipActivation { stiffness, activation_time } => tangential::validate_slip_activation(stiffness, activation_time, field)?,
-            Tangential::Mindlin { effective_shear_modulus, .. } => {
-                require_positive(&format!("{field}.shear_modulus"), effective_shear_modulus)?
-            }
-        }
+        self.tangential.validate(field)?;
         match self.tangential_damping {
             TangentialDamping::None => {}
             TangentialDamping::Coefficient { coefficient } => {

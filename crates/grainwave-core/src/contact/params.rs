@@ -1,5 +1,6 @@
 //! Named presets: the keyword table at the boundary between configs and contact laws.
 
+use super::tangential::Mindlin;
 use super::families::{DampingTable, ResistanceTable, TangentialTable};
 use super::{ContactLaw, DampingChoice, Hertz, Hooke, NormalContext, NormalDamping, NormalElastic, NormalTable, Rolling, SlipActivationParams, Tangential, TangentialDamping, Twisting};
 use crate::error::{require_non_negative, require_positive, CoreError, Result};
@@ -251,10 +252,10 @@ impl ContactParams {
                     normal: NormalElastic::Hertz(Hertz { effective_modulus: factor * e_star }),
                     damping,
                     tangential: if friction > 0.0 {
-                        Tangential::Mindlin {
+                        Tangential::Mindlin(Mindlin {
                             effective_shear_modulus: factor * g_star,
                             rescale_on_unloading: self.mindlin_rescale.unwrap_or(false),
-                        }
+                        })
                     } else {
                         Tangential::None
                     },

@@ -7,6 +7,7 @@
 //! off at compile time; [`WithRolling`] adds a rolling spring–dashpot to either (E2's law). Each part computes the same expression in every implementation, so a
 //! specialised kernel gives exactly the bits of the general one (tested).
 
+use super::tangential::{Linear, Mindlin, SlipActivation};
 use super::{ContactLaw, Hertz, Hooke, LawHistory, NormalDamping, NormalElastic, NormalLaw, NormalResponse, Rolling, Tangential, TangentialDamping, Twisting};
 use crate::real::Real;
 
@@ -200,7 +201,7 @@ pub struct HookeCundallStrack {
     pub(crate) friction: f64,
 }
 
-/// [`HookeCundallStrack`] with the slip-activation time τ of [`Tangential::SlipActivation`]:
+/// [`HookeCundallStrack`] with the slip-activation time τ of [`SlipActivation`]:
 /// the `hooke_cundall_strack` preset with `slip_activation_time` > 0.
 #[derive(Clone, Copy, Debug)]
 pub struct HookeSlipActivation {
@@ -245,7 +246,7 @@ impl LawParts for HertzMindlin {
     }
     #[inline(always)]
     fn tangential(&self) -> Tangential {
-        Tangential::Mindlin { effective_shear_modulus: self.effective_shear_modulus, rescale_on_unloading: false }
+        Tangential::Mindlin(Mindlin { effective_shear_modulus: self.effective_shear_modulus, rescale_on_unloading: false })
     }
     common_parts!();
 }
@@ -258,7 +259,7 @@ impl LawParts for HookeCundallStrack {
     }
     #[inline(always)]
     fn tangential(&self) -> Tangential {
-        Tangential::Linear { stiffness: self.tangential_stiffness }
+        Tangential::Linear(Linear { stiffness: self.tangential_stiffness })
     }
     common_parts!();
 }
@@ -271,7 +272,7 @@ impl LawParts for HookeSlipActivation {
     }
     #[inline(always)]
     fn tangential(&self) -> Tangential {
-        Tangential::SlipActivation { stiffness: self.tangential_stiffness, activation_time: self.activation_time }
+        Tangential::SlipActivation(SlipActivation { stiffness: self.tangential_stiffness, activation_time: self.activation_time })
     }
     common_parts!();
 }
@@ -357,14 +358,14 @@ impl ContactLaw {
             // the normal part is the law's own (`HistoryNormal`): the rest's is not read
             let normal_stiffness = f64::NAN;
             let rest = match (self.tangential, rolling) {
-                (Tangential::Linear { stiffness: tangential_stiffness }, r) => {
+                (Tangential::Linear(Linear { stiffness: tangential_stiffness }), r) => {
                     let law = HookeCundallStrack { normal_stiffness, tangential_stiffness, damping, tangential_damping, friction };
                     match r {
                         None => HistoryRest::Linear(law),
                         Some((stiffness, damping, friction)) => HistoryRest::LinearRolling(WithRolling { law, stiffness, damping, friction }),
                     }
                 }
-                (Tangential::SlipActivation { stiffness: tangential_stiffness, activation_time }, r) => {
+                (Tangential::SlipActivation(SlipActivation { stiffness: tangential_stiffness, activation_time }), r) => {
                     let law = HookeSlipActivation { normal_stiffness, tangential_stiffness, activation_time, damping, tangential_damping, friction };
                     match r {
                         None => HistoryRest::SlipActivation(law),
@@ -376,21 +377,21 @@ impl ContactLaw {
             return Specialized::NormalHistory(*self, rest);
         }
         match (self.normal, self.tangential, rolling) {
-            (NormalElastic::Hertz(Hertz { effective_modulus }), Tangential::Mindlin { effective_shear_modulus, rescale_on_unloading: false }, r) => {
+            (NormalElastic::Hertz(Hertz { effective_modulus }), Tangential::Mindlin(Mindlin { effective_shear_modulus, rescale_on_unloading: false }), r) => {
                 let law = HertzMindlin { effective_modulus, effective_shear_modulus, damping, tangential_damping, friction };
                 match r {
                     None => Specialized::HertzMindlin(law),
                     Some((stiffness, damping, friction)) => Specialized::HertzMindlinRolling(WithRolling { law, stiffness, damping, friction }),
                 }
             }
-            (NormalElastic::Hooke(Hooke { stiffness: normal_stiffness }), Tangential::Linear { stiffness: tangential_stiffness }, r) => {
+            (NormalElastic::Hooke(Hooke { stiffness: normal_stiffness }), Tangential::Linear(Linear { stiffness: tangential_stiffness }), r) => {
                 let law = HookeCundallStrack { normal_stiffness, tangential_stiffness, damping, tangential_damping, friction };
                 match r {
                     None => Specialized::HookeCundallStrack(law),
                     Some((stiffness, damping, friction)) => Specialized::HookeCundallStrackRolling(WithRolling { law, stiffness, damping, friction }),
                 }
             }
-            (NormalElastic::Hooke(Hooke { stiffness: normal_stiffness }), Tangential::SlipActivation { stiffness: tangential_stiffness, activation_time }, r) => {
+            (NormalElastic::Hooke(Hooke { stiffness: normal_stiffness }), Tangential::SlipActivation(SlipActivation { stiffness: tangential_stiffness, activation_time }), r) => {
                 let law = HookeSlipActivation { normal_stiffness, tangential_stiffness, activation_time, damping, tangential_damping, friction };
                 match r {
                     None => Specialized::HookeSlipActivation(law),

@@ -9,11 +9,9 @@ use super::coulomb::coulomb_cap_lanes;
 use crate::dim::VectorOps;
 use crate::error::{CoreError, Result};
 use crate::real::{select3, Real, Vec3};
+use serde::de::DeserializeOwned;
 use serde::{Deserialize, Serialize};
-
-mod slip_activation;
-pub(crate) use slip_activation::validate as validate_slip_activation;
-pub use slip_activation::SlipActivationParams;
+use std::fmt::Debug;
 
 /// The tangential history of one contact as it is stored (on grain i of the pair), whose unit
 /// depends on the law that wrote it: a length for [`Tangential::Linear`] (the spring
@@ -62,14 +60,212 @@ pub enum HistoryValue<V> {
     Force(V),
 }
 
+/// What a tangential law's stored history holds ([`TangentialLaw::HISTORY`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum HistoryKind {
+    /// A length: the spring elongation (read as [`HistoryValue::Displacement`]).
+    Displacement,
+    /// A force: the elastic tangential force (read as [`HistoryValue::Force`]).
+    Force,
+}
+
+/// A tangential law with a per-contact history: the spring that carries the tangential force
+/// below the Coulomb cap μ F_n, one step at a time.
+///
+/// The type is the law as the engine runs it (its fields in physical units, encoded in
+/// checkpoints and outputs as the fields of its variant of [`Tangential`]). Register it in
+/// [`tangential_laws!`] (the config name is the module's, the snake case of the type's name).
+/// Each step of a contact runs, on every lane (`R = f64` for the general kernel, the vector
+/// types for the window and fused kernels): the stored history rotated into the current tangent
+/// plane, [`TangentialLaw::unloading_lanes`], [`TangentialLaw::trial_lanes`], the Coulomb cap,
+/// and where the contact slides [`TangentialLaw::history_for_force_lanes`] and
+/// [`TangentialLaw::sliding_lanes`] (`spring_step`).
+pub trait TangentialLaw: Copy + Debug + PartialEq + Serialize + DeserializeOwned + Send + Sync + 'static {
+    /// What the stored history ([`TangentialHistory`]) holds: a length or a force.
+    const HISTORY: HistoryKind;
+    /// Checks the law (also one made in code); errors name `{field}.<key>`, the value and what
+    /// is allowed.
+    fn validate(&self, field: &str) -> Result<()>;
+    /// k_t at overlap `xi` for effective radius `r_eff`, on every lane.
+    fn stiffness_lanes<R: Real>(&self, xi: R, r_eff: R) -> R;
+    /// The elastic part of the tangential force on grain i held by the stored history `h`
+    /// (before the Coulomb cap, without damping).
+    fn elastic_force<V: VectorOps>(&self, h: V) -> V;
+    /// The increment of one step from the stored history already rotated into the current
+    /// tangent plane (`rotated`), the tangential velocity `v_t`, k_t, γ_t and the step `dt`:
+    /// the trial force on i (before the cap) and the history to keep where the contact sticks.
+    fn trial_lanes<R: Real, const N: usize>(&self, rotated: Vec3<R>, v_t: Vec3<R>, k_t: R, gamma_t: R, dt: f64) -> (Vec3<R>, Vec3<R>);
+    /// The history that holds exactly the tangential force `f` (the spring reset to the cap).
+    fn history_for_force_lanes<R: Real, const N: usize>(&self, f: Vec3<R>) -> Vec3<R>;
+    /// The rotated history adjusted for the change of overlap from `was` (the overlap of the
+    /// last step, 0 for a contact that has just formed) to `overlap`, before the increment.
+    /// Default: unchanged.
+    #[inline(always)]
+    fn unloading_lanes<R: Real, const N: usize>(&self, rotated: Vec3<R>, was: R, overlap: R) -> Vec3<R> {
+        let _ = (was, overlap);
+        rotated
+    }
+    /// The force on i and the history to store, from the capped force `f`, the history that
+    /// holds it (`at_cap`), the trial force and history (`trial`, `kept`) and where the contact
+    /// slides. Default: the Coulomb cap — `f`, and `at_cap` where it slides, `kept` elsewhere.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn sliding_lanes<R: Real, const N: usize>(&self, dt: f64, f: Vec3<R>, at_cap: Vec3<R>, trial: Vec3<R>, kept: Vec3<R>, sliding: R::Mask) -> (Vec3<R>, Vec3<R>) {
+        let _ = (dt, trial);
+        (f, select3::<R>(sliding, at_cap, kept))
+    }
+}
+
+/// The registry of tangential laws: `module::Type` per law, the module a file
+/// `contact/tangential/<module>.rs` and its name the law's name in [`Tangential`]'s encoding
+/// (the snake case of `Type`). Generates the modules, [`Tangential`] (the variant
+/// [`Tangential::None`] first, then one per law in registry order: checkpoints encode the
+/// variant's index, so a new law is appended last) and its dispatch.
+macro_rules! tangential_laws {
+    ($($module:ident :: $Law:ident),* $(,)?) => {
+        $(
+            mod $module;
+            pub use $module::*;
+        )*
+
+        /// The tangential elastic law of a contact law: none (frictionless) or one of the
+        /// registered laws ([`TangentialLaw`]), encoded as the variant's name and the law's fields
+        /// (`"none"` for none).
+        #[derive(Clone, Copy, PartialEq, Serialize, Deserialize)]
+        #[serde(rename_all = "snake_case")]
+        pub enum Tangential {
+            /// No tangential force (frictionless).
+            None,
+            $(
+                #[doc = concat!("See [`", stringify!($Law), "`].")]
+                $Law($Law),
+            )*
+        }
+
+        impl Debug for Tangential {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                match self {
+                    Tangential::None => f.write_str("None"),
+                    $(Tangential::$Law(l) => Debug::fmt(l, f),)*
+                }
+            }
+        }
+
+        $(
+            impl From<$Law> for Tangential {
+                fn from(l: $Law) -> Self {
+                    Tangential::$Law(l)
+                }
+            }
+        )*
+
+        impl Tangential {
+            /// The names of the registered laws in the encoding, in registry order (after `none`).
+            pub const NAMES: &'static [&'static str] = &[$(stringify!($module)),*];
+
+            /// The name of this law in the encoding (`"none"` without a tangential part).
+            pub fn name(&self) -> &'static str {
+                match self {
+                    Tangential::None => "none",
+                    $(Tangential::$Law(_) => stringify!($module),)*
+                }
+            }
+
+            /// What the stored history holds; `None` without a tangential part.
+            #[inline]
+            pub fn history_kind(&self) -> Option<HistoryKind> {
+                match self {
+                    Tangential::None => None,
+                    $(Tangential::$Law(_) => Some(<$Law as TangentialLaw>::HISTORY),)*
+                }
+            }
+
+            /// Checks the law ([`TangentialLaw::validate`]); `field` is the contact law's key.
+            pub fn validate(&self, field: &str) -> Result<()> {
+                match self {
+                    Tangential::None => Ok(()),
+                    $(Tangential::$Law(l) => l.validate(field),)*
+                }
+            }
+
+            /// The elastic part of the tangential force on grain i held by the history `h`
+            /// (before the Coulomb cap, without damping): k_t s for the linear laws, the stored
+            /// force for Mindlin, zero without a tangential part.
+            #[inline]
+            pub fn elastic_force<V: VectorOps>(&self, h: TangentialHistory<V>) -> V {
+                match self {
+                    Tangential::None => V::ZERO,
+                    $(Tangential::$Law(l) => l.elastic_force(h.0),)*
+                }
+            }
+
+            /// [`Tangential::stiffness`] on every lane ([`TangentialLaw::stiffness_lanes`]; zero
+            /// without a tangential part): the one implementation, run by the general kernel
+            /// (`f64`) and the engine's vector paths.
+            #[inline(always)]
+            pub(crate) fn stiffness_lanes<R: Real>(&self, xi: R, r_eff: R) -> R {
+                match self {
+                    Tangential::None => R::splat(0.0),
+                    $(Tangential::$Law(l) => l.stiffness_lanes(xi, r_eff),)*
+                }
+            }
+
+            /// The increment of one step ([`TangentialLaw::trial_lanes`]); without a tangential
+            /// part the (zero) history is kept and there is no force.
+            #[inline(always)]
+            pub(crate) fn trial_lanes<R: Real, const N: usize>(&self, rotated: Vec3<R>, v_t: Vec3<R>, k_t: R, gamma_t: R, dt: f64) -> (Vec3<R>, Vec3<R>) {
+                match self {
+                    Tangential::None => ([R::splat(0.0); 3], rotated),
+                    $(Tangential::$Law(l) => l.trial_lanes::<R, N>(rotated, v_t, k_t, gamma_t, dt),)*
+                }
+            }
+
+            /// The history that holds exactly the force `f` ([`TangentialLaw::history_for_force_lanes`];
+            /// zero without a tangential part).
+            #[inline(always)]
+            pub(crate) fn history_for_force_lanes<R: Real, const N: usize>(&self, f: Vec3<R>) -> Vec3<R> {
+                match self {
+                    Tangential::None => [R::splat(0.0); 3],
+                    $(Tangential::$Law(l) => l.history_for_force_lanes::<R, N>(f),)*
+                }
+            }
+
+            /// The rotated history adjusted for the change of overlap ([`TangentialLaw::unloading_lanes`]).
+            #[inline(always)]
+            pub(crate) fn unloading_lanes<R: Real, const N: usize>(&self, rotated: Vec3<R>, was: R, overlap: R) -> Vec3<R> {
+                match self {
+                    Tangential::None => rotated,
+                    $(Tangential::$Law(l) => l.unloading_lanes::<R, N>(rotated, was, overlap),)*
+                }
+            }
+
+            /// The force and history of a step past the cap ([`TangentialLaw::sliding_lanes`]).
+            #[allow(clippy::too_many_arguments)]
+            #[inline(always)]
+            pub(crate) fn sliding_lanes<R: Real, const N: usize>(&self, dt: f64, f: Vec3<R>, at_cap: Vec3<R>, trial: Vec3<R>, kept: Vec3<R>, sliding: R::Mask) -> (Vec3<R>, Vec3<R>) {
+                match self {
+                    Tangential::None => (f, select3::<R>(sliding, at_cap, kept)),
+                    $(Tangential::$Law(l) => l.sliding_lanes::<R, N>(dt, f, at_cap, trial, kept, sliding),)*
+                }
+            }
+        }
+    };
+}
+
+tangential_laws! {
+    linear::Linear,
+    mindlin::Mindlin,
+    slip_activation::SlipActivation,
+}
+
 impl Tangential {
     /// The history `h` of a contact of this law, with its unit.
     #[inline]
     pub fn read<V: VectorOps>(&self, h: TangentialHistory<V>) -> HistoryValue<V> {
-        match self {
-            Tangential::None => HistoryValue::None,
-            Tangential::Linear { .. } | Tangential::SlipActivation { .. } => HistoryValue::Displacement(h.0),
-            Tangential::Mindlin { .. } => HistoryValue::Force(h.0),
+        match self.history_kind() {
+            None => HistoryValue::None,
+            Some(HistoryKind::Displacement) => HistoryValue::Displacement(h.0),
+            Some(HistoryKind::Force) => HistoryValue::Force(h.0),
         }
     }
 
@@ -77,18 +273,18 @@ impl Tangential {
     /// is of the other kind (a displacement given to the Mindlin law, a force to the linear
     /// law, or anything but [`HistoryValue::None`] to a law without a tangential part).
     pub fn history<V: VectorOps>(&self, value: HistoryValue<V>) -> Result<TangentialHistory<V>> {
-        match (self, value) {
-            (Tangential::None, HistoryValue::None) => Ok(TangentialHistory::ZERO),
-            (Tangential::Linear { .. } | Tangential::SlipActivation { .. }, HistoryValue::Displacement(s)) => Ok(TangentialHistory(s)),
-            (Tangential::Mindlin { .. }, HistoryValue::Force(f)) => Ok(TangentialHistory(f)),
-            (law, value) => {
-                let allowed = match law {
-                    Tangential::None => "none (the law has no tangential part)",
-                    Tangential::Linear { .. } | Tangential::SlipActivation { .. } => "a displacement (the linear law stores its spring elongation)",
-                    Tangential::Mindlin { .. } => "a force (the Mindlin law stores its elastic tangential force)",
+        match (self.history_kind(), value) {
+            (None, HistoryValue::None) => Ok(TangentialHistory::ZERO),
+            (Some(HistoryKind::Displacement), HistoryValue::Displacement(s)) => Ok(TangentialHistory(s)),
+            (Some(HistoryKind::Force), HistoryValue::Force(f)) => Ok(TangentialHistory(f)),
+            (kind, value) => {
+                let allowed = match kind {
+                    None => "none (the law has no tangential part)",
+                    Some(HistoryKind::Displacement) => "a displacement (the law stores its spring elongation)",
+                    Some(HistoryKind::Force) => "a force (the law stores its elastic tangential force)",
                 };
                 Err(CoreError::InvalidParameter {
-                    field: format!("tangential history of the {law:?} law"),
+                    field: format!("tangential history of the {self:?} law"),
                     value: format!("{value:?}"),
                     allowed: allowed.into(),
                 })
@@ -96,129 +292,10 @@ impl Tangential {
         }
     }
 
-    /// The elastic part of the tangential force on grain i held by the history `h` (before
-    /// the Coulomb cap, without damping): k_t s for the linear law, the stored force for
-    /// Mindlin, zero without a tangential part.
-    #[inline]
-    pub fn elastic_force<V: VectorOps>(&self, h: TangentialHistory<V>) -> V {
-        match *self {
-            Tangential::None => V::ZERO,
-            Tangential::Linear { stiffness } | Tangential::SlipActivation { stiffness, .. } => h.0 * stiffness,
-            Tangential::Mindlin { .. } => h.0,
-        }
-    }
-}
-
-/// Tangential elastic law.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Tangential {
-    /// No tangential force (frictionless).
-    None,
-    /// Linear spring on the tangential displacement s (Cundall–Strack): F_t = k_t s + γ_t v_t.
-    /// History: the spring s.
-    Linear {
-        /// k_t (force/length).
-        stiffness: f64,
-    },
-    /// Incremental Mindlin: ΔF_t = k_t(ξ) v_t Δt with k_t(ξ) = 8 G*_ij √(R* ξ).
-    /// History: the elastic tangential force.
-    Mindlin {
-        /// Effective shear modulus G*_ij (grain–grain: (1/G*_i + 1/G*_j)⁻¹; rigid wall: G*_i).
-        effective_shear_modulus: f64,
-        /// When the overlap decreases, rescale the stored force by k_t(new)/k_t(old)
-        /// (default off: the stored force is kept, as in the plain incremental law).
-        rescale_on_unloading: bool,
-    },
-    /// Linear spring with a slip-activation time τ (the E2 paper's proposed law, its Eq. 13):
-    /// the spring elongation D_t obeys
-    ///
-    /// Ḋ_t = v_t − Θ(|D_t| − D_tᶜ) (D_t − D_tᶜ)/τ,  D_tᶜ = μ F_n/K_t (along D_t),
-    ///
-    /// so a contact may hold more than μ F_n for a time of order τ: it slides at loading time
-    /// scales (≫ τ) and sticks at acoustic ones (≪ τ). τ → 0 is the Coulomb cap of
-    /// [`Tangential::Linear`]. Integrated by backward Euler over each step (unconditionally
-    /// stable, exact steady slide D_t = D_tᶜ + v_t τ). Its parameter, checks and step past the
-    /// cap are in `contact/tangential/slip_activation.rs` ([`SlipActivationParams`]). History: the
-    /// spring D_t (a length), as the linear law. (Appended last: the encoding of the other
-    /// variants, and so of every earlier checkpoint, is unchanged.)
-    SlipActivation {
-        /// K_t (force/length).
-        stiffness: f64,
-        /// τ (time), > 0.
-        activation_time: f64,
-    },
-}
-
-impl Tangential {
     /// Tangential stiffness at overlap `xi` for effective radius `r_eff`.
     #[inline]
     pub fn stiffness(&self, xi: f64, r_eff: f64) -> f64 {
         self.stiffness_lanes(xi, r_eff)
-    }
-
-    /// [`Tangential::stiffness`] on every lane: the one implementation, run by the general kernel
-    /// (`f64`) and the engine's vector paths.
-    #[inline(always)]
-    pub(crate) fn stiffness_lanes<R: Real>(&self, xi: R, r_eff: R) -> R {
-        match *self {
-            Tangential::None => R::splat(0.0),
-            Tangential::Linear { stiffness } | Tangential::SlipActivation { stiffness, .. } => R::splat(stiffness),
-            Tangential::Mindlin { effective_shear_modulus, .. } => R::splat(8.0 * effective_shear_modulus) * (r_eff * xi).sqrt(),
-        }
-    }
-
-    /// One step of the spring, on every lane, from the stored history already rotated into the
-    /// current tangent plane (`rotated`), the tangential velocity `v_t`, k_t, γ_t and the step
-    /// `dt`: the trial force on i (before the Coulomb cap) and the history to keep when the
-    /// contact does not slide. The history is law-specific:
-    ///
-    /// - `Linear` (Cundall–Strack) stores the spring elongation s (a length):
-    ///   s ← s + v_t Δt, trial F_t = k_t s + γ_t v_t;
-    /// - `Mindlin` stores the elastic tangential force (a force):
-    ///   F_el ← F_el + k_t v_t Δt, trial F_t = F_el + γ_t v_t;
-    /// - `None` keeps its (zero) history and gives no force.
-    ///
-    /// The one implementation of both laws' increments (general kernel and vector paths).
-    #[inline(always)]
-    pub(crate) fn trial_lanes<R: Real, const N: usize>(&self, rotated: Vec3<R>, v_t: Vec3<R>, k_t: R, gamma_t: R, dt: f64) -> (Vec3<R>, Vec3<R>) {
-        let zero = R::splat(0.0);
-        let (mut kept, mut trial) = ([zero; 3], [zero; 3]);
-        match *self {
-            Tangential::None => kept = rotated,
-            Tangential::Linear { .. } | Tangential::SlipActivation { .. } => {
-                for c in 0..N {
-                    kept[c] = rotated[c] + v_t[c] * R::splat(dt);
-                    trial[c] = kept[c] * k_t + v_t[c] * gamma_t;
-                }
-            }
-            Tangential::Mindlin { .. } => {
-                let kdt = k_t * R::splat(dt);
-                for c in 0..N {
-                    kept[c] = rotated[c] + v_t[c] * kdt;
-                    trial[c] = kept[c] + v_t[c] * gamma_t;
-                }
-            }
-        }
-        (trial, kept)
-    }
-
-    /// The history that holds exactly the tangential force `f` (kept when the contact slides,
-    /// so that the spring is reset to the Coulomb cap): s = F_t/k_t for the linear law, F_t
-    /// itself for Mindlin (zero for `None`).
-    #[inline(always)]
-    pub(crate) fn history_for_force_lanes<R: Real, const N: usize>(&self, f: Vec3<R>) -> Vec3<R> {
-        let mut h = [R::splat(0.0); 3];
-        match *self {
-            Tangential::None => {}
-            Tangential::Linear { stiffness } | Tangential::SlipActivation { stiffness, .. } => {
-                for c in 0..N {
-                    h[c] = f[c] / R::splat(stiffness);
-                }
-            }
-            Tangential::Mindlin { .. } => h = f,
-        }
-        h
     }
 }
 
@@ -294,12 +371,8 @@ pub(crate) fn spring_step<R: Real, const N: usize>(
         return (f, kept, sliding);
     }
     let at_cap = law.history_for_force_lanes::<R, N>(f);
-    if let Tangential::SlipActivation { activation_time, .. } = *law {
-        let (force, history) = slip_activation::relax_lanes::<R, N>(activation_time, dt, f, at_cap, trial, kept, sliding);
-        return (force, history, sliding);
-    }
-    let history = select3::<R>(sliding, at_cap, kept);
-    (f, history, sliding)
+    let (force, history) = law.sliding_lanes::<R, N>(dt, f, at_cap, trial, kept, sliding);
+    (force, history, sliding)
 }
 
 #[cfg(test)]
@@ -314,8 +387,8 @@ mod tests {
     #[test]
     fn the_history_is_read_and_made_through_its_law() {
         let v = DVec3::new(1e-4, -2e-4, 0.5e-4);
-        let linear = Tangential::Linear { stiffness: 3e4 };
-        let mindlin = Tangential::Mindlin { effective_shear_modulus: 1e6, rescale_on_unloading: false };
+        let linear = Tangential::from(Linear { stiffness: 3e4 });
+        let mindlin = Tangential::from(Mindlin { effective_shear_modulus: 1e6, rescale_on_unloading: false });
         let s = linear.history(HistoryValue::Displacement(v)).unwrap();
         assert_eq!(linear.read(s), HistoryValue::Displacement(v));
         assert_eq!(linear.elastic_force(s), v * 3e4);
@@ -372,6 +445,47 @@ mod tests {
                 HistoryValue::None => panic!("{name} has a tangential part"),
             }
         }
+    }
+
+    /// Each registered law's name in the encoding is its module's (the registry's) and the
+    /// encoding of every law — bincode (checkpoints) and JSON (outputs) — is that of the enum
+    /// of struct variants it replaced, variant indices included, so every earlier checkpoint
+    /// and output reads the same; `Debug` prints the law as before.
+    #[test]
+    fn the_registry_keeps_the_names_and_the_encoding_of_every_law() {
+        #[derive(Serialize, Debug)]
+        #[serde(rename_all = "snake_case")]
+        enum Before {
+            None,
+            Linear { stiffness: f64 },
+            Mindlin { effective_shear_modulus: f64, rescale_on_unloading: bool },
+            SlipActivation { stiffness: f64, activation_time: f64 },
+        }
+        let pairs = [
+            (Tangential::None, Before::None),
+            (Linear { stiffness: 3e4 }.into(), Before::Linear { stiffness: 3e4 }),
+            (
+                Mindlin { effective_shear_modulus: 1e6, rescale_on_unloading: true }.into(),
+                Before::Mindlin { effective_shear_modulus: 1e6, rescale_on_unloading: true },
+            ),
+            (SlipActivation { stiffness: 2.0, activation_time: 0.25 }.into(), Before::SlipActivation { stiffness: 2.0, activation_time: 0.25 }),
+        ];
+        assert_eq!(pairs.len(), Tangential::NAMES.len() + 1);
+        for (i, (law, before)) in pairs.iter().enumerate() {
+            let bytes = bincode::serialize(before).unwrap();
+            assert_eq!(bincode::serialize(law).unwrap(), bytes, "{law:?}");
+            assert_eq!(bincode::deserialize::<Tangential>(&bytes).unwrap(), *law);
+            let json = serde_json::to_string(before).unwrap();
+            assert_eq!(serde_json::to_string(law).unwrap(), json);
+            assert_eq!(serde_json::from_str::<Tangential>(&json).unwrap(), *law);
+            assert_eq!(format!("{law:?}"), format!("{before:?}"));
+            if i > 0 {
+                assert_eq!(law.name(), Tangential::NAMES[i - 1]);
+                assert!(json.starts_with(&format!("{{\"{}\"", law.name())), "{json}");
+            }
+        }
+        assert_eq!(Tangential::None.name(), "none");
+        assert_eq!(serde_json::to_string(&Tangential::None).unwrap(), "\"none\"");
     }
 
     /// The stored history is encoded as the bare vector, so checkpoints written before it was

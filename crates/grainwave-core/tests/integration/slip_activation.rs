@@ -52,7 +52,7 @@ fn constant_slip_relaxes_to_the_coulomb_length_plus_v_tau() {
     for tau in [1e-2, 3e-3] {
         let h = dt / tau;
         let l = law(mu, Some(tau));
-        assert!(matches!(l.tangential, Tangential::SlipActivation { .. }));
+        assert!(matches!(l.tangential, Tangential::SlipActivation(_)));
         assert!(matches!(l.specialize(), Specialized::HookeSlipActivation(_)));
         let steps = (t0 / dt) as usize + (60.0 * tau / dt) as usize;
         let t = DVec3::new(0.0, 0.6, -0.8);
@@ -101,7 +101,7 @@ fn constant_slip_relaxes_to_the_coulomb_length_plus_v_tau() {
 #[test]
 fn tau_zero_is_the_coulomb_cap_and_bad_values_are_refused() {
     assert_eq!(law(0.4, Some(0.0)), law(0.4, None));
-    assert!(matches!(law(0.4, None).tangential, Tangential::Linear { .. }));
+    assert!(matches!(law(0.4, None).tangential, Tangential::Linear(_)));
     let (dt, v) = (1e-4, 1e-2);
     let cap = 0.4 * 1.0e4 * 1e-3;
     let tiny = law(0.4, Some(1e-12 * dt));

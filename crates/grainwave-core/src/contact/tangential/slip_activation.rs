@@ -1,20 +1,85 @@
-//! The slip-activation law ([`Tangential::SlipActivation`]): a linear tangential spring whose
-//! excess over the Coulomb length relaxes in a time τ instead of being cut at once (the E2
-//! paper's Eq. 13). Its parameter (τ, with its checks), the validation of a law made in code
-//! and its step past the Coulomb cap are here; the history (the spring elongation D_t, a
-//! length) and the increment are the linear law's (`contact/tangential.rs`).
+//! The slip-activation law ([`SlipActivation`]): a linear tangential spring whose excess over
+//! the Coulomb length relaxes in a time τ instead of being cut at once (the E2 paper's Eq. 13).
+//! The law, its parameter (τ, with its checks), the validation of a law made in code and its
+//! step past the Coulomb cap are here; the history (the spring elongation D_t, a length) and
+//! the increment are the linear law's (`contact/tangential/linear.rs`).
 //!
 //! The law: with D_tᶜ = μ F_n/K_t along D_t,
 //!
 //! Ḋ_t = v_t − Θ(|D_t| − D_tᶜ) (D_t − D_tᶜ)/τ,
 //!
 //! so a contact may hold more than μ F_n for a time of order τ: it slides at loading time scales
-//! (≫ τ) and sticks at acoustic ones (≪ τ); τ → 0 is the Coulomb cap of [`Tangential::Linear`].
+//! (≫ τ) and sticks at acoustic ones (≪ τ); τ → 0 is the Coulomb cap of [`Linear`].
 
-use super::Tangential;
+use super::linear::{spring_for_force_lanes, spring_trial_lanes};
+use super::{HistoryKind, Linear, Tangential, TangentialLaw};
+use crate::dim::VectorOps;
 use crate::error::{require_positive, CoreError, Result};
 use crate::real::{select3, Real, Vec3};
 use serde::{Deserialize, Serialize};
+
+/// Linear spring with a slip-activation time τ (the E2 paper's proposed law, its Eq. 13): the
+/// spring elongation D_t obeys
+///
+/// Ḋ_t = v_t − Θ(|D_t| − D_tᶜ) (D_t − D_tᶜ)/τ,  D_tᶜ = μ F_n/K_t (along D_t),
+///
+/// so a contact may hold more than μ F_n for a time of order τ: it slides at loading time
+/// scales (≫ τ) and sticks at acoustic ones (≪ τ). τ → 0 is the Coulomb cap of [`Linear`].
+/// Integrated by backward Euler over each step (unconditionally stable, exact steady slide
+/// D_t = D_tᶜ + v_t τ). History: the spring D_t (a length), as the linear law.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct SlipActivation {
+    /// K_t (force/length).
+    pub stiffness: f64,
+    /// τ (time), > 0.
+    pub activation_time: f64,
+}
+
+impl TangentialLaw for SlipActivation {
+    const HISTORY: HistoryKind = HistoryKind::Displacement;
+
+    /// K_t > 0 and finite τ > 0 (a law with τ = 0 is the linear law and is written as one).
+    fn validate(&self, field: &str) -> Result<()> {
+        require_positive(&format!("{field}.tangential_stiffness"), self.stiffness)?;
+        if !(self.activation_time > 0.0 && self.activation_time.is_finite()) {
+            return Err(CoreError::invalid(
+                format!("{field}.slip_activation_time"),
+                self.activation_time,
+                "a finite time τ > 0 (0 is the Coulomb cap: leave the key out or set 0)",
+            ));
+        }
+        Ok(())
+    }
+
+    #[inline(always)]
+    fn stiffness_lanes<R: Real>(&self, _xi: R, _r_eff: R) -> R {
+        R::splat(self.stiffness)
+    }
+
+    #[inline]
+    fn elastic_force<V: VectorOps>(&self, h: V) -> V {
+        h * self.stiffness
+    }
+
+    /// The linear law's: D_t ← D_t + v_t Δt, trial F_t = K_t D_t + γ_t v_t.
+    #[inline(always)]
+    fn trial_lanes<R: Real, const N: usize>(&self, rotated: Vec3<R>, v_t: Vec3<R>, k_t: R, gamma_t: R, dt: f64) -> (Vec3<R>, Vec3<R>) {
+        spring_trial_lanes::<R, N>(rotated, v_t, k_t, gamma_t, dt)
+    }
+
+    /// D_t = F_t/K_t.
+    #[inline(always)]
+    fn history_for_force_lanes<R: Real, const N: usize>(&self, f: Vec3<R>) -> Vec3<R> {
+        spring_for_force_lanes::<R, N>(self.stiffness, f)
+    }
+
+    /// The excess over the cap relaxed by τ/(τ + Δt) ([`relax_lanes`]).
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn sliding_lanes<R: Real, const N: usize>(&self, dt: f64, f: Vec3<R>, at_cap: Vec3<R>, trial: Vec3<R>, kept: Vec3<R>, sliding: R::Mask) -> (Vec3<R>, Vec3<R>) {
+        relax_lanes::<R, N>(self.activation_time, dt, f, at_cap, trial, kept, sliding)
+    }
+}
 
 /// The slip-activation parameter as a config gives it: the key `slip_activation_time`, τ
 /// [time], ≥ 0, absent or 0 for the Coulomb cap (the plain linear law, bit for bit). Read from
@@ -47,24 +112,10 @@ impl SlipActivationParams {
     /// [`SlipActivationParams::activation_time`].
     pub fn build(&self, stiffness: f64, key: &str) -> Result<Tangential> {
         Ok(match self.activation_time(key)? {
-            None => Tangential::Linear { stiffness },
-            Some(activation_time) => Tangential::SlipActivation { stiffness, activation_time },
+            None => Linear { stiffness }.into(),
+            Some(activation_time) => SlipActivation { stiffness, activation_time }.into(),
         })
     }
-}
-
-/// Checks a slip-activation law (also one made in code): K_t > 0 and finite τ > 0 (a law with
-/// τ = 0 is the linear law and is written as one). `field` is the contact law's key.
-pub(crate) fn validate(stiffness: f64, activation_time: f64, field: &str) -> Result<()> {
-    require_positive(&format!("{field}.tangential_stiffness"), stiffness)?;
-    if !(activation_time > 0.0 && activation_time.is_finite()) {
-        return Err(CoreError::invalid(
-            format!("{field}.slip_activation_time"),
-            activation_time,
-            "a finite time τ > 0 (0 is the Coulomb cap: leave the key out or set 0)",
-        ));
-    }
-    Ok(())
 }
 
 /// The step of a sliding contact, on every lane, by backward Euler over the step `dt`: with
@@ -109,19 +160,20 @@ mod tests {
     fn params_build_the_law_or_name_the_key() {
         let p = |t| SlipActivationParams { slip_activation_time: t };
         let key = "contact.tangential.slip_activation_time";
-        assert_eq!(p(None).build(3.0, key).unwrap(), Tangential::Linear { stiffness: 3.0 });
-        assert_eq!(p(Some(0.0)).build(3.0, key).unwrap(), Tangential::Linear { stiffness: 3.0 });
-        assert_eq!(p(Some(0.25)).build(3.0, key).unwrap(), Tangential::SlipActivation { stiffness: 3.0, activation_time: 0.25 });
+        assert_eq!(p(None).build(3.0, key).unwrap(), Tangential::Linear(Linear { stiffness: 3.0 }));
+        assert_eq!(p(Some(0.0)).build(3.0, key).unwrap(), Tangential::Linear(Linear { stiffness: 3.0 }));
+        assert_eq!(p(Some(0.25)).build(3.0, key).unwrap(), Tangential::SlipActivation(SlipActivation { stiffness: 3.0, activation_time: 0.25 }));
         for bad in [-1.0, f64::INFINITY, f64::NAN] {
             let e = p(Some(bad)).build(3.0, key).unwrap_err().to_string();
             assert!(e.contains(key) && e.contains("τ ≥ 0"), "{e}");
         }
         let e = serde_json::from_str::<SlipActivationParams>(r#"{"slip_activation_tme": 1.0}"#).unwrap_err().to_string();
         assert!(e.contains("slip_activation_tme"), "{e}");
-        assert!(validate(3.0, 0.25, "contact").is_ok());
-        let e = validate(3.0, 0.0, "contact").unwrap_err().to_string();
+        let law = |stiffness, activation_time| SlipActivation { stiffness, activation_time };
+        assert!(law(3.0, 0.25).validate("contact").is_ok());
+        let e = law(3.0, 0.0).validate("contact").unwrap_err().to_string();
         assert!(e.contains("contact.slip_activation_time") && e.contains("τ > 0"), "{e}");
-        assert!(validate(0.0, 0.25, "contact").unwrap_err().to_string().contains("contact.tangential_stiffness"));
+        assert!(law(0.0, 0.25).validate("contact").unwrap_err().to_string().contains("contact.tangential_stiffness"));
     }
 
     /// One sliding step against the closed form: excess x_new = τ/(τ + Δt) x_trial, on the
