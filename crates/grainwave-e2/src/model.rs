@@ -9,8 +9,11 @@
 //! acoustic time t_a = L*/v_a.
 
 use super::config::{MaterialConfig, PackingConfig, PreparationConfig, PulseShape};
+use grainwave_core::contact::damping::normal;
+use grainwave_core::contact::damping::tangential::FractionOfNormal;
+use grainwave_core::contact::rolling::SpringDashpot;
 use grainwave_core::contact::tangential::{Linear, SlipActivation};
-use grainwave_core::contact::{critical_fraction_for_restitution, Hooke, NormalDamping};
+use grainwave_core::contact::{critical_fraction_for_restitution, Hooke};
 use grainwave_core::prelude::*;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -100,7 +103,7 @@ pub fn grain_law(m: &MaterialConfig, friction: f64, acoustic_time: f64) -> Conta
     let activation_time = m.slip_activation_time * acoustic_time;
     ContactLaw {
         normal: NormalElastic::Hooke(Hooke { stiffness: m.normal_stiffness }),
-        damping: NormalDamping::CriticalFraction { zeta },
+        damping: normal::CriticalFraction { zeta }.into(),
         tangential: if friction <= 0.0 {
             Tangential::None
         } else if activation_time > 0.0 {
@@ -108,10 +111,10 @@ pub fn grain_law(m: &MaterialConfig, friction: f64, acoustic_time: f64) -> Conta
         } else {
             Linear { stiffness }.into()
         },
-        tangential_damping: TangentialDamping::FractionOfNormal { ratio: m.tangential_damping_ratio },
+        tangential_damping: FractionOfNormal { ratio: m.tangential_damping_ratio }.into(),
         friction,
         rolling: if m.rolling_stiffness > 0.0 {
-            Rolling::SpringDashpot { stiffness: m.rolling_stiffness * m.normal_stiffness, damping: 0.0, friction: m.rolling_friction }
+            SpringDashpot { stiffness: m.rolling_stiffness * m.normal_stiffness, damping: 0.0, friction: m.rolling_friction }.into()
         } else {
             Rolling::None
         },
@@ -133,7 +136,7 @@ pub fn wall_law(m: &MaterialConfig) -> ContactLaw {
 pub fn absorbing_wall_law(m: &MaterialConfig, grains: usize, mean_mass: f64) -> ContactLaw {
     ContactLaw {
         normal: NormalElastic::Hooke(Hooke { stiffness: m.normal_stiffness / (grains as f64).sqrt() }),
-        damping: NormalDamping::Dashpot { coefficient: m.absorbing_damping * (mean_mass * m.normal_stiffness).sqrt() },
+        damping: normal::Dashpot { coefficient: m.absorbing_damping * (mean_mass * m.normal_stiffness).sqrt() }.into(),
         tangential: Tangential::None,
         tangential_damping: TangentialDamping::None,
         friction: 0.0,

@@ -25,8 +25,10 @@
 use super::config::{IntegrationConfig, IntegratorName, MaterialConfig, RowLayout};
 use grainwave_study::Result;
 use glam::DVec2;
+use grainwave_core::contact::damping::normal::Dashpot;
+use grainwave_core::contact::damping::tangential::Coefficient;
 use grainwave_core::contact::tangential::Linear;
-use grainwave_core::contact::{ContactLaw, Hooke, NormalDamping, NormalElastic, Rolling, Tangential, TangentialDamping, Twisting};
+use grainwave_core::contact::{ContactLaw, Hooke, NormalElastic, Rolling, Tangential, TangentialDamping, Twisting};
 use grainwave_core::prelude::*;
 use grainwave_core::sim::Safety;
 use rand::SeedableRng;
@@ -195,9 +197,9 @@ impl Material {
         let frictional = friction > 0.0;
         ContactLaw {
             normal: NormalElastic::Hooke(Hooke { stiffness: k }),
-            damping: NormalDamping::Dashpot { coefficient: gamma_n },
+            damping: Dashpot { coefficient: gamma_n }.into(),
             tangential: if frictional { Tangential::Linear(Linear { stiffness: ratio * k }) } else { Tangential::None },
-            tangential_damping: if frictional { TangentialDamping::Coefficient { coefficient: gamma_t } } else { TangentialDamping::None },
+            tangential_damping: if frictional { Coefficient { coefficient: gamma_t }.into() } else { TangentialDamping::None },
             friction,
             rolling: Rolling::None,
             twisting: Twisting::None,

@@ -505,11 +505,11 @@ fn resistance(rolling: &Rolling, twisting: &Twisting, include: bool) -> (f64, f6
     }
     let r = match rolling {
         Rolling::None => 0.0,
-        Rolling::SpringDashpot { stiffness, .. } => *stiffness,
+        Rolling::SpringDashpot(l) => l.stiffness,
     };
     let t = match twisting {
         Twisting::None => 0.0,
-        Twisting::SpringDashpot { stiffness, .. } => *stiffness,
+        Twisting::SpringDashpot(l) => l.stiffness,
     };
     (r, t)
 }

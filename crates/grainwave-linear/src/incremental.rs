@@ -323,7 +323,7 @@ impl<D: Dim> IncrementalPropagator<D> {
                 }
             }
             if options.rolling_cap {
-                if let Rolling::SpringDashpot { friction: mu_r, .. } = law.rolling {
+                if let Rolling::SpringDashpot(grainwave_core::contact::rolling::SpringDashpot { friction: mu_r, .. }) = law.rolling {
                     let r_eff = match c.j {
                         Partner::Grain(j) => radii[c.i] * radii[j] / (radii[c.i] + radii[j]),
                         Partner::Wall(_) => radii[c.i],
@@ -339,7 +339,7 @@ impl<D: Dim> IncrementalPropagator<D> {
             }
             if options.wall_damping {
                 if let Partner::Wall(w) = c.j {
-                    if let NormalDamping::Dashpot { coefficient } = snapshot.domain.walls[w as usize].law.damping {
+                    if let NormalDamping::Dashpot(grainwave_core::contact::damping::normal::Dashpot { coefficient }) = snapshot.domain.walls[w as usize].law.damping {
                         let is_piston = piston.is_some_and(|(pc, _)| pc.wall == w);
                         if !is_piston {
                             lim.gamma = coefficient;

@@ -9,39 +9,121 @@ use crate::real::Real;
 pub(crate) fn clamped_normal_force_lanes<R: Real>(f_el: R, gamma_n: R, v_n: R) -> R {
     (f_el - gamma_n * v_n).max_zero()
 }
-use serde::{Deserialize, Serialize};
+use crate::error::Result;
+use serde::de::DeserializeOwned;
+use serde::Serialize;
 use std::f64::consts::PI;
+use std::fmt::Debug;
 
-/// Normal viscous damping: a force γ_n |v_n| opposing the relative normal velocity.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum NormalDamping {
-    /// No damping.
-    None,
-    /// Constant coefficient γ_n (force/velocity).
-    Dashpot {
-        /// γ_n.
-        coefficient: f64,
-    },
-    /// γ_n = ζ · 2 √(m* k_n(ξ)) at every instant, with k_n the current differential stiffness.
-    CriticalFraction {
-        /// ζ (dimensionless).
-        zeta: f64,
-    },
-    /// γ_n = rate × m*: a dashpot proportional to the effective mass. This is the damping of
-    /// LAMMPS's `gran/hooke/history` (its `gamma_n`, in 1/time, multiplies m*).
-    MassProportional {
-        /// γ_n / m* (1/time).
-        rate: f64,
-    },
-    /// Tsuji, Tanaka & Ishida (1992): γ_n = α √(m* k̄) with k̄ = F_el/ξ the secant stiffness of
-    /// the normal law (Hooke: k_n; Hertz: (4/3) E*_ij √(R* ξ), so γ_n ∝ ξ^¼). α follows from a
-    /// restitution coefficient through [`tsuji_alpha`]. This is LAMMPS's `damping tsuji`.
-    Tsuji {
-        /// α (dimensionless).
-        alpha: f64,
-    },
+/// A normal damping law: the coefficient γ_n of the dashpot −γ_n v_n that acts while the grains
+/// approach, from the pair's effective mass m*, the normal law's differential stiffness k_n and
+/// its secant stiffness F_el/ξ. Register it in the list of `contact/damping/normal.rs`.
+pub trait NormalDampingLaw: Copy + Debug + PartialEq + Serialize + DeserializeOwned + Send + Sync + 'static {
+    /// Checks the law (also one made in code); errors name `{field}.<key>`, the value and what
+    /// is allowed.
+    fn validate(&self, field: &str) -> Result<()>;
+    /// γ_n on every lane: the one implementation, run by the general kernel (`f64`) and the
+    /// engine's vector paths.
+    fn coefficient_lanes<R: Real>(&self, m_eff: R, k_n: R, secant: R) -> R;
 }
+
+/// A tangential damping law: the coefficient γ_t of the tangential dashpot γ_t v_t, from the
+/// pair's effective mass m*, the tangential stiffness k_t and the normal coefficient γ_n.
+/// Register it in the list of `contact/damping/tangential.rs`.
+pub trait TangentialDampingLaw: Copy + Debug + PartialEq + Serialize + DeserializeOwned + Send + Sync + 'static {
+    /// Checks the law (also one made in code); errors name `{field}.<key>`, the value and what
+    /// is allowed.
+    fn validate(&self, field: &str) -> Result<()>;
+    /// γ_t on every lane: the one implementation, run by the general kernel (`f64`) and the
+    /// engine's vector paths.
+    fn coefficient_lanes<R: Real>(&self, m_eff: R, k_t: R, gamma_n: R) -> R;
+}
+
+/// The registry of a damping family: `module::Type` per law, the module a file
+/// `contact/damping/<family>/<module>.rs` and its name the law's name in the encoding (the snake
+/// case of `Type`). Generates the modules, the family's enum (the variant `None` first, then one
+/// per law in registry order: checkpoints encode the variant's index, so a new law is appended
+/// last) and its dispatch: the enum implements the family's trait, so a contact law's own
+/// dampers (the pair of enums) and a preset's (a pair of law types, `sim::lanes`) run the same
+/// code.
+macro_rules! damping_laws {
+    ($(#[$doc:meta])* $Enum:ident: $Trait:ident { $($module:ident :: $Law:ident),* $(,)? }) => {
+        use crate::error::Result;
+        use crate::real::Real;
+        use serde::{Deserialize, Serialize};
+        use std::fmt::Debug;
+
+        $(
+            mod $module;
+            pub use $module::$Law;
+        )*
+
+        $(#[$doc])*
+        #[derive(Clone, Copy, PartialEq, Serialize, Deserialize)]
+        #[serde(rename_all = "snake_case")]
+        pub enum $Enum {
+            /// No damping.
+            None,
+            $(
+                #[doc = concat!("See [`", stringify!($Law), "`].")]
+                $Law($Law),
+            )*
+        }
+
+        impl Debug for $Enum {
+            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+                match self {
+                    $Enum::None => f.write_str("None"),
+                    $($Enum::$Law(l) => Debug::fmt(l, f),)*
+                }
+            }
+        }
+
+        $(
+            impl From<$Law> for $Enum {
+                fn from(l: $Law) -> Self {
+                    $Enum::$Law(l)
+                }
+            }
+        )*
+
+        impl $Enum {
+            /// The names of the registered laws in the encoding, in registry order (after `none`).
+            pub const NAMES: &'static [&'static str] = &[$(stringify!($module)),*];
+
+            /// The name of this law in the encoding (`"none"` without damping).
+            pub fn name(&self) -> &'static str {
+                match self {
+                    $Enum::None => "none",
+                    $($Enum::$Law(_) => stringify!($module),)*
+                }
+            }
+        }
+
+        impl $Trait for $Enum {
+            fn validate(&self, field: &str) -> Result<()> {
+                match self {
+                    $Enum::None => Ok(()),
+                    $($Enum::$Law(l) => l.validate(field),)*
+                }
+            }
+
+            #[inline(always)]
+            fn coefficient_lanes<R: Real>(&self, m_eff: R, k: R, c: R) -> R {
+                match self {
+                    $Enum::None => R::splat(0.0),
+                    $($Enum::$Law(l) => l.coefficient_lanes(m_eff, k, c),)*
+                }
+            }
+        }
+    };
+}
+
+pub mod normal;
+pub mod tangential;
+
+pub use normal::NormalDamping;
+pub use tangential::TangentialDamping;
 
 impl NormalDamping {
     /// γ_n for a pair of effective mass `m_eff`, current differential normal stiffness `k_n`
@@ -51,23 +133,18 @@ impl NormalDamping {
         self.coefficient_lanes(m_eff, k_n, k_secant)
     }
 
-    /// [`NormalDamping::coefficient`] on every lane: the one implementation, run by the general
-    /// kernel (`f64`) and the engine's vector paths.
-    #[inline(always)]
-    pub(crate) fn coefficient_lanes<R: Real>(&self, m_eff: R, k_n: R, k_secant: R) -> R {
-        match *self {
-            NormalDamping::None => R::splat(0.0),
-            NormalDamping::Dashpot { coefficient } => R::splat(coefficient),
-            NormalDamping::CriticalFraction { zeta } => R::splat(zeta * 2.0) * (m_eff * k_n).sqrt(),
-            NormalDamping::MassProportional { rate } => R::splat(rate) * m_eff,
-            NormalDamping::Tsuji { alpha } => R::splat(alpha) * (m_eff * k_secant).sqrt(),
-        }
-    }
-
     /// Damping for a linear (Hooke) contact that gives restitution coefficient `e`, exactly, for
     /// the contact law as it is integrated (normal force clamped at zero).
     pub fn from_restitution(e: f64) -> Option<Self> {
-        critical_fraction_for_restitution(e).map(|zeta| NormalDamping::CriticalFraction { zeta })
+        critical_fraction_for_restitution(e).map(|zeta| normal::CriticalFraction { zeta }.into())
+    }
+}
+
+impl TangentialDamping {
+    /// γ_t for effective mass `m_eff`, tangential stiffness `k_t` and normal coefficient `gamma_n`.
+    #[inline]
+    pub fn coefficient(&self, m_eff: f64, k_t: f64, gamma_n: f64) -> f64 {
+        self.coefficient_lanes(m_eff, k_t, gamma_n)
     }
 }
 
@@ -156,9 +233,10 @@ pub fn critical_fraction_for_restitution(e: f64) -> Option<f64> {
     Some(0.5 * (lo + hi))
 }
 
-/// Normal and tangential damping coefficients γ_n, γ_t of a law: its own damping parts (the pair
-/// `(NormalDamping, TangentialDamping)`, which matches on them at every contact), or the same
-/// formulas resolved at compile time for the presets' combinations (`sim::lanes`).
+/// Normal and tangential damping coefficients γ_n, γ_t of a law: a pair of damping laws — its own
+/// damping parts (the pair `(NormalDamping, TangentialDamping)`, which matches on them at every
+/// contact), or a pair of law types, the same formulas resolved at compile time for the
+/// presets' combinations (`sim::lanes`).
 pub(crate) trait Dampers: Copy {
     /// γ_n from m*, k_n and the secant stiffness (as `NormalDamping::coefficient`).
     fn normal<R: Real>(&self, m_eff: R, k_n: R, secant: R) -> R;
@@ -166,7 +244,7 @@ pub(crate) trait Dampers: Copy {
     fn tangential<R: Real>(&self, m_eff: R, k_t: R, gamma_n: R) -> R;
 }
 
-impl Dampers for (NormalDamping, super::TangentialDamping) {
+impl<N: NormalDampingLaw, T: TangentialDampingLaw> Dampers for (N, T) {
     #[inline(always)]
     fn normal<R: Real>(&self, m_eff: R, k_n: R, secant: R) -> R {
         self.0.coefficient_lanes(m_eff, k_n, secant)
@@ -180,6 +258,89 @@ impl Dampers for (NormalDamping, super::TangentialDamping) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Each family's registered laws keep the encoding — bincode (checkpoints) and JSON
+    /// (outputs) — and the `Debug` text of the enums of struct variants they replaced, variant
+    /// indices included; each law's name is its module's.
+    #[test]
+    fn the_registries_keep_the_names_and_the_encoding_of_every_law() {
+        #[derive(Serialize, Debug)]
+        #[serde(rename_all = "snake_case")]
+        enum NormalBefore {
+            None,
+            Dashpot { coefficient: f64 },
+            CriticalFraction { zeta: f64 },
+            MassProportional { rate: f64 },
+            Tsuji { alpha: f64 },
+        }
+        #[derive(Serialize, Debug)]
+        #[serde(rename_all = "snake_case")]
+        enum TangentialBefore {
+            None,
+            Coefficient { coefficient: f64 },
+            FractionOfNormal { ratio: f64 },
+            CriticalFraction { zeta: f64 },
+            MassProportional { rate: f64 },
+        }
+        fn same<L: Serialize + serde::de::DeserializeOwned + Debug + PartialEq, B: Serialize + Debug>(law: L, before: B, name: &str) {
+            let bytes = bincode::serialize(&before).unwrap();
+            assert_eq!(bincode::serialize(&law).unwrap(), bytes, "{law:?}");
+            assert_eq!(bincode::deserialize::<L>(&bytes).unwrap(), law);
+            let json = serde_json::to_string(&before).unwrap();
+            assert_eq!(serde_json::to_string(&law).unwrap(), json);
+            assert_eq!(serde_json::from_str::<L>(&json).unwrap(), law);
+            assert_eq!(format!("{law:?}"), format!("{before:?}"));
+            assert!(json.starts_with(&format!("{{\"{name}\"")) || json == format!("\"{name}\""), "{json}");
+        }
+        let n = [
+            (NormalDamping::None, NormalBefore::None),
+            (normal::Dashpot { coefficient: 0.5 }.into(), NormalBefore::Dashpot { coefficient: 0.5 }),
+            (normal::CriticalFraction { zeta: 0.1 }.into(), NormalBefore::CriticalFraction { zeta: 0.1 }),
+            (normal::MassProportional { rate: 3.0 }.into(), NormalBefore::MassProportional { rate: 3.0 }),
+            (normal::Tsuji { alpha: 0.7 }.into(), NormalBefore::Tsuji { alpha: 0.7 }),
+        ];
+        assert_eq!(n.len(), NormalDamping::NAMES.len() + 1);
+        for (law, before) in n {
+            same(law, before, law.name());
+        }
+        let t = [
+            (TangentialDamping::None, TangentialBefore::None),
+            (tangential::Coefficient { coefficient: 0.5 }.into(), TangentialBefore::Coefficient { coefficient: 0.5 }),
+            (tangential::FractionOfNormal { ratio: 0.5 }.into(), TangentialBefore::FractionOfNormal { ratio: 0.5 }),
+            (tangential::CriticalFraction { zeta: 0.1 }.into(), TangentialBefore::CriticalFraction { zeta: 0.1 }),
+            (tangential::MassProportional { rate: 3.0 }.into(), TangentialBefore::MassProportional { rate: 3.0 }),
+        ];
+        assert_eq!(t.len(), TangentialDamping::NAMES.len() + 1);
+        for (law, before) in t {
+            same(law, before, law.name());
+        }
+    }
+
+    /// Each law's coefficient against its formula, and the pair of law types (a preset's
+    /// dampers) giving the bits of the pair of enums (a contact law's own).
+    #[test]
+    fn each_damping_law_gives_its_formula_and_the_typed_pair_the_same_bits() {
+        let (m, k, s, g) = (0.7, 1.3e4, 0.9e4, 2.5);
+        assert_eq!(NormalDamping::None.coefficient(m, k, s), 0.0);
+        assert_eq!(NormalDamping::from(normal::Dashpot { coefficient: 0.5 }).coefficient(m, k, s), 0.5);
+        assert_eq!(NormalDamping::from(normal::CriticalFraction { zeta: 0.1 }).coefficient(m, k, s), 0.2 * (m * k).sqrt());
+        assert_eq!(NormalDamping::from(normal::MassProportional { rate: 3.0 }).coefficient(m, k, s), 3.0 * m);
+        assert_eq!(NormalDamping::from(normal::Tsuji { alpha: 0.7 }).coefficient(m, k, s), 0.7 * (m * s).sqrt());
+        assert_eq!(TangentialDamping::None.coefficient(m, k, g), 0.0);
+        assert_eq!(TangentialDamping::from(tangential::Coefficient { coefficient: 0.5 }).coefficient(m, k, g), 0.5);
+        assert_eq!(TangentialDamping::from(tangential::FractionOfNormal { ratio: 0.5 }).coefficient(m, k, g), 0.5 * g);
+        assert_eq!(TangentialDamping::from(tangential::CriticalFraction { zeta: 0.1 }).coefficient(m, k, g), 0.2 * (m * k).sqrt());
+        assert_eq!(TangentialDamping::from(tangential::MassProportional { rate: 3.0 }).coefficient(m, k, g), 3.0 * m);
+        let typed = (normal::Tsuji { alpha: 0.7 }, tangential::FractionOfNormal { ratio: 0.5 });
+        let enums = (NormalDamping::from(typed.0), TangentialDamping::from(typed.1));
+        assert_eq!(typed.normal(m, k, s).to_bits(), enums.normal(m, k, s).to_bits());
+        assert_eq!(typed.tangential(m, k, g).to_bits(), enums.tangential(m, k, g).to_bits());
+        // a negative value is refused naming the flat key
+        let e = NormalDamping::from(normal::MassProportional { rate: -1.0 }).validate("contact").unwrap_err().to_string();
+        assert!(e.contains("contact.normal_damping_rate"), "{e}");
+        let e = TangentialDamping::from(tangential::FractionOfNormal { ratio: -1.0 }).validate("contact").unwrap_err().to_string();
+        assert!(e.contains("contact.tangential_damping_ratio"), "{e}");
+    }
 
     #[test]
     fn restitution_inversion_round_trips() {

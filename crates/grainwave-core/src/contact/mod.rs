@@ -18,21 +18,21 @@
 //! Named presets: `hertz_mindlin` and `hooke_cundall_strack` ([`ContactParams`]).
 
 mod coulomb;
-mod damping;
+pub mod damping;
 mod families;
 mod history;
 mod kinematics;
 mod normal;
 mod params;
 mod parts;
-mod rolling;
+pub mod rolling;
 pub mod tangential;
 
 pub use coulomb::coulomb_cap;
 pub(crate) use damping::Dampers;
 pub use damping::{
     clamped_contact_time, clamped_restitution, critical_fraction_for_restitution, textbook_critical_fraction, tsuji_alpha,
-    NormalDamping,
+    NormalDamping, NormalDampingLaw, TangentialDamping, TangentialDampingLaw,
 };
 pub use kinematics::{pair_kinematics, wall_kinematics, Kinematics};
 pub use normal::*;
@@ -41,8 +41,8 @@ pub use history::{HistoryColumn, LawHistory, WallHistory};
 pub(crate) use history::{decoding_version, zero_sized_slice};
 pub use params::{ContactParams, Partner, PRESETS};
 pub use parts::{HertzMindlin, HistoryNormal, HistoryRest, HookeCundallStrack, HookeSlipActivation, LawParts, Specialized, VisitNormal, VisitParts, WithNormal, WithRolling};
-pub use rolling::{Rolling, Twisting};
-pub use tangential::{HistoryValue, SlipActivationParams, Tangential, TangentialDamping, TangentialHistory};
+pub use rolling::{ResistanceLaw, Rolling, Twisting};
+pub use tangential::{HistoryValue, SlipActivationParams, Tangential, TangentialHistory};
 pub(crate) use coulomb::coulomb_cap_lanes;
 pub(crate) use damping::clamped_normal_force_lanes;
 pub(crate) use kinematics::{into_tangent_plane_lanes, pair_kinematics_lanes};
@@ -51,7 +51,7 @@ pub(crate) use tangential::spring_step;
 use crate::real::{from_lanes, to_lanes, Real, Vec3};
 
 use crate::dim::{Dim, VectorOps};
-use crate::error::{require_non_negative, require_positive, CoreError, Result};
+use crate::error::{CoreError, Result};
 use serde::{Deserialize, Serialize};
 
 /// A complete contact law for one class of contacts (grain–grain, or grains with one wall).
@@ -204,28 +204,18 @@ pub(crate) fn law_lanes<R: Real, const DIM: usize, const ROT: usize, P: LawParts
     };
 
     let (mut torque, mut rolling) = ([zero; 3], x.rolling);
-    if let Rolling::SpringDashpot { stiffness, damping, friction } = law.rolling() {
+    let resist = law.rolling();
+    if !matches!(resist, Rolling::None) {
+        // the stored rotation turned into the current tangent plane (3D), then the law's step
         let stored = if ROT == 3 { into_tangent_plane_lanes::<R, 3>(x.rolling, n) } else { x.rolling };
-        let (k_r, gamma_r, dt) = (R::splat(stiffness), R::splat(damping), R::splat(dt));
-        let (mut theta, mut trial) = ([zero; 3], [zero; 3]);
-        for c in 0..ROT {
-            theta[c] = stored[c] + x.w_roll[c] * dt;
-            trial[c] = theta[c] * k_r + x.w_roll[c] * gamma_r;
-        }
-        let (m, slid) = coulomb_cap_lanes::<R, ROT>(trial, R::splat(friction) * x.r_eff * f_n);
-        for c in 0..ROT {
-            rolling[c] = R::select(slid, m[c] / k_r, theta[c]);
-        }
-        torque = m;
+        (torque, rolling) = resist.step_lanes::<R, ROT>(stored, x.w_roll, x.r_eff, f_n, dt);
     }
 
     let mut twist = x.twist;
-    if let Twisting::SpringDashpot { stiffness, damping, friction } = law.twisting() {
-        let (k_tw, gamma_tw) = (R::splat(stiffness), R::splat(damping));
-        let phi = x.twist + x.w_twist * R::splat(dt);
-        let trial = phi * k_tw + x.w_twist * gamma_tw;
-        let (m, slid) = coulomb_cap_lanes::<R, 1>([trial, zero, zero], R::splat(friction) * x.r_eff * f_n);
-        twist = R::select(slid, m[0] / k_tw, phi);
+    let resist = law.twisting();
+    if !matches!(resist, Twisting::None) {
+        let (m, phi) = resist.step_lanes::<R, 1>([x.twist, zero, zero], [x.w_twist, zero, zero], x.r_eff, f_n, dt);
+        twist = phi[0];
         // M_r += m n̂ (`Dim::about_normal`: zero in 2D, still added)
         for c in 0..ROT {
             torque[c] = torque[c] + if ROT == 3 { n[c] * m[0] } else { zero };
@@ -405,12 +395,8 @@ impl ContactLaw {
                 }
             }
         }
-        if let Rolling::SpringDashpot { stiffness, .. } = self.rolling {
-            e += 0.5 * stiffness * state.rolling.norm2();
-        }
-        if let Twisting::SpringDashpot { stiffness, .. } = self.twisting {
-            e += 0.5 * stiffness * state.twist * state.twist;
-        }
+        e += self.rolling.energy(state.rolling.norm2());
+        e += self.twisting.energy(state.twist * state.twist);
         e
     }
 
@@ -423,11 +409,8 @@ impl ContactLaw {
         let k_t = self.tangential.stiffness(overlap, r_eff);
         let mut w2 = k_n / m_eff;
         w2 = w2.max(k_t * (1.0 + inertia_factor) / m_eff);
-        if let Rolling::SpringDashpot { stiffness, .. } = self.rolling {
+        for stiffness in [self.rolling.max_stiffness(), self.twisting.max_stiffness()].into_iter().flatten() {
             // rotational spring acting on a moment of inertia I = m R² / inertia_factor
-            w2 = w2.max(stiffness * inertia_factor / (m_eff * r_eff * r_eff));
-        }
-        if let Twisting::SpringDashpot { stiffness, .. } = self.twisting {
             w2 = w2.max(stiffness * inertia_factor / (m_eff * r_eff * r_eff));
         }
         w2
@@ -436,44 +419,14 @@ impl ContactLaw {
     /// Checks every parameter; `field` prefixes the names in error messages.
     pub fn validate(&self, field: &str) -> Result<()> {
         self.normal.validate(field)?;
-        match self.damping {
-            NormalDamping::None => {}
-            NormalDamping::Dashpot { coefficient } => require_non_negative(&format!("{field}.normal_damping"), coefficient)?,
-            NormalDamping::CriticalFraction { zeta } => require_non_negative(&format!("{field}.damping_fraction"), zeta)?,
-            NormalDamping::MassProportional { rate } => require_non_negative(&format!("{field}.normal_damping_rate"), rate)?,
-            NormalDamping::Tsuji { alpha } => require_non_negative(&format!("{field}.tsuji_alpha"), alpha)?,
-        }
+        self.damping.validate(field)?;
         self.tangential.validate(field)?;
-        match self.tangential_damping {
-            TangentialDamping::None => {}
-            TangentialDamping::Coefficient { coefficient } => {
-                require_non_negative(&format!("{field}.tangential_damping"), coefficient)?
-            }
-            TangentialDamping::FractionOfNormal { ratio } => {
-                require_non_negative(&format!("{field}.tangential_damping_ratio"), ratio)?
-            }
-            TangentialDamping::CriticalFraction { zeta } => require_non_negative(&format!("{field}.damping_fraction"), zeta)?,
-            TangentialDamping::MassProportional { rate } => {
-                require_non_negative(&format!("{field}.tangential_damping_rate"), rate)?
-            }
-        }
+        self.tangential_damping.validate(field)?;
         if !(self.friction >= 0.0) || self.friction.is_nan() {
             return Err(CoreError::invalid(format!("{field}.friction"), self.friction, "a number ≥ 0 (may be inf)"));
         }
-        if let Rolling::SpringDashpot { stiffness, damping, friction } = self.rolling {
-            require_positive(&format!("{field}.rolling_stiffness"), stiffness)?;
-            require_non_negative(&format!("{field}.rolling_damping"), damping)?;
-            if !(friction >= 0.0) || friction.is_nan() {
-                return Err(CoreError::invalid(format!("{field}.rolling_friction"), friction, "a number ≥ 0 (may be inf)"));
-            }
-        }
-        if let Twisting::SpringDashpot { stiffness, damping, friction } = self.twisting {
-            require_positive(&format!("{field}.twisting_stiffness"), stiffness)?;
-            require_non_negative(&format!("{field}.twisting_damping"), damping)?;
-            if !(friction >= 0.0) || friction.is_nan() {
-                return Err(CoreError::invalid(format!("{field}.twisting_friction"), friction, "a number ≥ 0 (may be inf)"));
-            }
-        }
+        self.rolling.validate(&format!("{field}.rolling"))?;
+        self.twisting.validate(&format!("{field}.twisting"))?;
         Ok(())
     }
 }

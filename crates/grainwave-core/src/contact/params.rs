@@ -1,5 +1,7 @@
 //! Named presets: the keyword table at the boundary between configs and contact laws.
 
+use super::damping::{normal as nd, tangential as td};
+use super::rolling::SpringDashpot;
 use super::tangential::Mindlin;
 use super::families::{DampingTable, ResistanceTable, TangentialTable};
 use super::{ContactLaw, DampingChoice, Hertz, Hooke, NormalContext, NormalDamping, NormalElastic, NormalTable, Rolling, SlipActivationParams, Tangential, TangentialDamping, Twisting};
@@ -187,11 +189,11 @@ impl ContactParams {
         };
         let rolling = match resistance("rolling", self.rolling_stiffness, self.rolling_damping, self.rolling_friction)? {
             None => Rolling::None,
-            Some((stiffness, damping, friction)) => Rolling::SpringDashpot { stiffness, damping, friction },
+            Some((stiffness, damping, friction)) => SpringDashpot { stiffness, damping, friction }.into(),
         };
         let twisting = match resistance("twisting", self.twisting_stiffness, self.twisting_damping, self.twisting_friction)? {
             None => Twisting::None,
-            Some((stiffness, damping, friction)) => Twisting::SpringDashpot { stiffness, damping, friction },
+            Some((stiffness, damping, friction)) => SpringDashpot { stiffness, damping, friction }.into(),
         };
         let forbid = |name: &str, v: Option<f64>, why: &str| -> Result<()> {
             match v {
@@ -237,9 +239,9 @@ impl ContactParams {
                     Some(alpha) => {
                         let ratio = self.tangential_damping_ratio.unwrap_or(1.0);
                         require_non_negative(&key("tangential_damping_ratio"), ratio)?;
-                        (NormalDamping::Tsuji { alpha }, TangentialDamping::FractionOfNormal { ratio })
+                        (nd::Tsuji { alpha }.into(), td::FractionOfNormal { ratio }.into())
                     }
-                    None if zeta > 0.0 => (NormalDamping::CriticalFraction { zeta }, TangentialDamping::CriticalFraction { zeta }),
+                    None if zeta > 0.0 => (nd::CriticalFraction { zeta }.into(), td::CriticalFraction { zeta }.into()),
                     None => (NormalDamping::None, TangentialDamping::None),
                 };
                 let e_star = young / (1.0 - nu * nu);
@@ -320,32 +322,32 @@ impl ContactParams {
                     })?
                 } else if let Some(g) = self.normal_damping {
                     require_non_negative(&key("normal_damping"), g)?;
-                    NormalDamping::Dashpot { coefficient: g }
+                    nd::Dashpot { coefficient: g }.into()
                 } else if let Some(z) = self.damping_fraction {
                     require_non_negative(&key("damping_fraction"), z)?;
-                    NormalDamping::CriticalFraction { zeta: z }
+                    nd::CriticalFraction { zeta: z }.into()
                 } else if let Some(rate) = self.normal_damping_rate {
                     require_non_negative(&key("normal_damping_rate"), rate)?;
-                    NormalDamping::MassProportional { rate }
+                    nd::MassProportional { rate }.into()
                 } else if let Some(alpha) = self.tsuji_alpha(&key)? {
-                    NormalDamping::Tsuji { alpha }
+                    nd::Tsuji { alpha }.into()
                 } else {
                     NormalDamping::None
                 };
                 let tangential_damping = match (self.tangential_damping_ratio, self.tangential_damping_rate, damping) {
                     (Some(r), _, _) => {
                         require_non_negative(&key("tangential_damping_ratio"), r)?;
-                        TangentialDamping::FractionOfNormal { ratio: r }
+                        td::FractionOfNormal { ratio: r }.into()
                     }
                     (None, Some(rate), _) => {
                         require_non_negative(&key("tangential_damping_rate"), rate)?;
-                        TangentialDamping::MassProportional { rate }
+                        td::MassProportional { rate }.into()
                     }
-                    (None, None, NormalDamping::CriticalFraction { zeta }) if self.damping_fraction.is_some() => {
-                        TangentialDamping::CriticalFraction { zeta }
+                    (None, None, NormalDamping::CriticalFraction(nd::CriticalFraction { zeta })) if self.damping_fraction.is_some() => {
+                        td::CriticalFraction { zeta }.into()
                     }
                     (None, None, NormalDamping::None) => TangentialDamping::None,
-                    (None, None, _) => TangentialDamping::FractionOfNormal { ratio: 0.5 },
+                    (None, None, _) => td::FractionOfNormal { ratio: 0.5 }.into(),
                 };
                 ContactLaw {
                     normal: NormalElastic::Hooke(Hooke { stiffness: k_n }),

@@ -7,6 +7,7 @@
 //! off at compile time; [`WithRolling`] adds a rolling spring–dashpot to either (E2's law). Each part computes the same expression in every implementation, so a
 //! specialised kernel gives exactly the bits of the general one (tested).
 
+use super::rolling::SpringDashpot;
 use super::tangential::{Linear, Mindlin, SlipActivation};
 use super::{ContactLaw, Hertz, Hooke, LawHistory, NormalDamping, NormalElastic, NormalLaw, NormalResponse, Rolling, Tangential, TangentialDamping, Twisting};
 use crate::real::Real;
@@ -278,7 +279,7 @@ impl LawParts for HookeSlipActivation {
 }
 
 /// A specialised law `L` with rolling resistance added: a spring–dashpot on the relative rolling
-/// rotation, capped at μ_r R* F_n ([`Rolling::SpringDashpot`]), no twisting resistance. E2's law
+/// rotation, capped at μ_r R* F_n ([`SpringDashpot`]), no twisting resistance. E2's law
 /// (SPEC §6.1) is `WithRolling<HookeCundallStrack>`.
 #[derive(Clone, Copy, Debug)]
 pub struct WithRolling<L> {
@@ -298,7 +299,7 @@ impl<L: LawParts> LawParts for WithRolling<L> {
     delegate_parts!(normal: NormalElastic, damping: NormalDamping, tangential: Tangential, tangential_damping: TangentialDamping, friction: f64);
     #[inline(always)]
     fn rolling(&self) -> Rolling {
-        Rolling::SpringDashpot { stiffness: self.stiffness, damping: self.damping, friction: self.friction }
+        Rolling::SpringDashpot(SpringDashpot { stiffness: self.stiffness, damping: self.damping, friction: self.friction })
     }
     #[inline(always)]
     fn twisting(&self) -> Twisting {
@@ -352,7 +353,7 @@ impl ContactLaw {
         let (damping, tangential_damping, friction) = (self.damping, self.tangential_damping, self.friction);
         let rolling = match self.rolling {
             Rolling::None => None,
-            Rolling::SpringDashpot { stiffness, damping, friction } => Some((stiffness, damping, friction)),
+            Rolling::SpringDashpot(SpringDashpot { stiffness, damping, friction }) => Some((stiffness, damping, friction)),
         };
         if self.normal.has_history() {
             // the normal part is the law's own (`HistoryNormal`): the rest's is not read

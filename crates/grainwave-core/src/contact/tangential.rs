@@ -299,55 +299,6 @@ impl Tangential {
     }
 }
 
-/// Tangential viscous damping γ_t.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum TangentialDamping {
-    /// No tangential damping.
-    None,
-    /// Constant γ_t.
-    Coefficient {
-        /// γ_t (force/velocity).
-        coefficient: f64,
-    },
-    /// γ_t = ratio × γ_n (E2 and the classic Hooke law use ½).
-    FractionOfNormal {
-        /// γ_t / γ_n.
-        ratio: f64,
-    },
-    /// γ_t = ζ · 2 √(m* k_t) (E1: the same ζ as the normal part).
-    CriticalFraction {
-        /// ζ.
-        zeta: f64,
-    },
-    /// γ_t = rate × m* (LAMMPS `gran/hooke/history`'s `gamma_t`, in 1/time).
-    MassProportional {
-        /// γ_t / m* (1/time).
-        rate: f64,
-    },
-}
-
-impl TangentialDamping {
-    /// γ_t for effective mass `m_eff`, tangential stiffness `k_t` and normal coefficient `gamma_n`.
-    #[inline]
-    pub fn coefficient(&self, m_eff: f64, k_t: f64, gamma_n: f64) -> f64 {
-        self.coefficient_lanes(m_eff, k_t, gamma_n)
-    }
-
-    /// [`TangentialDamping::coefficient`] on every lane: the one implementation, run by the
-    /// general kernel (`f64`) and the engine's vector paths.
-    #[inline(always)]
-    pub(crate) fn coefficient_lanes<R: Real>(&self, m_eff: R, k_t: R, gamma_n: R) -> R {
-        match *self {
-            TangentialDamping::None => R::splat(0.0),
-            TangentialDamping::Coefficient { coefficient } => R::splat(coefficient),
-            TangentialDamping::FractionOfNormal { ratio } => R::splat(ratio) * gamma_n,
-            TangentialDamping::CriticalFraction { zeta } => R::splat(zeta * 2.0) * (m_eff * k_t).sqrt(),
-            TangentialDamping::MassProportional { rate } => R::splat(rate) * m_eff,
-        }
-    }
-}
-
 /// One step of the tangential spring with its Coulomb limit, on every lane: the increment
 /// ([`Tangential::trial_lanes`]), the cap |F_t| ≤ `cap` ([`coulomb_cap_lanes`]) and the history
 /// to store — the incremented one, or where the contact slides the one that holds exactly the

@@ -192,61 +192,26 @@ impl<V: WithLaw> VisitParts for General<V> {
 }
 
 
-/// The damping parts of a preset combination, each a constant variant (their `match` folds
-/// away): the formulas are those of `NormalDamping::coefficient_lanes` and
-/// `TangentialDamping::coefficient_lanes`.
-macro_rules! fixed_dampers {
-    ($name:ident, $normal:ident { $nf:ident }, $tangential:ident { $tf:ident }) => {
-        impl Dampers for $name {
-            #[inline(always)]
-            fn normal<R: Real>(&self, m_eff: R, k_n: R, secant: R) -> R {
-                NormalDamping::$normal { $nf: self.0 }.coefficient_lanes(m_eff, k_n, secant)
-            }
-            #[inline(always)]
-            fn tangential<R: Real>(&self, m_eff: R, k_t: R, gamma_n: R) -> R {
-                TangentialDamping::$tangential { $tf: self.1 }.coefficient_lanes(m_eff, k_t, gamma_n)
-            }
-        }
-    };
-}
-
-/// Tsuji normal damping, tangential a fraction of it (`hertz_mindlin` with `tsuji_restitution`).
-#[derive(Clone, Copy)]
-struct TsujiFraction(f64, f64);
-fixed_dampers!(TsujiFraction, Tsuji { alpha }, FractionOfNormal { ratio });
-
-/// Normal damping proportional to m*, tangential a fraction of it (LAMMPS `gran/hooke/history`).
-#[derive(Clone, Copy)]
-struct RateFraction(f64, f64);
-fixed_dampers!(RateFraction, MassProportional { rate }, FractionOfNormal { ratio });
-
-/// A fraction of critical damping on the normal part, tangential a fraction of the normal
-/// coefficient (`hooke_cundall_strack` with `restitution`).
-#[derive(Clone, Copy)]
-struct CriticalFraction(f64, f64);
-fixed_dampers!(CriticalFraction, CriticalFraction { zeta }, FractionOfNormal { ratio });
-
-/// A fraction of critical damping on both parts (`hertz_mindlin` with `damping_fraction`).
-#[derive(Clone, Copy)]
-struct CriticalBoth(f64, f64);
-fixed_dampers!(CriticalBoth, CriticalFraction { zeta }, CriticalFraction { zeta });
-
 /// Something run with the dampers of a law as a type ([`with_dampers`]).
 pub(super) trait WithDampers {
     type Out;
     fn run<P: Dampers>(self, damp: P) -> Self::Out;
 }
 
-/// Runs `v` with the dampers of `law`, resolved for the presets' combinations.
+/// Runs `v` with the dampers of `law`, resolved for the presets' combinations: the pair of
+/// their law types (`hertz_mindlin` with `tsuji_restitution`: Tsuji and a fraction of it; LAMMPS
+/// `gran/hooke/history`: γ_n ∝ m* and a fraction of it; `hooke_cundall_strack` with
+/// `restitution`: a fraction of critical damping and a fraction of it; `hertz_mindlin` with
+/// `damping_fraction`: a fraction of critical damping on both parts), else the pair of enums.
 #[inline(always)]
 pub(super) fn with_dampers<L: WindowLaw, V: WithDampers>(law: &L, v: V) -> V::Out {
     use NormalDamping as N;
     use TangentialDamping as T;
     match (law.damping(), law.tangential_damping()) {
-        (N::Tsuji { alpha }, T::FractionOfNormal { ratio }) => v.run(TsujiFraction(alpha, ratio)),
-        (N::MassProportional { rate }, T::FractionOfNormal { ratio }) => v.run(RateFraction(rate, ratio)),
-        (N::CriticalFraction { zeta }, T::FractionOfNormal { ratio }) => v.run(CriticalFraction(zeta, ratio)),
-        (N::CriticalFraction { zeta }, T::CriticalFraction { zeta: zt }) => v.run(CriticalBoth(zeta, zt)),
+        (N::Tsuji(n), T::FractionOfNormal(t)) => v.run((n, t)),
+        (N::MassProportional(n), T::FractionOfNormal(t)) => v.run((n, t)),
+        (N::CriticalFraction(n), T::FractionOfNormal(t)) => v.run((n, t)),
+        (N::CriticalFraction(n), T::CriticalFraction(t)) => v.run((n, t)),
         (n, t) => v.run((n, t)),
     }
 }

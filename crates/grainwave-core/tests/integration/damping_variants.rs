@@ -6,6 +6,7 @@ use crate::common;
 use common::*;
 use glam::{DVec2, DVec3};
 use grainwave_core::contact::{clamped_contact_time, clamped_restitution, tsuji_alpha, Partner};
+use grainwave_core::contact::damping::{normal, tangential};
 use grainwave_core::prelude::*;
 use std::f64::consts::PI;
 
@@ -54,7 +55,7 @@ fn mass_proportional_dashpot_is_a_linear_dashpot_with_gamma_rate_times_m_eff() {
     let mut p = hooke(k, None, 0.0);
     p.normal_damping_rate = Some(rate);
     let law = p.build(Partner::Grain, "contact").unwrap();
-    assert_eq!(law.damping, NormalDamping::MassProportional { rate });
+    assert_eq!(law.damping, NormalDamping::from(normal::MassProportional { rate }));
     let m_eff = PI * 0.25 / 2.0;
     let w0 = (k / m_eff).sqrt();
     let zeta = rate * m_eff / (2.0 * (m_eff * k).sqrt());
@@ -76,7 +77,7 @@ fn tangential_damping_follows_lammps_defaults_and_rates() {
     assert_eq!(law.tangential_damping.coefficient(m_eff, 1.0, g_n), 25.0 * m_eff);
     p.tangential_damping_rate = Some(10.0);
     let law = p.build(Partner::Grain, "contact").unwrap();
-    assert_eq!(law.tangential_damping, TangentialDamping::MassProportional { rate: 10.0 });
+    assert_eq!(law.tangential_damping, TangentialDamping::from(tangential::MassProportional { rate: 10.0 }));
     assert_eq!(law.tangential_damping.coefficient(m_eff, 1.0, g_n), 10.0 * m_eff);
     // exclusive choices are refused with the names of both keys
     p.tangential_damping_ratio = Some(0.5);
@@ -100,7 +101,7 @@ fn tsuji_damping_on_hooke_contacts_has_a_constant_damping_ratio() {
     p.tsuji_restitution = Some(e_target);
     let law = p.build(Partner::Grain, "contact").unwrap();
     let alpha = tsuji_alpha(e_target);
-    assert_eq!(law.damping, NormalDamping::Tsuji { alpha });
+    assert_eq!(law.damping, NormalDamping::from(normal::Tsuji { alpha }));
     let m_eff = PI * 0.25 / 2.0;
     let w0 = (k / m_eff).sqrt();
     let (e, _) = collide(disk_pair(law, v0, PI / w0 / 4000.0), disk_overlap, disk_speed);
@@ -179,12 +180,12 @@ fn tsuji_parameters_for_hertz_mindlin() {
     let mut p = hertz(1.0e5, 0.3, 0.5, None);
     p.tsuji_restitution = Some(0.5);
     let law = p.build(Partner::Grain, "contact").unwrap();
-    assert_eq!(law.damping, NormalDamping::Tsuji { alpha: tsuji_alpha(0.5) });
+    assert_eq!(law.damping, NormalDamping::from(normal::Tsuji { alpha: tsuji_alpha(0.5) }));
     // LAMMPS `tangential mindlin NULL 1.0 μ`: γ_t = 1.0 × γ_n, the default here
-    assert_eq!(law.tangential_damping, TangentialDamping::FractionOfNormal { ratio: 1.0 });
+    assert_eq!(law.tangential_damping, TangentialDamping::from(tangential::FractionOfNormal { ratio: 1.0 }));
     p.tangential_damping_ratio = Some(0.25);
     let law = p.build(Partner::Grain, "contact").unwrap();
-    assert_eq!(law.tangential_damping, TangentialDamping::FractionOfNormal { ratio: 0.25 });
+    assert_eq!(law.tangential_damping, TangentialDamping::from(tangential::FractionOfNormal { ratio: 0.25 }));
     // the ratio alone, or Tsuji together with a damping fraction, is refused
     let mut q = hertz(1.0e5, 0.3, 0.5, Some(0.1));
     q.tangential_damping_ratio = Some(0.25);
