@@ -17,6 +17,8 @@
 //!
 //! Named presets: `hertz_mindlin` and `hooke_cundall_strack` ([`ContactParams`]).
 
+#[macro_use]
+mod registry;
 mod coulomb;
 pub mod damping;
 mod families;

@@ -158,44 +158,13 @@ macro_rules! normal_laws {
             pub use $module::*;
         )*
 
-        /// The normal elastic law F_el(ξ) of a contact law, one variant per registered law
-        /// ([`NormalLaw`]); encoded as the variant's name and the law's fields.
-        #[derive(Clone, Copy, PartialEq, Serialize, Deserialize)]
-        #[serde(rename_all = "snake_case")]
-        pub enum NormalElastic {
-            $(
-                #[doc = concat!("See [`", stringify!($Law), "`] (`law = \"", stringify!($module), "\"`).")]
-                $Law($Law),
-            )*
+        family_enum! {
+            /// The normal elastic law F_el(ξ) of a contact law, one variant per registered law
+            /// ([`NormalLaw`]); encoded as the variant's name and the law's fields.
+            NormalElastic { $($module::$Law),* }
         }
-
-        impl Debug for NormalElastic {
-            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-                match self {
-                    $(NormalElastic::$Law(l) => Debug::fmt(l, f),)*
-                }
-            }
-        }
-
-        $(
-            impl From<$Law> for NormalElastic {
-                fn from(l: $Law) -> Self {
-                    NormalElastic::$Law(l)
-                }
-            }
-        )*
 
         impl NormalElastic {
-            /// The config names of the registered laws, in registry order.
-            pub const NAMES: &'static [&'static str] = &[$(stringify!($module)),*];
-
-            /// The config name of this law.
-            pub fn name(&self) -> &'static str {
-                match self {
-                    $(NormalElastic::$Law(_) => stringify!($module),)*
-                }
-            }
-
             /// True when the law keeps a per-contact history ([`NormalLaw::History`] not `()`).
             pub fn has_history(&self) -> bool {
                 match self {

@@ -128,49 +128,14 @@ macro_rules! tangential_laws {
             pub use $module::*;
         )*
 
-        /// The tangential elastic law of a contact law: none (frictionless) or one of the
-        /// registered laws ([`TangentialLaw`]), encoded as the variant's name and the law's fields
-        /// (`"none"` for none).
-        #[derive(Clone, Copy, PartialEq, Serialize, Deserialize)]
-        #[serde(rename_all = "snake_case")]
-        pub enum Tangential {
-            /// No tangential force (frictionless).
-            None,
-            $(
-                #[doc = concat!("See [`", stringify!($Law), "`].")]
-                $Law($Law),
-            )*
+        family_enum! {
+            /// The tangential elastic law of a contact law: none (frictionless) or one of the
+            /// registered laws ([`TangentialLaw`]), encoded as the variant's name and the law's
+            /// fields (`"none"` for none).
+            Tangential { None: "No tangential force (frictionless).", $($module::$Law),* }
         }
-
-        impl Debug for Tangential {
-            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-                match self {
-                    Tangential::None => f.write_str("None"),
-                    $(Tangential::$Law(l) => Debug::fmt(l, f),)*
-                }
-            }
-        }
-
-        $(
-            impl From<$Law> for Tangential {
-                fn from(l: $Law) -> Self {
-                    Tangential::$Law(l)
-                }
-            }
-        )*
 
         impl Tangential {
-            /// The names of the registered laws in the encoding, in registry order (after `none`).
-            pub const NAMES: &'static [&'static str] = &[$(stringify!($module)),*];
-
-            /// The name of this law in the encoding (`"none"` without a tangential part).
-            pub fn name(&self) -> &'static str {
-                match self {
-                    Tangential::None => "none",
-                    $(Tangential::$Law(_) => stringify!($module),)*
-                }
-            }
-
             /// What the stored history holds; `None` without a tangential part.
             #[inline]
             pub fn history_kind(&self) -> Option<HistoryKind> {
@@ -423,16 +388,9 @@ mod tests {
         ];
         assert_eq!(pairs.len(), Tangential::NAMES.len() + 1);
         for (i, (law, before)) in pairs.iter().enumerate() {
-            let bytes = bincode::serialize(before).unwrap();
-            assert_eq!(bincode::serialize(law).unwrap(), bytes, "{law:?}");
-            assert_eq!(bincode::deserialize::<Tangential>(&bytes).unwrap(), *law);
-            let json = serde_json::to_string(before).unwrap();
-            assert_eq!(serde_json::to_string(law).unwrap(), json);
-            assert_eq!(serde_json::from_str::<Tangential>(&json).unwrap(), *law);
-            assert_eq!(format!("{law:?}"), format!("{before:?}"));
+            crate::contact::registry::assert_same_encoding(law, before, law.name());
             if i > 0 {
                 assert_eq!(law.name(), Tangential::NAMES[i - 1]);
-                assert!(json.starts_with(&format!("{{\"{}\"", law.name())), "{json}");
             }
         }
         assert_eq!(Tangential::None.name(), "none");

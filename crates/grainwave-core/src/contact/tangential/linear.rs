@@ -36,35 +36,22 @@ impl TangentialLaw for Linear {
     /// s ← s + v_t Δt, trial F_t = k_t s + γ_t v_t.
     #[inline(always)]
     fn trial_lanes<R: Real, const N: usize>(&self, rotated: Vec3<R>, v_t: Vec3<R>, k_t: R, gamma_t: R, dt: f64) -> (Vec3<R>, Vec3<R>) {
-        spring_trial_lanes::<R, N>(rotated, v_t, k_t, gamma_t, dt)
+        let zero = R::splat(0.0);
+        let (mut kept, mut trial) = ([zero; 3], [zero; 3]);
+        for c in 0..N {
+            kept[c] = rotated[c] + v_t[c] * R::splat(dt);
+            trial[c] = kept[c] * k_t + v_t[c] * gamma_t;
+        }
+        (trial, kept)
     }
 
     /// s = F_t/k_t.
     #[inline(always)]
     fn history_for_force_lanes<R: Real, const N: usize>(&self, f: Vec3<R>) -> Vec3<R> {
-        spring_for_force_lanes::<R, N>(self.stiffness, f)
+        let mut h = [R::splat(0.0); 3];
+        for c in 0..N {
+            h[c] = f[c] / R::splat(self.stiffness);
+        }
+        h
     }
-}
-
-/// The increment of a spring on the tangential displacement (the linear and the
-/// slip-activation laws): s ← s + v_t Δt, trial F_t = k_t s + γ_t v_t; returns (trial, s).
-#[inline(always)]
-pub(crate) fn spring_trial_lanes<R: Real, const N: usize>(rotated: Vec3<R>, v_t: Vec3<R>, k_t: R, gamma_t: R, dt: f64) -> (Vec3<R>, Vec3<R>) {
-    let zero = R::splat(0.0);
-    let (mut kept, mut trial) = ([zero; 3], [zero; 3]);
-    for c in 0..N {
-        kept[c] = rotated[c] + v_t[c] * R::splat(dt);
-        trial[c] = kept[c] * k_t + v_t[c] * gamma_t;
-    }
-    (trial, kept)
-}
-
-/// The spring elongation that holds the force `f` for spring stiffness `stiffness`: s = F/k_t.
-#[inline(always)]
-pub(crate) fn spring_for_force_lanes<R: Real, const N: usize>(stiffness: f64, f: Vec3<R>) -> Vec3<R> {
-    let mut h = [R::splat(0.0); 3];
-    for c in 0..N {
-        h[c] = f[c] / R::splat(stiffness);
-    }
-    h
 }

@@ -11,10 +11,9 @@
 //! so a contact may hold more than μ F_n for a time of order τ: it slides at loading time scales
 //! (≫ τ) and sticks at acoustic ones (≪ τ); τ → 0 is the Coulomb cap of [`Linear`].
 
-use super::linear::{spring_for_force_lanes, spring_trial_lanes};
 use super::{HistoryKind, Linear, Tangential, TangentialLaw};
 use crate::dim::VectorOps;
-use crate::error::{require_positive, CoreError, Result};
+use crate::error::{CoreError, Result};
 use crate::real::{select3, Real, Vec3};
 use serde::{Deserialize, Serialize};
 
@@ -35,12 +34,22 @@ pub struct SlipActivation {
     pub activation_time: f64,
 }
 
+impl SlipActivation {
+    /// The spring without the slip activation: the linear law of the same K_t, whose history,
+    /// stiffness, elastic force and increment this law shares.
+    #[inline(always)]
+    fn spring(&self) -> Linear {
+        Linear { stiffness: self.stiffness }
+    }
+}
+
 impl TangentialLaw for SlipActivation {
     const HISTORY: HistoryKind = HistoryKind::Displacement;
 
-    /// K_t > 0 and finite τ > 0 (a law with τ = 0 is the linear law and is written as one).
+    /// K_t > 0 (the linear law's check) and finite τ > 0 (a law with τ = 0 is the linear law
+    /// and is written as one).
     fn validate(&self, field: &str) -> Result<()> {
-        require_positive(&format!("{field}.tangential_stiffness"), self.stiffness)?;
+        self.spring().validate(field)?;
         if !(self.activation_time > 0.0 && self.activation_time.is_finite()) {
             return Err(CoreError::invalid(
                 format!("{field}.slip_activation_time"),
@@ -52,25 +61,25 @@ impl TangentialLaw for SlipActivation {
     }
 
     #[inline(always)]
-    fn stiffness_lanes<R: Real>(&self, _xi: R, _r_eff: R) -> R {
-        R::splat(self.stiffness)
+    fn stiffness_lanes<R: Real>(&self, xi: R, r_eff: R) -> R {
+        self.spring().stiffness_lanes(xi, r_eff)
     }
 
     #[inline]
     fn elastic_force<V: VectorOps>(&self, h: V) -> V {
-        h * self.stiffness
+        self.spring().elastic_force(h)
     }
 
     /// The linear law's: D_t ← D_t + v_t Δt, trial F_t = K_t D_t + γ_t v_t.
     #[inline(always)]
     fn trial_lanes<R: Real, const N: usize>(&self, rotated: Vec3<R>, v_t: Vec3<R>, k_t: R, gamma_t: R, dt: f64) -> (Vec3<R>, Vec3<R>) {
-        spring_trial_lanes::<R, N>(rotated, v_t, k_t, gamma_t, dt)
+        self.spring().trial_lanes::<R, N>(rotated, v_t, k_t, gamma_t, dt)
     }
 
-    /// D_t = F_t/K_t.
+    /// The linear law's: D_t = F_t/K_t.
     #[inline(always)]
     fn history_for_force_lanes<R: Real, const N: usize>(&self, f: Vec3<R>) -> Vec3<R> {
-        spring_for_force_lanes::<R, N>(self.stiffness, f)
+        self.spring().history_for_force_lanes::<R, N>(f)
     }
 
     /// The excess over the cap relaxed by τ/(τ + Δt) ([`relax_lanes`]).
