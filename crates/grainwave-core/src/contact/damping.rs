@@ -58,7 +58,7 @@ macro_rules! damping_laws {
 
         family_enum! {
             $(#[$doc])*
-            $Enum { None: "No damping.", $($module::$Law),* }
+            $Enum { [None: "No damping."] $($module::$Law),* }
         }
 
         impl $Trait for $Enum {

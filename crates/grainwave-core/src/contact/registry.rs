@@ -5,19 +5,21 @@
 
 /// The enum of a family's registered laws: one newtype variant per law (`module::Type`, the
 /// module a file of the family's folder and its name the law's name), in registry order, after
-/// a unit variant `None` where the family has one (`None: "doc"` first in the list). Encoded as
+/// a unit variant `None` where the family has one (`[None: "its doc"]` before the list). Encoded as
 /// the variant's name in snake case and the law's fields (`"none"` for `None`): checkpoints
 /// encode the variant's index, so a new law is appended last. Generates the enum, a `Debug` that
 /// prints the law's own, `From<Law>`, `NAMES` (the laws' names in registry order, without
 /// `none`) and `name()`.
 macro_rules! family_enum {
-    ($(#[$doc:meta])* $Enum:ident { None: $none:literal, $($module:ident :: $Law:ident),* $(,)? }) => {
+    ($(#[$doc:meta])* $Enum:ident { $([None: $none:literal])? $($module:ident :: $Law:ident),* $(,)? }) => {
         $(#[$doc])*
         #[derive(Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
         #[serde(rename_all = "snake_case")]
         pub enum $Enum {
-            #[doc = $none]
-            None,
+            $(
+                #[doc = $none]
+                None,
+            )?
             $(
                 #[doc = concat!("See [`", stringify!($Law), "`] (`", stringify!($module), "`).")]
                 $Law($Law),
@@ -27,7 +29,7 @@ macro_rules! family_enum {
         impl std::fmt::Debug for $Enum {
             fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
                 match self {
-                    $Enum::None => f.write_str("None"),
+                    $($Enum::None => family_enum!(@none $none, f.write_str("None")),)?
                     $($Enum::$Law(l) => std::fmt::Debug::fmt(l, f),)*
                 }
             }
@@ -40,48 +42,12 @@ macro_rules! family_enum {
             /// The name of this law (`"none"` for `None`).
             pub fn name(&self) -> &'static str {
                 match self {
-                    $Enum::None => "none",
+                    $($Enum::None => family_enum!(@none $none, "none"),)?
                     $($Enum::$Law(_) => stringify!($module),)*
                 }
             }
         }
 
-        family_enum!(@from $Enum, $($Law),*);
-    };
-    ($(#[$doc:meta])* $Enum:ident { $($module:ident :: $Law:ident),* $(,)? }) => {
-        $(#[$doc])*
-        #[derive(Clone, Copy, PartialEq, serde::Serialize, serde::Deserialize)]
-        #[serde(rename_all = "snake_case")]
-        pub enum $Enum {
-            $(
-                #[doc = concat!("See [`", stringify!($Law), "`] (`", stringify!($module), "`).")]
-                $Law($Law),
-            )*
-        }
-
-        impl std::fmt::Debug for $Enum {
-            fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-                match self {
-                    $($Enum::$Law(l) => std::fmt::Debug::fmt(l, f),)*
-                }
-            }
-        }
-
-        impl $Enum {
-            /// The names of the registered laws, in registry order.
-            pub const NAMES: &'static [&'static str] = &[$(stringify!($module)),*];
-
-            /// The name of this law.
-            pub fn name(&self) -> &'static str {
-                match self {
-                    $($Enum::$Law(_) => stringify!($module),)*
-                }
-            }
-        }
-
-        family_enum!(@from $Enum, $($Law),*);
-    };
-    (@from $Enum:ident, $($Law:ident),*) => {
         $(
             impl From<$Law> for $Enum {
                 fn from(l: $Law) -> Self {
@@ -89,6 +55,10 @@ macro_rules! family_enum {
                 }
             }
         )*
+    };
+    // the arm of `None`, present where the family has one (`$none`, its doc, only selects it)
+    (@none $none:literal, $e:expr) => {
+        $e
     };
 }
 

@@ -57,7 +57,7 @@ macro_rules! resistance_laws {
     (@family $Enum:ident, $doc:literal, $($module:ident :: $Law:ident),*) => {
         family_enum! {
             #[doc = $doc]
-            $Enum { None: "No resistance (default).", $($module::$Law),* }
+            $Enum { [None: "No resistance (default)."] $($module::$Law),* }
         }
 
         impl $Enum {

@@ -132,7 +132,7 @@ macro_rules! tangential_laws {
             /// The tangential elastic law of a contact law: none (frictionless) or one of the
             /// registered laws ([`TangentialLaw`]), encoded as the variant's name and the law's
             /// fields (`"none"` for none).
-            Tangential { None: "No tangential force (frictionless).", $($module::$Law),* }
+            Tangential { [None: "No tangential force (frictionless)."] $($module::$Law),* }
         }
 
         impl Tangential {
