@@ -3,7 +3,9 @@
 //! are written here once, generic over that type.
 //!
 //! A law whose contacts remember something beyond the shared parts (tangential spring, rolling
-//! and twisting springs, last overlap, sliding) declares it as [`LawParts::Extra`](super::LawParts::Extra):
+//! and twisting springs, last overlap, sliding) declares it — a normal law as its
+//! `NormalLaw::History`, a tangential law as its `TangentialLaw::Extra`, a law with both as the
+//! pair of the two — as [`LawParts::Extra`](super::LawParts::Extra):
 //! a small `Copy + Default` value implementing [`LawHistory`]. Every existing law declares `()`,
 //! which occupies no memory, is never stored, serialized or copied, and compiles to the code of
 //! a law without it. The engine keeps one [`HistoryColumn`] per pair list: `Vec<H>` for the
@@ -12,10 +14,11 @@
 //! `H::default()` when the pair is not in contact (the force pass resets it when the contact
 //! opens), is carried to the pair's new index when the list is rebuilt
 //! ([`HistoryColumn::remap`]), and is written to checkpoints as the law's bit-exact `f64`
-//! encoding under its name ([`LawHistory::NAME`]) — no flat offsets into a shared array.
+//! encoding under its name ([`LawHistory::name`]) — no flat offsets into a shared array.
 
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::any::Any;
+use std::borrow::Cow;
 use std::cell::Cell;
 use std::fmt::Debug;
 
@@ -26,6 +29,13 @@ use std::fmt::Debug;
 pub trait LawHistory: Copy + Default + PartialEq + Debug + Send + Sync + 'static {
     /// Name of the history in checkpoints (a column is only read back by the law that wrote it).
     const NAME: &'static str;
+    /// The name a column of this history is written and read back under: [`LawHistory::NAME`]
+    /// for a law's own history; for the history of a composed law, the names of its parts
+    /// (`"<normal>+<tangential>"`, the pair's impl).
+    #[inline]
+    fn name() -> Cow<'static, str> {
+        Cow::Borrowed(Self::NAME)
+    }
     /// Number of `f64` values of the encoding.
     const WIDTH: usize;
     /// The history as one value per lane of a lane type `R` (the form the lane-generic contact
@@ -55,13 +65,32 @@ pub trait LawHistory: Copy + Default + PartialEq + Debug + Send + Sync + 'static
     fn reversed(self) -> Self {
         self
     }
-    /// Runs `v` with the parts of `law`, whose normal part `normal` declares this history:
-    /// the composition [`WithNormal`](super::WithNormal) that reaches the history (the
-    /// default), or for `()` the general law itself, so that the laws without history share one
-    /// general force pass.
+    /// Runs `v` with the parts of `law`, whose normal part `normal` declares this history, as
+    /// a type that reaches every history the law declares: with the tangential part's
+    /// ([`Tangential::route_with_normal`](super::Tangential::route_with_normal)), the
+    /// composition [`WithNormal`](super::WithNormal) or, where the tangential law keeps one too,
+    /// [`WithBoth`](super::WithBoth) (the default); for `()` the tangential part's route alone
+    /// ([`Tangential::route`](super::Tangential::route)), which is the general law itself for a
+    /// tangential law without history, so that the laws without history share one general
+    /// force pass.
     #[inline(always)]
     fn route_normal<N: super::NormalLaw<History = Self>, V: super::parts::VisitParts>(law: &super::ContactLaw, normal: N, v: V) -> V::Out {
-        v.visit(&super::WithNormal { law: *law, normal })
+        super::Tangential::route_with_normal(law, normal, v)
+    }
+    /// Runs `v` with the parts of `law`, whose tangential part `tangential` declares this
+    /// history and whose normal part none: the composition
+    /// [`WithTangential`](super::WithTangential) (the default), or for `()` the general law
+    /// itself.
+    #[inline(always)]
+    fn route_tangential<T: super::TangentialLaw<Extra = Self>, V: super::parts::VisitParts>(law: &super::ContactLaw, tangential: T, v: V) -> V::Out {
+        v.visit(&super::WithTangential { law: *law, tangential })
+    }
+    /// Runs `v` with the parts of `law`, whose normal part `normal` and tangential part
+    /// `tangential` (declaring this history) both keep one: [`WithBoth`](super::WithBoth),
+    /// whose history is the pair of theirs (the default); for `()` [`WithNormal`](super::WithNormal).
+    #[inline(always)]
+    fn route_both<N: super::NormalLaw, T: super::TangentialLaw<Extra = Self>, V: super::parts::VisitParts>(law: &super::ContactLaw, normal: N, tangential: T, v: V) -> V::Out {
+        v.visit(&super::WithBoth { law: *law, normal, tangential })
     }
     /// Runs `v` with `normal`, whose law declares this history, as its type
     /// ([`VisitNormal::visit`](super::VisitNormal::visit)): the specialised compositions of a
@@ -92,7 +121,15 @@ impl LawHistory for () {
     fn scatter<R: crate::real::Real>(_: (), _: impl FnMut(usize, Self)) {}
     #[inline(always)]
     fn route_normal<N: super::NormalLaw<History = ()>, V: super::parts::VisitParts>(law: &super::ContactLaw, _normal: N, v: V) -> V::Out {
+        super::Tangential::route(law, v)
+    }
+    #[inline(always)]
+    fn route_tangential<T: super::TangentialLaw<Extra = ()>, V: super::parts::VisitParts>(law: &super::ContactLaw, _tangential: T, v: V) -> V::Out {
         v.visit(law)
+    }
+    #[inline(always)]
+    fn route_both<N: super::NormalLaw, T: super::TangentialLaw<Extra = ()>, V: super::parts::VisitParts>(law: &super::ContactLaw, normal: N, _tangential: T, v: V) -> V::Out {
+        v.visit(&super::WithNormal { law: *law, normal })
     }
     #[inline(always)]
     fn route_history<N: super::NormalLaw<History = ()>, V: super::parts::VisitNormal>(_normal: N, v: V) -> V::Out {
@@ -102,6 +139,55 @@ impl LawHistory for () {
     fn encode(&self, _: &mut Vec<f64>) {}
     #[inline(always)]
     fn decode(_: &[f64]) {}
+}
+
+/// The histories of two parts of a composed law side by side (a normal law's and a tangential
+/// law's, [`WithBoth`](super::WithBoth)): the first part's encoding then the second's, written
+/// under the name `"<first>+<second>"`, reversed part by part.
+impl<A: LawHistory, B: LawHistory> LawHistory for (A, B) {
+    /// Not used: the pair's column is named by [`LawHistory::name`], from its parts' names.
+    const NAME: &'static str = "pair";
+    const WIDTH: usize = A::WIDTH + B::WIDTH;
+    type Lanes<R: crate::real::Real> = (A::Lanes<R>, B::Lanes<R>);
+    fn name() -> Cow<'static, str> {
+        Cow::Owned(format!("{}+{}", A::name(), B::name()))
+    }
+    #[inline(always)]
+    fn to_lane(self) -> Self::Lanes<f64> {
+        (self.0.to_lane(), self.1.to_lane())
+    }
+    #[inline(always)]
+    fn from_lane(l: Self::Lanes<f64>) -> Self {
+        (A::from_lane(l.0), B::from_lane(l.1))
+    }
+    #[inline(always)]
+    fn splat<R: crate::real::Real>(self) -> Self::Lanes<R> {
+        (self.0.splat::<R>(), self.1.splat::<R>())
+    }
+    #[inline(always)]
+    fn gather<R: crate::real::Real>(mut at: impl FnMut(usize) -> Self) -> Self::Lanes<R> {
+        (A::gather::<R>(|l| at(l).0), B::gather::<R>(|l| at(l).1))
+    }
+    #[inline(always)]
+    fn scatter<R: crate::real::Real>(lanes: Self::Lanes<R>, mut put: impl FnMut(usize, Self)) {
+        // the first parts of every lane, then each lane's pair (at most 16 lanes: 512-bit
+        // vectors of f32 and narrower lane types than the engine has)
+        let mut first = [A::default(); 16];
+        assert!(R::LANES <= first.len());
+        A::scatter::<R>(lanes.0, |l, a| first[l] = a);
+        B::scatter::<R>(lanes.1, |l, b| put(l, (first[l], b)));
+    }
+    fn encode(&self, out: &mut Vec<f64>) {
+        self.0.encode(out);
+        self.1.encode(out);
+    }
+    fn decode(values: &[f64]) -> Self {
+        (A::decode(&values[..A::WIDTH]), B::decode(&values[A::WIDTH..A::WIDTH + B::WIDTH]))
+    }
+    #[inline]
+    fn reversed(self) -> Self {
+        (self.0.reversed(), self.1.reversed())
+    }
 }
 
 /// A column of one history type, type-erased (see [`HistoryColumn`]).
@@ -159,7 +245,7 @@ impl<H: LawHistory> Column for Typed<H> {
         for h in &self.0 {
             h.encode(&mut values);
         }
-        Encoded { name: H::NAME.into(), width: H::WIDTH as u32, values }
+        Encoded { name: H::name().into_owned(), width: H::WIDTH as u32, values }
     }
 }
 
@@ -226,6 +312,11 @@ impl HistoryColumn {
         self.0.as_ref().map(|c| c.encoded().values).unwrap_or_default()
     }
 
+    /// The name of the stored history ([`LawHistory::name`]; none when nothing is stored).
+    pub fn name(&self) -> Option<String> {
+        self.0.as_ref().map(|c| c.encoded().name)
+    }
+
     /// Number of entries stored (0 when none).
     pub fn len(&self) -> usize {
         self.0.as_ref().map_or(0, |c| c.len())
@@ -247,7 +338,7 @@ impl HistoryColumn {
         if !stored.is_some_and(|c| c.as_any().is::<Typed<H>>()) {
             let decoded = stored
                 .and_then(|c| c.as_any().downcast_ref::<Encoded>())
-                .filter(|e| e.name == H::NAME && e.width as usize == H::WIDTH && H::WIDTH > 0)
+                .filter(|e| e.name == H::name() && e.width as usize == H::WIDTH && H::WIDTH > 0)
                 .map(|e| e.values.chunks_exact(H::WIDTH).map(H::decode).collect());
             self.0 = Some(Box::new(Typed::<H>(decoded.unwrap_or_else(|| vec![H::default(); len]))));
         }
@@ -271,7 +362,7 @@ impl HistoryColumn {
         }
         c.as_any()
             .downcast_ref::<Encoded>()
-            .filter(|e| e.name == H::NAME && e.width as usize == H::WIDTH)
+            .filter(|e| e.name == H::name() && e.width as usize == H::WIDTH)
             .map_or_else(H::default, |e| H::decode(&e.values[p * H::WIDTH..(p + 1) * H::WIDTH]))
     }
 

@@ -42,13 +42,12 @@ pub use families::{DampingTable, ResistanceTable, TangentialTable};
 pub use history::{HistoryColumn, LawHistory, WallHistory};
 pub(crate) use history::{decoding_version, zero_sized_slice};
 pub use params::{ContactParams, Partner, PRESETS};
-pub use parts::{HertzMindlin, HistoryNormal, HistoryRest, HookeCundallStrack, HookeSlipActivation, LawParts, Specialized, VisitNormal, VisitParts, WithNormal, WithRolling};
+pub use parts::{HertzMindlin, HistoryNormal, HistoryRest, HookeCundallStrack, HookeSlipActivation, LawParts, Specialized, VisitNormal, VisitParts, WithBoth, WithNormal, WithRolling, WithTangential};
 pub use rolling::{ResistanceLaw, Rolling, Twisting};
-pub use tangential::{HistoryValue, SlipActivationParams, Tangential, TangentialHistory};
+pub use tangential::{spring_step, HistoryKind, HistoryValue, SlipActivationParams, Tangential, TangentialHistory, TangentialLaw};
 pub(crate) use coulomb::coulomb_cap_lanes;
 pub(crate) use damping::clamped_normal_force_lanes;
 pub(crate) use kinematics::{into_tangent_plane_lanes, pair_kinematics_lanes};
-pub(crate) use tangential::spring_step;
 
 use crate::real::{from_lanes, to_lanes, Real, Vec3};
 
@@ -178,7 +177,7 @@ pub(crate) struct LawOut<R: Real> {
 /// `damp` gives γ_n and γ_t (the law's own damping parts, or the same formulas resolved at
 /// compile time for the presets). Every `match` on a part folds away for a law whose parts are
 /// constants of its type ([`LawParts`]). `extra` is the law's own history ([`LawParts::Extra`],
-/// `()` for the laws without), read and updated by its normal part.
+/// `()` for the laws without), read and updated by its normal part and its tangential step.
 #[inline(always)]
 pub(crate) fn law_lanes<R: Real, const DIM: usize, const ROT: usize, P: LawParts, Q: Dampers>(
     law: &P,
@@ -202,7 +201,7 @@ pub(crate) fn law_lanes<R: Real, const DIM: usize, const ROT: usize, P: LawParts
         let mut rotated = into_tangent_plane_lanes::<R, DIM>(x.spring, n);
         rotated = tangential.unloading_lanes::<R, DIM>(rotated, x.was, x.overlap);
         let cap = R::splat(law.friction()) * f_n;
-        spring_step::<R, DIM>(&tangential, rotated, x.v_t, k_t, gamma_t, dt, cap)
+        law.tangential_step::<R, DIM>(rotated, x.v_t, k_t, gamma_t, dt, cap, extra)
     };
 
     let (mut torque, mut rolling) = ([zero; 3], x.rolling);
@@ -311,10 +310,18 @@ pub(crate) fn contact_loads<D: Dim>(kin: &Kinematics<D>, o: &ContactOutput<D>) -
 }
 
 impl ContactLaw {
+    /// True when a part of the law keeps a per-contact history of its own (the normal law's
+    /// [`NormalLaw::History`], the tangential law's [`TangentialLaw::Extra`]), which the engine
+    /// stores beside the neighbor list.
+    pub fn has_history(&self) -> bool {
+        self.normal.has_history() || self.tangential.has_history()
+    }
+
     /// Evaluates the law for a contact with kinematics `kin` over a step `dt`, updating `state`.
-    /// Assumes `kin.overlap > 0`. A normal law with its own history is evaluated here as for a
-    /// contact that has just formed (its history the default): the engine runs such laws
-    /// through their composition [`WithNormal`], which keeps the history.
+    /// Assumes `kin.overlap > 0`. A normal or tangential law with its own history is evaluated
+    /// here as for a contact that has just formed (its history the default): the engine runs
+    /// such laws through their compositions ([`WithNormal`], [`WithTangential`], [`WithBoth`]),
+    /// which keep the history.
     #[inline]
     pub fn evaluate<D: Dim>(&self, kin: &Kinematics<D>, state: &mut ContactState<D>, dt: f64) -> ContactOutput<D> {
         evaluate_parts(self, kin, state, &mut (), dt)

@@ -9,8 +9,8 @@
 
 use super::rolling::SpringDashpot;
 use super::tangential::{Linear, Mindlin, SlipActivation};
-use super::{ContactLaw, Hertz, Hooke, LawHistory, NormalDamping, NormalElastic, NormalLaw, NormalResponse, Rolling, Tangential, TangentialDamping, Twisting};
-use crate::real::Real;
+use super::{ContactLaw, Hertz, Hooke, LawHistory, TangentialLaw, NormalDamping, NormalElastic, NormalLaw, NormalResponse, Rolling, Tangential, TangentialDamping, Twisting};
+use crate::real::{Real, Vec3};
 
 /// The parts of a contact law, as [`evaluate_parts`](super::evaluate_parts) reads them.
 pub trait LawParts: Copy + Send + Sync {
@@ -30,6 +30,25 @@ pub trait LawParts: Copy + Send + Sync {
     fn normal_energy(&self, xi: f64, r_eff: f64, extra: &Self::Extra) -> f64 {
         let _ = extra;
         self.normal().energy(xi, r_eff)
+    }
+    /// One step of the tangential part ([`TangentialLaw::step_lanes`]) reading and updating
+    /// the law's own history `extra`: the tangential force on i, the spring to store and where
+    /// the contact slides. The default: the [`LawParts::tangential`] part's step, for a law
+    /// without a tangential history of its own.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn tangential_step<R: Real, const N: usize>(
+        &self,
+        rotated: Vec3<R>,
+        v_t: Vec3<R>,
+        k_t: R,
+        gamma_t: R,
+        dt: f64,
+        cap: R,
+        extra: &mut <Self::Extra as LawHistory>::Lanes<R>,
+    ) -> (Vec3<R>, Vec3<R>, R::Mask) {
+        let _ = extra;
+        self.tangential().step_lanes::<R, N>(rotated, v_t, k_t, gamma_t, dt, cap)
     }
     /// Normal elastic part.
     fn normal(&self) -> NormalElastic;
@@ -121,6 +140,73 @@ impl<N: NormalLaw> LawParts for WithNormal<N> {
     #[inline]
     fn normal_energy(&self, xi: f64, r_eff: f64, extra: &N::History) -> f64 {
         self.normal.energy(xi, r_eff, extra)
+    }
+    delegate_parts!(normal: NormalElastic, damping: NormalDamping, tangential: Tangential, tangential_damping: TangentialDamping, friction: f64, rolling: Rolling, twisting: Twisting);
+}
+
+/// A contact law whose tangential part `T` keeps a per-contact history of its own (and whose
+/// normal part none): the tangential step reads and updates it ([`LawParts::Extra`] =
+/// `T::Extra`); every other part is that of `law`. The engine runs such a law through this
+/// composition (`Tangential::route`, [`LawHistory::route_tangential`]), one per registered
+/// tangential law with history, written once.
+#[derive(Clone, Copy, Debug)]
+pub struct WithTangential<T> {
+    pub(crate) law: ContactLaw,
+    pub(crate) tangential: T,
+}
+
+impl<T: TangentialLaw> LawParts for WithTangential<T> {
+    type Extra = T::Extra;
+    #[inline(always)]
+    fn tangential_step<R: Real, const N: usize>(
+        &self,
+        rotated: Vec3<R>,
+        v_t: Vec3<R>,
+        k_t: R,
+        gamma_t: R,
+        dt: f64,
+        cap: R,
+        extra: &mut <Self::Extra as LawHistory>::Lanes<R>,
+    ) -> (Vec3<R>, Vec3<R>, R::Mask) {
+        self.tangential.step_lanes::<R, N>(rotated, v_t, k_t, gamma_t, dt, cap, extra)
+    }
+    delegate_parts!(normal: NormalElastic, damping: NormalDamping, tangential: Tangential, tangential_damping: TangentialDamping, friction: f64, rolling: Rolling, twisting: Twisting);
+}
+
+/// A contact law whose normal part `N` and tangential part `T` both keep a per-contact history:
+/// the law's history is the pair of theirs ([`LawParts::Extra`] = `(N::History, T::Extra)`, one
+/// column written under `"<normal>+<tangential>"`), the normal response reading and updating
+/// the first, the tangential step the second; every other part is that of `law`
+/// ([`LawHistory::route_both`]).
+#[derive(Clone, Copy, Debug)]
+pub struct WithBoth<N, T> {
+    pub(crate) law: ContactLaw,
+    pub(crate) normal: N,
+    pub(crate) tangential: T,
+}
+
+impl<N: NormalLaw, T: TangentialLaw> LawParts for WithBoth<N, T> {
+    type Extra = (N::History, T::Extra);
+    #[inline(always)]
+    fn normal_response<R: Real>(&self, xi: R, r_eff: R, extra: &mut <Self::Extra as LawHistory>::Lanes<R>) -> NormalResponse<R> {
+        self.normal.response_lanes(xi, r_eff, &mut extra.0)
+    }
+    #[inline]
+    fn normal_energy(&self, xi: f64, r_eff: f64, extra: &Self::Extra) -> f64 {
+        self.normal.energy(xi, r_eff, &extra.0)
+    }
+    #[inline(always)]
+    fn tangential_step<R: Real, const N2: usize>(
+        &self,
+        rotated: Vec3<R>,
+        v_t: Vec3<R>,
+        k_t: R,
+        gamma_t: R,
+        dt: f64,
+        cap: R,
+        extra: &mut <Self::Extra as LawHistory>::Lanes<R>,
+    ) -> (Vec3<R>, Vec3<R>, R::Mask) {
+        self.tangential.step_lanes::<R, N2>(rotated, v_t, k_t, gamma_t, dt, cap, &mut extra.1)
     }
     delegate_parts!(normal: NormalElastic, damping: NormalDamping, tangential: Tangential, tangential_damping: TangentialDamping, friction: f64, rolling: Rolling, twisting: Twisting);
 }

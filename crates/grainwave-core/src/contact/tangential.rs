@@ -6,6 +6,8 @@
 //! −k_t s − γ_t v_t as in SPEC §2.3).
 
 use super::coulomb::coulomb_cap_lanes;
+use super::parts::VisitParts;
+use super::{ContactLaw, LawHistory, NormalLaw};
 use crate::dim::VectorOps;
 use crate::error::{CoreError, Result};
 use crate::real::{select3, Real, Vec3};
@@ -83,6 +85,11 @@ pub enum HistoryKind {
 pub trait TangentialLaw: Copy + Debug + PartialEq + Serialize + DeserializeOwned + Send + Sync + 'static {
     /// What the stored history ([`TangentialHistory`]) holds: a length or a force.
     const HISTORY: HistoryKind;
+    /// The law's per-contact history beyond the stored spring ([`LawHistory`]; `()` for a law
+    /// without one, which then runs on the general law's kernels): kept beside the neighbor
+    /// list, carried across rebuilds, reset when the contact opens and checkpointed by the
+    /// engine, read and updated by [`TangentialLaw::step_lanes`].
+    type Extra: LawHistory;
     /// Checks the law (also one made in code); errors name `{field}.<key>`, the value and what
     /// is allowed.
     fn validate(&self, field: &str) -> Result<()>;
@@ -114,6 +121,26 @@ pub trait TangentialLaw: Copy + Debug + PartialEq + Serialize + DeserializeOwned
         let _ = (dt, trial);
         (f, select3::<R>(sliding, at_cap, kept))
     }
+    /// One step of a contact from the stored spring rotated into the current tangent plane
+    /// (`rotated`), v_t, k_t, γ_t, the step `dt`, the Coulomb cap μ F_n and the law's own
+    /// history `extra` (read and updated): the tangential force on i, the spring to store and
+    /// where the contact slides. Default: [`spring_step`] — the increment, the cap, the history
+    /// past it — which a law without history of its own keeps; a law with one replaces it.
+    #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
+    fn step_lanes<R: Real, const N: usize>(
+        &self,
+        rotated: Vec3<R>,
+        v_t: Vec3<R>,
+        k_t: R,
+        gamma_t: R,
+        dt: f64,
+        cap: R,
+        extra: &mut <Self::Extra as LawHistory>::Lanes<R>,
+    ) -> (Vec3<R>, Vec3<R>, R::Mask) {
+        let _ = extra;
+        spring_step::<R, N, Self>(self, rotated, v_t, k_t, gamma_t, dt, cap)
+    }
 }
 
 /// The registry of tangential laws: `module::Type` per law, the module a file
@@ -142,6 +169,15 @@ macro_rules! tangential_laws {
                 match self {
                     Tangential::None => None,
                     $(Tangential::$Law(_) => Some(<$Law as TangentialLaw>::HISTORY),)*
+                }
+            }
+
+            /// True when the law keeps a per-contact history of its own beyond the stored
+            /// spring ([`TangentialLaw::Extra`] not `()`).
+            pub fn has_history(&self) -> bool {
+                match self {
+                    Tangential::None => false,
+                    $(Tangential::$Law(_) => <<$Law as TangentialLaw>::Extra as LawHistory>::WIDTH > 0,)*
                 }
             }
 
@@ -175,26 +211,6 @@ macro_rules! tangential_laws {
                 }
             }
 
-            /// The increment of one step ([`TangentialLaw::trial_lanes`]); without a tangential
-            /// part the (zero) history is kept and there is no force.
-            #[inline(always)]
-            pub(crate) fn trial_lanes<R: Real, const N: usize>(&self, rotated: Vec3<R>, v_t: Vec3<R>, k_t: R, gamma_t: R, dt: f64) -> (Vec3<R>, Vec3<R>) {
-                match self {
-                    Tangential::None => ([R::splat(0.0); 3], rotated),
-                    $(Tangential::$Law(l) => l.trial_lanes::<R, N>(rotated, v_t, k_t, gamma_t, dt),)*
-                }
-            }
-
-            /// The history that holds exactly the force `f` ([`TangentialLaw::history_for_force_lanes`];
-            /// zero without a tangential part).
-            #[inline(always)]
-            pub(crate) fn history_for_force_lanes<R: Real, const N: usize>(&self, f: Vec3<R>) -> Vec3<R> {
-                match self {
-                    Tangential::None => [R::splat(0.0); 3],
-                    $(Tangential::$Law(l) => l.history_for_force_lanes::<R, N>(f),)*
-                }
-            }
-
             /// The rotated history adjusted for the change of overlap ([`TangentialLaw::unloading_lanes`]).
             #[inline(always)]
             pub(crate) fn unloading_lanes<R: Real, const N: usize>(&self, rotated: Vec3<R>, was: R, overlap: R) -> Vec3<R> {
@@ -204,13 +220,45 @@ macro_rules! tangential_laws {
                 }
             }
 
-            /// The force and history of a step past the cap ([`TangentialLaw::sliding_lanes`]).
+            /// One step of the law ([`TangentialLaw::step_lanes`]), for a law with a history
+            /// of its own ([`TangentialLaw::Extra`]) as for a contact that has just formed (its
+            /// history the default): the engine runs such laws through the compositions that
+            /// keep it ([`Tangential::route`]). Without a tangential part: no force, the
+            /// (zero) spring kept, not sliding.
             #[allow(clippy::too_many_arguments)]
             #[inline(always)]
-            pub(crate) fn sliding_lanes<R: Real, const N: usize>(&self, dt: f64, f: Vec3<R>, at_cap: Vec3<R>, trial: Vec3<R>, kept: Vec3<R>, sliding: R::Mask) -> (Vec3<R>, Vec3<R>) {
+            pub(crate) fn step_lanes<R: Real, const N: usize>(&self, rotated: Vec3<R>, v_t: Vec3<R>, k_t: R, gamma_t: R, dt: f64, cap: R) -> (Vec3<R>, Vec3<R>, R::Mask) {
                 match self {
-                    Tangential::None => (f, select3::<R>(sliding, at_cap, kept)),
-                    $(Tangential::$Law(l) => l.sliding_lanes::<R, N>(dt, f, at_cap, trial, kept, sliding),)*
+                    Tangential::None => {
+                        let zero = R::splat(0.0);
+                        ([zero; 3], rotated, zero.gt(zero))
+                    }
+                    $(Tangential::$Law(l) => {
+                        let mut extra = <<$Law as TangentialLaw>::Extra as LawHistory>::splat::<R>(Default::default());
+                        l.step_lanes::<R, N>(rotated, v_t, k_t, gamma_t, dt, cap, &mut extra)
+                    })*
+                }
+            }
+
+            /// Runs `v` with the parts of `law` (whose normal part keeps no history) as a type
+            /// that reaches the tangential law's own history: `law` itself where it keeps none,
+            /// [`WithTangential`](super::WithTangential) otherwise ([`LawHistory::route_tangential`]).
+            #[inline(always)]
+            pub(crate) fn route<V: VisitParts>(law: &ContactLaw, v: V) -> V::Out {
+                match law.tangential {
+                    Tangential::None => v.visit(law),
+                    $(Tangential::$Law(t) => <<$Law as TangentialLaw>::Extra as LawHistory>::route_tangential(law, t, v),)*
+                }
+            }
+
+            /// [`Tangential::route`] for a law whose normal part `normal` keeps a history:
+            /// [`WithNormal`](super::WithNormal), or [`WithBoth`](super::WithBoth) where the
+            /// tangential law keeps one too ([`LawHistory::route_both`]).
+            #[inline(always)]
+            pub(crate) fn route_with_normal<N: NormalLaw, V: VisitParts>(law: &ContactLaw, normal: N, v: V) -> V::Out {
+                match law.tangential {
+                    Tangential::None => v.visit(&super::WithNormal { law: *law, normal }),
+                    $(Tangential::$Law(t) => <<$Law as TangentialLaw>::Extra as LawHistory>::route_both(law, normal, t, v),)*
                 }
             }
         }
@@ -221,6 +269,7 @@ tangential_laws! {
     linear::Linear,
     mindlin::Mindlin,
     slip_activation::SlipActivation,
+    slip_weakening::SlipWeakening,
 }
 
 impl Tangential {
@@ -264,16 +313,18 @@ impl Tangential {
     }
 }
 
-/// One step of the tangential spring with its Coulomb limit, on every lane: the increment
-/// ([`Tangential::trial_lanes`]), the cap |F_t| ≤ `cap` ([`coulomb_cap_lanes`]) and the history
-/// to store — the incremented one, or where the contact slides the one that holds exactly the
-/// capped force ([`Tangential::history_for_force_lanes`]). Returns the tangential force on i,
-/// the new history and where the contact slides. The one implementation, run by the general
-/// kernel (`f64`) and the engine's vector paths.
+/// One step of the tangential spring of law `law` with its Coulomb limit, on every lane: the
+/// increment ([`TangentialLaw::trial_lanes`]), the cap |F_t| ≤ `cap` ([`coulomb_cap_lanes`]) and
+/// the history to store — the incremented one, or where the contact slides the one that holds
+/// exactly the capped force ([`TangentialLaw::history_for_force_lanes`]) as the law's
+/// [`TangentialLaw::sliding_lanes`] makes it. Returns the tangential force on i, the new
+/// history and where the contact slides. The one implementation of the step (the default of
+/// [`TangentialLaw::step_lanes`]), run by the general kernel (`f64`) and the engine's vector
+/// paths.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-pub(crate) fn spring_step<R: Real, const N: usize>(
-    law: &Tangential,
+pub fn spring_step<R: Real, const N: usize, T: TangentialLaw>(
+    law: &T,
     rotated: Vec3<R>,
     v_t: Vec3<R>,
     k_t: R,
@@ -376,6 +427,7 @@ mod tests {
             Linear { stiffness: f64 },
             Mindlin { effective_shear_modulus: f64, rescale_on_unloading: bool },
             SlipActivation { stiffness: f64, activation_time: f64 },
+            SlipWeakening { stiffness: f64, residual_ratio: f64, weakening_distance: f64 },
         }
         let pairs = [
             (Tangential::None, Before::None),
@@ -385,6 +437,10 @@ mod tests {
                 Before::Mindlin { effective_shear_modulus: 1e6, rescale_on_unloading: true },
             ),
             (SlipActivation { stiffness: 2.0, activation_time: 0.25 }.into(), Before::SlipActivation { stiffness: 2.0, activation_time: 0.25 }),
+            (
+                SlipWeakening { stiffness: 2.0, residual_ratio: 0.5, weakening_distance: 1e-3 }.into(),
+                Before::SlipWeakening { stiffness: 2.0, residual_ratio: 0.5, weakening_distance: 1e-3 },
+            ),
         ];
         assert_eq!(pairs.len(), Tangential::NAMES.len() + 1);
         for (i, (law, before)) in pairs.iter().enumerate() {

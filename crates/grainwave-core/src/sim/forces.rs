@@ -1094,7 +1094,7 @@ impl<D: Dim> Simulation<D> {
         let (pos, radius, mass) = (&grains.pos, &grains.radius, &grains.mass);
         let (vel, omega) = if use_eval { (&work.vel_eval[..], &work.omega_eval[..]) } else { (&grains.vel[..], &grains.omega[..]) };
         let at = WallInputs { walls, pos, radius, mass, vel, omega, dt: dt_hist, grain_law, overlap_limit };
-        let with_history = walls.iter().any(|w| w.law.normal.has_history());
+        let with_history = walls.iter().any(|w| w.law.has_history());
         let mut wall_stats = nlist
             .wall_pairs
             .par_iter_mut()
@@ -1103,14 +1103,14 @@ impl<D: Dim> Simulation<D> {
             .with_min_len(512)
             .map(|(k, (wp, out))| {
                 let law = &walls[wp.wall as usize].law;
-                if with_history && law.normal.has_history() {
+                if with_history && law.has_history() {
                     return ForceStats::new();
                 }
                 wall_contact(law, &at, k, wp, out, &mut ())
             })
             .reduce(ForceStats::new, ForceStats::merge);
         if with_history {
-            for (w, wall) in walls.iter().enumerate().filter(|(_, wall)| wall.law.normal.has_history()) {
+            for (w, wall) in walls.iter().enumerate().filter(|(_, wall)| wall.law.has_history()) {
                 let column = nlist.wall_extra.column_mut(w, walls.len());
                 let pass = WallPass { wall: w as u32, at: &at, pairs: &mut nlist.wall_pairs, out: &mut work.wall_force, column };
                 wall_stats = ForceStats::merge(wall_stats, NormalElastic::route(&wall.law, pass));

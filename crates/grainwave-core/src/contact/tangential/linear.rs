@@ -18,6 +18,7 @@ pub struct Linear {
 
 impl TangentialLaw for Linear {
     const HISTORY: HistoryKind = HistoryKind::Displacement;
+    type Extra = ();
 
     fn validate(&self, field: &str) -> Result<()> {
         require_positive(&format!("{field}.tangential_stiffness"), self.stiffness)

@@ -21,6 +21,7 @@ pub struct Mindlin {
 
 impl TangentialLaw for Mindlin {
     const HISTORY: HistoryKind = HistoryKind::Force;
+    type Extra = ();
 
     fn validate(&self, field: &str) -> Result<()> {
         require_positive(&format!("{field}.shear_modulus"), self.effective_shear_modulus)

@@ -45,6 +45,7 @@ impl SlipActivation {
 
 impl TangentialLaw for SlipActivation {
     const HISTORY: HistoryKind = HistoryKind::Displacement;
+    type Extra = ();
 
     /// K_t > 0 (the linear law's check) and finite τ > 0 (a law with τ = 0 is the linear law
     /// and is written as one).
