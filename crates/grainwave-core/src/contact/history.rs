@@ -85,6 +85,15 @@ pub trait LawHistory: Copy + Default + PartialEq + Debug + Send + Sync + 'static
     fn route_tangential<T: super::TangentialLaw<Extra = Self>, V: super::parts::VisitParts>(law: &super::ContactLaw, tangential: T, v: V) -> V::Out {
         v.visit(&super::WithTangential { law: *law, tangential })
     }
+    /// Runs `v` with `tangential`, whose law declares this history, as its type
+    /// ([`VisitTangential::visit`](super::VisitTangential::visit)): the specialised compositions
+    /// of a tangential law with history (`Specialized::TangentialHistory`,
+    /// [`HistoryTangential`](super::HistoryTangential)). For `()`
+    /// [`VisitTangential::without_history`](super::VisitTangential::without_history) instead.
+    #[inline(always)]
+    fn route_tangential_history<T: super::TangentialLaw<Extra = Self>, V: super::VisitTangential>(tangential: T, v: V) -> V::Out {
+        v.visit(tangential)
+    }
     /// Runs `v` with the parts of `law`, whose normal part `normal` and tangential part
     /// `tangential` (declaring this history) both keep one: [`WithBoth`](super::WithBoth),
     /// whose history is the pair of theirs (the default); for `()` [`WithNormal`](super::WithNormal).
@@ -126,6 +135,10 @@ impl LawHistory for () {
     #[inline(always)]
     fn route_tangential<T: super::TangentialLaw<Extra = ()>, V: super::parts::VisitParts>(law: &super::ContactLaw, _tangential: T, v: V) -> V::Out {
         v.visit(law)
+    }
+    #[inline(always)]
+    fn route_tangential_history<T: super::TangentialLaw<Extra = ()>, V: super::VisitTangential>(_tangential: T, v: V) -> V::Out {
+        v.without_history()
     }
     #[inline(always)]
     fn route_both<N: super::NormalLaw, T: super::TangentialLaw<Extra = ()>, V: super::parts::VisitParts>(law: &super::ContactLaw, normal: N, _tangential: T, v: V) -> V::Out {

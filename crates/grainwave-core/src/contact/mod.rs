@@ -42,7 +42,10 @@ pub use families::{DampingTable, ResistanceTable, TangentialTable};
 pub use history::{HistoryColumn, LawHistory, WallHistory};
 pub(crate) use history::{decoding_version, zero_sized_slice};
 pub use params::{ContactParams, Partner, PRESETS};
-pub use parts::{HertzMindlin, HistoryNormal, HistoryRest, HookeCundallStrack, HookeSlipActivation, LawParts, Specialized, VisitNormal, VisitParts, WithBoth, WithNormal, WithRolling, WithTangential};
+pub use parts::{
+    HertzMindlin, HistoryNormal, HistoryRest, HistoryTangential, HookeCundallStrack, HookeSlipActivation, LawParts, Specialized, TangentialRest, VisitNormal, VisitParts, VisitTangential, WithBoth,
+    WithNormal, WithRolling, WithTangential,
+};
 pub use rolling::{ResistanceLaw, Rolling, Twisting};
 pub use tangential::{spring_step, HistoryKind, HistoryValue, SlipActivationParams, Tangential, TangentialHistory, TangentialLaw};
 pub(crate) use coulomb::coulomb_cap_lanes;

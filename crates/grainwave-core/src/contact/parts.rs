@@ -223,6 +223,19 @@ pub trait VisitNormal {
     fn without_history(self) -> Self::Out;
 }
 
+/// Something run with a tangential law that keeps a per-contact history as its type
+/// (`Tangential::route_history`, [`LawHistory::route_tangential_history`]): the specialised
+/// kernels of [`HistoryTangential`].
+pub trait VisitTangential {
+    /// What the run gives.
+    type Out;
+    /// Runs with the tangential law `tangential` (its [`TangentialLaw::Extra`] not `()`).
+    fn visit<T: TangentialLaw>(self, tangential: T) -> Self::Out;
+    /// Runs for a tangential law without history (or none), which this route does not compile
+    /// kernels for.
+    fn without_history(self) -> Self::Out;
+}
+
 /// A normal law `N` with its own per-contact history in place of the normal part of a
 /// specialised law `L` without history ([`HookeCundallStrack`], [`HookeSlipActivation`], with
 /// or without [`WithRolling`]): the normal response is `N`'s, reading and updating the history
@@ -264,6 +277,53 @@ pub enum HistoryRest {
     SlipActivation(HookeSlipActivation),
     /// The slip-activation spring with rolling resistance.
     SlipActivationRolling(WithRolling<HookeSlipActivation>),
+}
+
+/// A tangential law `T` with its own per-contact history in place of the tangential part of a
+/// specialised law `L` without history (the Hooke normal force of [`HookeCundallStrack`], with
+/// or without [`WithRolling`]): the tangential step is `T`'s, reading and updating the history
+/// ([`LawParts::Extra`] = `T::Extra`), and so are k_t and the step on unloading (its constant
+/// variant of [`Tangential`]); every other part is a constant variant of `L`, whose own
+/// tangential part is not read. The window and fused kernels of such a law are those of `L`
+/// with the history gathered and scattered beside the tangential spring; one composition for
+/// every registered tangential law with history (`Specialized::TangentialHistory`).
+#[derive(Clone, Copy, Debug)]
+pub struct HistoryTangential<T, L> {
+    pub(crate) tangential: T,
+    pub(crate) law: L,
+}
+
+impl<T: TangentialLaw, L: LawParts<Extra = ()>> LawParts for HistoryTangential<T, L> {
+    type Extra = T::Extra;
+    #[inline(always)]
+    fn tangential_step<R: Real, const N: usize>(
+        &self,
+        rotated: Vec3<R>,
+        v_t: Vec3<R>,
+        k_t: R,
+        gamma_t: R,
+        dt: f64,
+        cap: R,
+        extra: &mut <Self::Extra as LawHistory>::Lanes<R>,
+    ) -> (Vec3<R>, Vec3<R>, R::Mask) {
+        self.tangential.step_lanes::<R, N>(rotated, v_t, k_t, gamma_t, dt, cap, extra)
+    }
+    #[inline(always)]
+    fn tangential(&self) -> Tangential {
+        self.tangential.into()
+    }
+    delegate_parts!(normal: NormalElastic, damping: NormalDamping, tangential_damping: TangentialDamping, friction: f64, rolling: Rolling, twisting: Twisting);
+}
+
+/// The parts beside a tangential law with its own history that have specialised kernels
+/// ([`HistoryTangential`]): the Hooke normal force, with and without rolling resistance. Their
+/// tangential stiffness is NaN: it is not read (the tangential part is the law's).
+#[derive(Clone, Copy, Debug)]
+pub enum TangentialRest {
+    /// The Hooke normal force.
+    Hooke(HookeCundallStrack),
+    /// The Hooke normal force with rolling resistance.
+    HookeRolling(WithRolling<HookeCundallStrack>),
 }
 
 /// Hertz normal force, incremental Mindlin (no rescaling on unloading), any damping, Coulomb
@@ -411,6 +471,10 @@ pub enum Specialized {
     /// A normal law with its own per-contact history and the parts `HistoryRest` beside it: run
     /// as [`HistoryNormal`] with the law's normal part as its type (`NormalElastic::route_history`).
     NormalHistory(ContactLaw, HistoryRest),
+    /// A tangential law with its own per-contact history beside the Hooke normal force (and a
+    /// normal law without history), with or without rolling resistance: run as
+    /// [`HistoryTangential`] with the tangential law as its type (`Tangential::route_history`).
+    TangentialHistory(ContactLaw, TangentialRest),
     /// Anything else (twisting resistance, no friction, rescaled Mindlin, mixed parts, a
     /// normal law with its own history beside other parts): evaluated through [`ContactLaw`]
     /// itself, or through [`WithNormal`] for a normal law with history (`NormalElastic::route`).
@@ -462,6 +526,16 @@ impl ContactLaw {
                 _ => return self.general(),
             };
             return Specialized::NormalHistory(*self, rest);
+        }
+        if self.tangential.has_history() {
+            // the tangential part is the law's own (`HistoryTangential`): the rest's is not read
+            let NormalElastic::Hooke(Hooke { stiffness: normal_stiffness }) = self.normal else { return self.general() };
+            let law = HookeCundallStrack { normal_stiffness, tangential_stiffness: f64::NAN, damping, tangential_damping, friction };
+            let rest = match rolling {
+                None => TangentialRest::Hooke(law),
+                Some((stiffness, damping, friction)) => TangentialRest::HookeRolling(WithRolling { law, stiffness, damping, friction }),
+            };
+            return Specialized::TangentialHistory(*self, rest);
         }
         match (self.normal, self.tangential, rolling) {
             (NormalElastic::Hertz(Hertz { effective_modulus }), Tangential::Mindlin(Mindlin { effective_shear_modulus, rescale_on_unloading: false }), r) => {
@@ -617,6 +691,63 @@ mod tests {
         assert!(matches!(p.build(Partner::Grain, "contact").unwrap().specialize(), Specialized::General(_)));
     }
 
+    /// The specialised compositions of a tangential law with history (`HistoryTangential`, both
+    /// `TangentialRest`) give the bits of its general composition (`WithTangential`), for
+    /// slip-weakening friction with a random accumulated slip (none, part of D_c, past it);
+    /// beside a normal law with history, a Hertz normal law or twisting resistance the law keeps
+    /// the general kernel.
+    #[test]
+    fn tangential_history_compositions_give_the_bits_of_the_general_law() {
+        use crate::contact::tangential::{Slip, SlipWeakening};
+        use crate::contact::{Hysteretic, NormalTable};
+        let mut seen = [false; 2];
+        for rolling in [false, true] {
+            let mut p = ContactParams::preset("hooke_cundall_strack");
+            (p.normal_stiffness, p.friction, p.normal_damping_rate) = (Some(1e4), Some(0.3), Some(50.0));
+            if rolling {
+                (p.rolling_stiffness, p.rolling_friction) = (Some(50.0), Some(0.01));
+            }
+            let tangential = SlipWeakening { stiffness: 3e3, residual_ratio: 0.3, weakening_distance: 1e-3 };
+            let law = ContactLaw { tangential: tangential.into(), ..p.build(Partner::Grain, "contact").unwrap() };
+            let Specialized::TangentialHistory(_, rest) = law.specialize() else { panic!("{law:?} should be specialised") };
+            let general = WithTangential { law, tangential };
+            let v3 = |rng: &mut ChaCha8Rng| DVec3::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5);
+            let mk3 = |rng: &mut ChaCha8Rng| (DVec3::new(0.9 + 0.1 * rng.random::<f64>(), 0.2 * rng.random::<f64>(), 0.1), v3(rng), v3(rng), v3(rng) * 10f64.powf(7.0 * rng.random::<f64>() - 3.0));
+            let mk2 = |rng: &mut ChaCha8Rng| {
+                let v = DVec2::new(rng.random::<f64>() - 0.5, rng.random::<f64>() - 0.5);
+                (DVec2::new(0.9 + 0.1 * rng.random::<f64>(), 0.2 * rng.random::<f64>()), v, rng.random::<f64>() - 0.5, v * 10f64.powf(7.0 * rng.random::<f64>() - 3.0))
+            };
+            let extra = |rng: &mut ChaCha8Rng, _xi: f64| {
+                let u = rng.random::<f64>();
+                Slip(if u < 0.2 { 0.0 } else { 2e-3 * u })
+            };
+            match rest {
+                TangentialRest::Hooke(l) => {
+                    let s = HistoryTangential { tangential, law: l };
+                    same_bits_with_history::<D3, _, _>(&s, &general, mk3, extra);
+                    same_bits_with_history::<D2, _, _>(&s, &general, mk2, extra);
+                    seen[0] = true;
+                }
+                TangentialRest::HookeRolling(l) => {
+                    let s = HistoryTangential { tangential, law: l };
+                    same_bits_with_history::<D3, _, _>(&s, &general, mk3, extra);
+                    same_bits_with_history::<D2, _, _>(&s, &general, mk2, extra);
+                    seen[1] = true;
+                }
+            }
+            // beside a normal law with history: the general kernel (`WithBoth`)
+            let hysteretic = Hysteretic { loading_stiffness: 1e4, unloading_stiffness: 3e4 };
+            let mut h = ContactParams { normal: Some(NormalTable::Hysteretic(hysteretic)), ..Default::default() };
+            h.friction = Some(0.3);
+            let both = ContactLaw { tangential: tangential.into(), ..h.build(Partner::Grain, "contact").unwrap() };
+            assert!(matches!(both.specialize(), Specialized::General(_)), "{both:?}");
+            // with twisting resistance: the general kernel
+            let twisting = ContactLaw { twisting: crate::contact::Twisting::SpringDashpot(crate::contact::rolling::SpringDashpot { stiffness: 1.0, damping: 0.0, friction: f64::INFINITY }), ..law };
+            assert!(matches!(twisting.specialize(), Specialized::General(_)));
+        }
+        assert_eq!(seen, [true; 2]);
+    }
+
     #[test]
     fn specialised_kernels_give_the_bits_of_the_general_law() {
         let mut hertz = ContactParams::preset("hertz_mindlin");
@@ -680,7 +811,7 @@ mod tests {
                     same_bits::<D3, _>(&s, &law, mk3);
                     same_bits::<D2, _>(&s, &law, mk2);
                 }
-                Specialized::NormalHistory(..) | Specialized::General(_) => panic!("{law:?} should be specialised"),
+                Specialized::NormalHistory(..) | Specialized::TangentialHistory(..) | Specialized::General(_) => panic!("{law:?} should be specialised"),
             }
             checked += 1;
         }

@@ -82,7 +82,7 @@ pub enum HistoryKind {
 /// plane, [`TangentialLaw::unloading_lanes`], [`TangentialLaw::trial_lanes`], the Coulomb cap,
 /// and where the contact slides [`TangentialLaw::history_for_force_lanes`] and
 /// [`TangentialLaw::sliding_lanes`] (`spring_step`).
-pub trait TangentialLaw: Copy + Debug + PartialEq + Serialize + DeserializeOwned + Send + Sync + 'static {
+pub trait TangentialLaw: Copy + Debug + PartialEq + Serialize + DeserializeOwned + Send + Sync + Into<Tangential> + 'static {
     /// What the stored history ([`TangentialHistory`]) holds: a length or a force.
     const HISTORY: HistoryKind;
     /// The law's per-contact history beyond the stored spring ([`LawHistory`]; `()` for a law
@@ -248,6 +248,17 @@ macro_rules! tangential_laws {
                 match law.tangential {
                     Tangential::None => v.visit(law),
                     $(Tangential::$Law(t) => <<$Law as TangentialLaw>::Extra as LawHistory>::route_tangential(law, t, v),)*
+                }
+            }
+
+            /// Runs `v` with the tangential law as its type where it keeps a history of its
+            /// own, `v.without_history()` otherwise ([`LawHistory::route_tangential_history`]):
+            /// the specialised kernels of such laws (`Specialized::TangentialHistory`).
+            #[inline(always)]
+            pub(crate) fn route_history<V: super::VisitTangential>(&self, v: V) -> V::Out {
+                match *self {
+                    Tangential::None => v.without_history(),
+                    $(Tangential::$Law(t) => <<$Law as TangentialLaw>::Extra as LawHistory>::route_tangential_history(t, v),)*
                 }
             }
 

@@ -10,7 +10,7 @@
 //! runs).
 
 use crate::contact::VisitParts;
-use crate::contact::{contact_loads_lanes, NormalElastic, law_lanes, pair_kinematics_lanes, ContactLaw, HertzMindlin, HistoryNormal, HistoryRest, LawHistory, LawIn, NormalLaw, Specialized, HookeCundallStrack, HookeSlipActivation, LawParts, NormalDamping, Rolling, TangentialDamping, VisitNormal, WithRolling};
+use crate::contact::{contact_loads_lanes, NormalElastic, law_lanes, pair_kinematics_lanes, ContactLaw, HertzMindlin, HistoryNormal, HistoryRest, HistoryTangential, LawHistory, LawIn, NormalLaw, Specialized, HookeCundallStrack, HookeSlipActivation, LawParts, NormalDamping, Rolling, TangentialDamping, TangentialLaw, TangentialRest, VisitNormal, VisitTangential, WithRolling};
 use crate::real::dot;
 use crate::dim::{Dim, VectorOps};
 
@@ -122,6 +122,7 @@ impl WindowLaw for HookeCundallStrack {}
 impl WindowLaw for HookeSlipActivation {}
 impl<L: WindowLaw> WindowLaw for WithRolling<L> {}
 impl<N: NormalLaw, L: WindowLaw + LawParts<Extra = ()>> WindowLaw for HistoryNormal<N, L> {}
+impl<T: TangentialLaw, L: WindowLaw + LawParts<Extra = ()>> WindowLaw for HistoryTangential<T, L> {}
 
 pub(crate) use crate::contact::Dampers;
 
@@ -149,7 +150,34 @@ pub(super) fn with_law<V: WithLaw>(specialized: Specialized, v: V) -> V::Out {
         Specialized::HookeSlipActivation(law) => v.special(&law),
         Specialized::HookeSlipActivationRolling(law) => v.special(&law),
         Specialized::NormalHistory(law, rest) => law.normal.route_history(WithHistory { v, law, rest }),
+        Specialized::TangentialHistory(law, rest) => law.tangential.route_history(WithTangentialHistory { v, law, rest }),
         Specialized::General(law) => NormalElastic::route(&law, General(v)),
+    }
+}
+
+/// A visitor of the specialised kernels of a tangential law with history and the parts `rest`
+/// beside it ([`HistoryTangential`]), with the tangential law as its type
+/// (`Tangential::route_history`).
+struct WithTangentialHistory<V> {
+    v: V,
+    law: ContactLaw,
+    rest: TangentialRest,
+}
+
+impl<V: WithLaw> VisitTangential for WithTangentialHistory<V> {
+    type Out = V::Out;
+    #[inline(always)]
+    fn visit<T: TangentialLaw>(self, tangential: T) -> V::Out {
+        match self.rest {
+            TangentialRest::Hooke(law) => self.v.special(&HistoryTangential { tangential, law }),
+            TangentialRest::HookeRolling(law) => self.v.special(&HistoryTangential { tangential, law }),
+        }
+    }
+    /// (not reached: `specialize` gives `TangentialHistory` for laws with history only) the
+    /// general kernel
+    #[inline(always)]
+    fn without_history(self) -> V::Out {
+        NormalElastic::route(&self.law, General(self.v))
     }
 }
 

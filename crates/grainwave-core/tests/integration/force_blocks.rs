@@ -274,3 +274,59 @@ fn a_normal_law_with_history_gives_the_bits_of_the_general_kernel_on_every_path(
     let end = |law: ContactLaw| pool(1).install(|| run(dense_2d(30, 40, law, 0.5, 21).dt(5e-4).build().unwrap(), false, 3, Some(300)));
     assert_ne!(end(a), end(b));
 }
+
+#[test]
+fn a_tangential_law_with_history_gives_the_bits_of_the_general_kernel_on_every_path() {
+    // Slip-weakening friction (history: the slip δ per contact) through its specialised
+    // composition (`Specialized::TangentialHistory`: the history gathered and scattered beside
+    // the tangential spring) against the general kernel, with and without rolling resistance,
+    // two dampers; 2D and 3D, neighbor lists rebuilt every 37 steps besides their own rebuilds,
+    // 1 and 2 threads with several blocks, and one block; every vector path the processor has.
+    use grainwave_core::contact::tangential::SlipWeakening;
+    use grainwave_core::contact::Specialized;
+    let levels = simd_levels("a_tangential_law_with_history_gives_the_bits_of_the_general_kernel_on_every_path", &[0, 1, 2, 3]);
+    let law = |residual_ratio: f64, damping: u8, rolling: bool| {
+        let mut p = hooke(1.0e3, None, 0.3);
+        match damping {
+            0 => p.normal_damping_rate = Some(5.0),
+            _ => p.damping_fraction = Some(0.1),
+        }
+        if rolling {
+            (p.rolling_stiffness, p.rolling_friction) = (Some(0.5), Some(0.05));
+        }
+        let law = p.build(Partner::Grain, "contact").unwrap();
+        ContactLaw { tangential: SlipWeakening { stiffness: 300.0, residual_ratio, weakening_distance: 1e-3 }.into(), ..law }
+    };
+    fn run<D: Dim>(mut sim: Simulation<D>, general: bool, simd: u8, len: Option<usize>) -> u64 {
+        sim.set_general_kernel(general);
+        sim.set_simd_level(simd);
+        sim.set_force_block_len(len);
+        for s in 0..300 {
+            if s % 37 == 0 {
+                sim.nlist.stale = true;
+            }
+            sim.step().unwrap();
+        }
+        assert!(sim.counters.contacts > 0 && sim.nlist.builds > 8);
+        sim.state_hash()
+    }
+    for law in [law(0.2, 0, false), law(0.5, 1, true)] {
+        assert!(matches!(law.specialize(), Specialized::TangentialHistory(..)), "{law:?}");
+        let make2 = || dense_2d(30, 40, law, 0.5, 21).expected_overlap(0.05).build().unwrap();
+        let make3 = || dense_3d(4, law, 0.3, 22).expected_overlap(0.05).build().unwrap();
+        let reference = (pool(1).install(|| run(make2(), true, 0, Some(300))), pool(1).install(|| run(make3(), true, 0, Some(50))));
+        for threads in [1, 2] {
+            for &simd in &levels {
+                let got = pool(threads).install(|| (run(make2(), false, simd, Some(300)), run(make3(), false, simd, Some(50))));
+                assert_eq!(got, reference, "{law:?}, {threads} threads, simd {simd}");
+            }
+        }
+        for &simd in &levels {
+            let got = pool(1).install(|| (run(make2(), false, simd, None), run(make3(), false, simd, None)));
+            assert_eq!(got, reference, "{law:?}, one block, simd {simd}");
+        }
+    }
+    // the history acts: without weakening (r = 1) the same packing ends elsewhere
+    let end = |law: ContactLaw| pool(1).install(|| run(dense_2d(30, 40, law, 0.5, 21).dt(5e-4).build().unwrap(), false, 3, Some(300)));
+    assert_ne!(end(law(0.2, 0, false)), end(law(1.0, 0, false)));
+}
