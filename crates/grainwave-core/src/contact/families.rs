@@ -22,14 +22,19 @@
 //!
 //! is the law of `preset = "hooke_cundall_strack"`, `normal_stiffness = 1.0e4`,
 //! `restitution = 0.8`, `tangential_stiffness_ratio = 0.2857`, `rolling_stiffness = 50.0`,
-//! `rolling_friction = 0.01`, to the bit: each family's table is read into the keys of the
-//! composition it names ([`ContactParams::lower_families`]), and the checks of those keys report
-//! under the family's own key names (`contact.normal.stiffness`, …). One form per family: a
+//! `rolling_friction = 0.01`, to the bit: the damping, rolling and twisting tables are read into
+//! the keys of the composition the normal law names ([`ContactParams::lower_families`]), and the
+//! checks of those keys report under the family's own key names (`contact.normal.stiffness`, …);
+//! the normal and tangential laws are built from their own tables by their own types
+//! ([`NormalLaw::build`](super::NormalLaw::build),
+//! [`TangentialLaw::build`](super::TangentialLaw::build), the tables generated from the
+//! registries), so a registered tangential law such as `slip_weakening` is reached from a config
+//! with no key of its own anywhere else. One form per family: a
 //! family given as a table may not also be given by flat keys, and `preset` (a whole law) goes
 //! with the flat form only. `friction` (the Coulomb coefficient μ) stays a key of `[contact]` in
 //! both forms, so that wall overrides such as `friction = 0` apply to either.
 
-use super::{Composition, ContactParams, NormalElastic};
+use super::{Composition, ContactParams, NormalElastic, TangentialTable};
 use crate::error::{CoreError, Result};
 use serde::{Deserialize, Serialize};
 
@@ -92,30 +97,6 @@ pub enum DampingTable {
         /// γ_t / γ_n, default 1 (Hertz) or ½ (Hooke).
         #[serde(default, skip_serializing_if = "Option::is_none")]
         tangential_ratio: Option<f64>,
-    },
-}
-
-/// The tangential law (`[contact.tangential]`); the Coulomb coefficient is `contact.friction`.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
-#[serde(tag = "law", rename_all = "snake_case", deny_unknown_fields)]
-pub enum TangentialTable {
-    /// No tangential force (frictionless contacts: `friction` is then 0).
-    None {},
-    /// Linear Cundall–Strack spring k_t = ratio × k_n, capped at μF_n (Hooke normal law).
-    Linear {
-        /// k_t / k_n, default 2/7.
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        stiffness_ratio: Option<f64>,
-        /// Slip-activation time τ ≥ 0 (0: the Coulomb cap), see docs/engine.md.
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        slip_activation_time: Option<f64>,
-    },
-    /// Incremental Mindlin, G* = E/[2(1 + ν)(2 − ν)] per grain, from the Hertz normal law's E, ν.
-    Mindlin {
-        /// Rescale the stored force by k_t(new)/k_t(old) when the overlap decreases (default false).
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        rescale_on_unloading: Option<bool>,
     },
 }
 
@@ -197,7 +178,6 @@ impl ContactParams {
                 renames.push(("poisson", key("normal.poisson")));
             }
         }
-        let hooke = matches!(composition, Composition::Hooke { .. });
         if let Some(d) = &self.damping {
             given(
                 &[
@@ -253,41 +233,18 @@ impl ContactParams {
                 ],
                 "tangential",
             )?;
-            let wrong = |law: &str, needs: &str| {
-                CoreError::Inconsistent(format!(
-                    "`{}` = \"{law}\" needs the {needs} normal law (`{}`)",
-                    key("tangential.law"),
-                    key("normal.law")
-                ))
-            };
-            match t {
-                TangentialTable::None {} => {
-                    match self.friction {
-                        Some(mu) if mu != 0.0 => {
-                            return Err(CoreError::Inconsistent(format!(
-                                "`{}` = \"none\" has no tangential force, but `{}` = {mu}: leave friction out or set it to 0",
-                                key("tangential.law"),
-                                key("friction")
-                            )))
-                        }
-                        _ => p.friction = Some(0.0),
+            // the law itself is built from its own table by its own type (`ContactParams::build`,
+            // `TangentialLaw::build`); `none` is frictionless
+            if let TangentialTable::None(_) = t {
+                match self.friction {
+                    Some(mu) if mu != 0.0 => {
+                        return Err(CoreError::Inconsistent(format!(
+                            "`{}` = \"none\" has no tangential force, but `{}` = {mu}: leave friction out or set it to 0",
+                            key("tangential.law"),
+                            key("friction")
+                        )))
                     }
-                }
-                TangentialTable::Linear { stiffness_ratio, slip_activation_time } => {
-                    if !hooke {
-                        return Err(wrong("linear", "Hooke (`law = \"hooke\"`)"));
-                    }
-                    p.tangential_stiffness_ratio = *stiffness_ratio;
-                    p.slip_activation_time = *slip_activation_time;
-                    renames.push(("tangential_stiffness_ratio", key("tangential.stiffness_ratio")));
-                    renames.push(("slip_activation_time", key("tangential.slip_activation_time")));
-                }
-                TangentialTable::Mindlin { rescale_on_unloading } => {
-                    if hooke {
-                        return Err(wrong("mindlin", "Hertz (`law = \"hertz\"`)"));
-                    }
-                    p.mindlin_rescale = *rescale_on_unloading;
-                    renames.push(("mindlin_rescale", key("tangential.rescale_on_unloading")));
+                    _ => p.friction = Some(0.0),
                 }
             }
         }
@@ -366,7 +323,8 @@ fn replace_key(text: &str, from: &str, to: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::contact::{Hooke, HertzParams, NormalTable, Partner};
+    use crate::contact::tangential::{LinearTable, MindlinTable};
+    use crate::contact::{Hooke, HertzParams, NoTangential, NormalTable, Partner};
 
     fn flat(preset: &str) -> ContactParams {
         ContactParams::preset(preset)
@@ -392,7 +350,7 @@ mod tests {
         let mut b = family(NormalTable::Hooke(Hooke { stiffness: 1e4 }));
         b.friction = Some(0.4);
         b.damping = Some(DampingTable::Restitution { restitution: 0.8, tangential_ratio: None, tangential_rate: None });
-        b.tangential = Some(TangentialTable::Linear { stiffness_ratio: Some(0.3), slip_activation_time: None });
+        b.tangential = Some(TangentialTable::Linear(LinearTable { stiffness_ratio: Some(0.3), slip_activation_time: None }));
         b.rolling = Some(ResistanceTable { stiffness: 50.0, damping: Some(0.2), friction: Some(0.01) });
         both_partners_equal(&a, &b);
         // the default tangential law of the composition (no `[contact.tangential]`)
@@ -404,7 +362,7 @@ mod tests {
         (a.normal_stiffness, a.normal_damping_rate, a.tangential_damping_rate, a.slip_activation_time) = (Some(2e3), Some(30.0), Some(10.0), Some(0.05));
         let mut b = family(NormalTable::Hooke(Hooke { stiffness: 2e3 }));
         b.damping = Some(DampingTable::MassProportional { rate: 30.0, tangential_ratio: None, tangential_rate: Some(10.0) });
-        b.tangential = Some(TangentialTable::Linear { stiffness_ratio: None, slip_activation_time: Some(0.05) });
+        b.tangential = Some(TangentialTable::Linear(LinearTable { stiffness_ratio: None, slip_activation_time: Some(0.05) }));
         both_partners_equal(&a, &b);
         assert!(matches!(b.build(Partner::Grain, "contact").unwrap().tangential, crate::contact::Tangential::SlipActivation(_)));
         // a dashpot with a tangential ratio; Tsuji on Hooke
@@ -425,14 +383,14 @@ mod tests {
         (a.twisting_stiffness, a.twisting_friction) = (Some(2.0), Some(0.05));
         let mut b = family(NormalTable::Hertz(HertzParams { young: 3e4, poisson: None }));
         b.damping = Some(DampingTable::CriticalFraction { fraction: 0.1, tangential_ratio: None, tangential_rate: None });
-        b.tangential = Some(TangentialTable::Mindlin { rescale_on_unloading: Some(true) });
+        b.tangential = Some(TangentialTable::Mindlin(MindlinTable { rescale_on_unloading: Some(true) }));
         b.twisting = Some(ResistanceTable { stiffness: 2.0, damping: None, friction: Some(0.05) });
         both_partners_equal(&a, &b);
         // frictionless: `law = "none"` is friction 0
         let mut a = flat("hooke_cundall_strack");
         (a.normal_stiffness, a.friction) = (Some(1e3), Some(0.0));
         let mut b = family(NormalTable::Hooke(Hooke { stiffness: 1e3 }));
-        b.tangential = Some(TangentialTable::None {});
+        b.tangential = Some(TangentialTable::None(NoTangential {}));
         b.damping = Some(DampingTable::None {});
         both_partners_equal(&a, &b);
     }
@@ -463,7 +421,7 @@ mod tests {
         let e = err(&p);
         assert!(e.contains("contact.rolling.damping") && !e.contains("rolling_damping"), "{e}");
         p.rolling = Some(ResistanceTable { stiffness: 1.0, damping: None, friction: None });
-        p.tangential = Some(TangentialTable::Linear { stiffness_ratio: None, slip_activation_time: Some(-1.0) });
+        p.tangential = Some(TangentialTable::Linear(LinearTable { stiffness_ratio: None, slip_activation_time: Some(-1.0) }));
         let e = err(&p);
         assert!(e.contains("contact.tangential.slip_activation_time"), "{e}");
         // both forms
@@ -484,15 +442,75 @@ mod tests {
         assert!(err(&q).contains("contact.normal") && err(&q).contains("required"), "{}", err(&q));
         // the other composition's tangential law
         let mut q = family(NormalTable::Hertz(HertzParams { young: 1e5, poisson: None }));
-        q.tangential = Some(TangentialTable::Linear { stiffness_ratio: None, slip_activation_time: None });
+        q.tangential = Some(TangentialTable::Linear(LinearTable { stiffness_ratio: None, slip_activation_time: None }));
         assert!(err(&q).contains("contact.tangential.law") && err(&q).contains("Hooke"), "{}", err(&q));
         let mut q = family(NormalTable::Hooke(Hooke { stiffness: 1e3 }));
-        q.tangential = Some(TangentialTable::Mindlin { rescale_on_unloading: None });
+        q.tangential = Some(TangentialTable::Mindlin(MindlinTable { rescale_on_unloading: None }));
         assert!(err(&q).contains("Hertz"), "{}", err(&q));
         // frictionless with a friction coefficient
-        q.tangential = Some(TangentialTable::None {});
+        q.tangential = Some(TangentialTable::None(NoTangential {}));
         q.friction = Some(0.3);
         assert!(err(&q).contains("`contact.friction` = 0.3"), "{}", err(&q));
+    }
+
+    /// A tangential law of the registry reached through its own table: `slip_weakening` and
+    /// `slip_activation` are built by their own `build` with k_t = ratio × k_n of the normal
+    /// law (Hooke or the hysteretic law's k₁), grain–grain and wall; `slip_activation` is the
+    /// law `linear` gives with the same τ, to the bit; the table's checks name its keys; the
+    /// table is read with `law = "<name>"` and unknown keys are refused.
+    #[test]
+    fn registered_tangential_laws_are_reached_by_their_tables() {
+        use crate::contact::tangential::{SlipActivation, SlipActivationTable, SlipWeakening, SlipWeakeningTable};
+        use crate::contact::{Hysteretic, Tangential};
+        let weakening = SlipWeakeningTable { stiffness_ratio: Some(0.4), residual_ratio: 0.5, weakening_distance: 0.01 };
+        for (normal, k_n) in [
+            (NormalTable::Hooke(Hooke { stiffness: 2e3 }), 2e3),
+            (NormalTable::Hysteretic(Hysteretic { loading_stiffness: 3e3, unloading_stiffness: 6e3 }), 3e3),
+        ] {
+            let mut p = family(normal);
+            p.friction = Some(0.6);
+            p.tangential = Some(TangentialTable::SlipWeakening(weakening.clone()));
+            for partner in [Partner::Grain, Partner::Wall] {
+                let law = p.build(partner, "contact").unwrap();
+                assert_eq!(law.tangential, Tangential::from(SlipWeakening { stiffness: 0.4 * k_n, residual_ratio: 0.5, weakening_distance: 0.01 }));
+                assert_eq!(law.friction, 0.6);
+                assert!(law.tangential.has_history());
+            }
+            // friction 0: no tangential force, the table still checked
+            p.friction = Some(0.0);
+            assert_eq!(p.build(Partner::Grain, "contact").unwrap().tangential, Tangential::None);
+            p.tangential = Some(TangentialTable::SlipWeakening(SlipWeakeningTable { residual_ratio: 1.5, ..weakening.clone() }));
+            let e = err(&p);
+            assert!(e.contains("contact.tangential.residual_ratio") && e.contains("1.5"), "{e}");
+        }
+        let mut p = family(NormalTable::Hooke(Hooke { stiffness: 1e3 }));
+        p.tangential = Some(TangentialTable::SlipWeakening(SlipWeakeningTable { weakening_distance: 0.0, ..weakening.clone() }));
+        assert!(err(&p).contains("contact.tangential.weakening_distance"), "{}", err(&p));
+        p.tangential = Some(TangentialTable::SlipWeakening(SlipWeakeningTable { stiffness_ratio: Some(-0.1), ..weakening.clone() }));
+        assert!(err(&p).contains("contact.tangential.stiffness_ratio") && err(&p).contains("-0.1"), "{}", err(&p));
+        // beside the Hertz law: refused, naming the normal law it needs
+        let mut q = family(NormalTable::Hertz(HertzParams { young: 1e5, poisson: None }));
+        q.tangential = Some(TangentialTable::SlipWeakening(weakening.clone()));
+        assert!(err(&q).contains("`contact.tangential.law` = \"slip_weakening\"") && err(&q).contains("Hooke"), "{}", err(&q));
+        // slip activation by its own name = `linear` with τ > 0
+        let mut a = family(NormalTable::Hooke(Hooke { stiffness: 1e3 }));
+        a.tangential = Some(TangentialTable::Linear(LinearTable { stiffness_ratio: Some(0.2), slip_activation_time: Some(0.05) }));
+        let mut b = a.clone();
+        b.tangential = Some(TangentialTable::SlipActivation(SlipActivationTable { stiffness_ratio: Some(0.2), slip_activation_time: 0.05 }));
+        both_partners_equal(&a, &b);
+        assert_eq!(b.build(Partner::Grain, "contact").unwrap().tangential, Tangential::from(SlipActivation { stiffness: 0.2 * 1e3, activation_time: 0.05 }));
+        b.tangential = Some(TangentialTable::SlipActivation(SlipActivationTable { stiffness_ratio: None, slip_activation_time: 0.0 }));
+        assert!(err(&b).contains("contact.tangential.slip_activation_time"), "{}", err(&b));
+        // read from a table: the name selects the law, unknown keys are refused
+        let t: TangentialTable = serde_json::from_str(r#"{"law": "slip_weakening", "residual_ratio": 0.5, "weakening_distance": 0.01}"#).unwrap();
+        assert_eq!(t.name(), "slip_weakening");
+        assert_eq!(t, TangentialTable::SlipWeakening(SlipWeakeningTable { stiffness_ratio: None, residual_ratio: 0.5, weakening_distance: 0.01 }));
+        let e = serde_json::from_str::<TangentialTable>(r#"{"law": "slip_weakening", "residual_ratio": 0.5, "weakening_distanse": 0.01}"#).unwrap_err().to_string();
+        assert!(e.contains("weakening_distanse"), "{e}");
+        let e = serde_json::from_str::<TangentialTable>(r#"{"law": "none", "stiffness_ratio": 0.5}"#).unwrap_err().to_string();
+        assert!(e.contains("stiffness_ratio"), "{e}");
+        let e = serde_json::from_str::<TangentialTable>(r#"{"law": "coulomb"}"#).unwrap_err().to_string();
+        assert!(e.contains("slip_weakening") && e.contains("linear"), "{e}");
     }
 
     #[test]

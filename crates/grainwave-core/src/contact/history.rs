@@ -154,6 +154,47 @@ impl LawHistory for () {
     fn decode(_: &[f64]) {}
 }
 
+/// `impl LawHistory` for a one-value history, a tuple struct over one `f64` (e.g. the
+/// hysteretic law's largest overlap, the slip-weakening law's accumulated slip): one lane of
+/// `R` per contact, one `f64` in checkpoints, written under `$name`.
+/// `scalar_history!(MaxOverlap, "hysteretic.max_overlap");`
+macro_rules! scalar_history {
+    ($ty:ident, $name:literal) => {
+        impl $crate::contact::LawHistory for $ty {
+            const NAME: &'static str = $name;
+            const WIDTH: usize = 1;
+            type Lanes<R: $crate::real::Real> = R;
+            #[inline(always)]
+            fn to_lane(self) -> f64 {
+                self.0
+            }
+            #[inline(always)]
+            fn from_lane(l: f64) -> Self {
+                $ty(l)
+            }
+            #[inline(always)]
+            fn splat<R: $crate::real::Real>(self) -> R {
+                R::splat(self.0)
+            }
+            #[inline(always)]
+            fn gather<R: $crate::real::Real>(mut at: impl FnMut(usize) -> Self) -> R {
+                R::from_fn(|l| at(l).0)
+            }
+            #[inline(always)]
+            fn scatter<R: $crate::real::Real>(lanes: R, mut put: impl FnMut(usize, Self)) {
+                lanes.for_each_lane(|l, x| put(l, $ty(x)))
+            }
+            fn encode(&self, out: &mut Vec<f64>) {
+                out.push(self.0);
+            }
+            fn decode(values: &[f64]) -> Self {
+                $ty(values[0])
+            }
+        }
+    };
+}
+pub(crate) use scalar_history;
+
 /// The histories of two parts of a composed law side by side (a normal law's and a tangential
 /// law's, [`WithBoth`](super::WithBoth)): the first part's encoding then the second's, written
 /// under the name `"<first>+<second>"`, reversed part by part.

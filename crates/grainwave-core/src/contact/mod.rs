@@ -38,16 +38,17 @@ pub use damping::{
 };
 pub use kinematics::{pair_kinematics, wall_kinematics, Kinematics};
 pub use normal::*;
-pub use families::{DampingTable, ResistanceTable, TangentialTable};
+pub use families::{DampingTable, ResistanceTable};
 pub use history::{HistoryColumn, LawHistory, WallHistory};
-pub(crate) use history::{decoding_version, zero_sized_slice};
+pub(crate) use history::{decoding_version, scalar_history, zero_sized_slice};
+pub(crate) use tangential::spring_step;
 pub use params::{ContactParams, Partner, PRESETS};
 pub use parts::{
     HertzMindlin, HistoryNormal, HistoryRest, HistoryTangential, HookeCundallStrack, HookeSlipActivation, LawParts, Specialized, TangentialRest, VisitNormal, VisitParts, VisitTangential, WithBoth,
     WithNormal, WithRolling, WithTangential,
 };
 pub use rolling::{ResistanceLaw, Rolling, Twisting};
-pub use tangential::{spring_step, HistoryKind, HistoryValue, SlipActivationParams, Tangential, TangentialHistory, TangentialLaw};
+pub use tangential::{HistoryKind, HistoryValue, NoTangential, SlipActivationParams, Tangential, TangentialContext, TangentialHistory, TangentialLaw, TangentialTable};
 pub(crate) use coulomb::coulomb_cap_lanes;
 pub(crate) use damping::clamped_normal_force_lanes;
 pub(crate) use kinematics::{into_tangent_plane_lanes, pair_kinematics_lanes};

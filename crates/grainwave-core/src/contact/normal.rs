@@ -298,7 +298,7 @@ impl NormalElastic {
 /// The schema of one law's table: its parameters' object schema with `law = "<name>"` first
 /// (as schemars writes an internally tagged struct variant).
 #[cfg(feature = "schema")]
-fn tagged_table<P: schemars::JsonSchema>(generator: &mut schemars::SchemaGenerator, name: &str) -> serde_json::Value {
+pub(super) fn tagged_table<P: schemars::JsonSchema>(generator: &mut schemars::SchemaGenerator, name: &str) -> serde_json::Value {
     use serde_json::{json, Map, Value};
     let mut schema = P::json_schema(generator);
     let obj = schema.ensure_object();

@@ -3,8 +3,8 @@
 use super::damping::{normal as nd, tangential as td};
 use super::rolling::SpringDashpot;
 use super::tangential::Mindlin;
-use super::families::{DampingTable, ResistanceTable, TangentialTable};
-use super::{ContactLaw, DampingChoice, Hertz, Hooke, NormalContext, NormalDamping, NormalElastic, NormalTable, Rolling, SlipActivationParams, Tangential, TangentialDamping, Twisting};
+use super::families::{DampingTable, ResistanceTable};
+use super::{ContactLaw, DampingChoice, Hertz, Hooke, NormalContext, NormalDamping, NormalElastic, NormalTable, Rolling, SlipActivationParams, Tangential, TangentialContext, TangentialDamping, TangentialTable, Twisting};
 use crate::error::{require_non_negative, require_positive, CoreError, Result};
 use serde::{Deserialize, Serialize};
 
@@ -101,8 +101,9 @@ pub struct ContactParams {
     /// `"dashpot"`, `"critical_fraction"`, `"mass_proportional"` or `"tsuji"`).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub damping: Option<DampingTable>,
-    /// The tangential law as a family table, `[contact.tangential]` (`law = "none"`, `"linear"`
-    /// or `"mindlin"`; default: the one of the normal law's composition).
+    /// The tangential law as a family table, `[contact.tangential]` (`law = "none"` or the name
+    /// of a registered tangential law, with that law's keys; default: the one of the normal
+    /// law's composition).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub tangential: Option<TangentialTable>,
     /// Rolling resistance as a family table, `[contact.rolling]` (`stiffness`, `damping`, `friction`).
@@ -153,6 +154,14 @@ impl ContactParams {
             // the normal law itself: built from its own table by its own type
             if let Some(normal) = &self.normal {
                 law.normal = normal.build(&NormalContext { partner, field, damping: DampingChoice::of(self.damping.as_ref(), self, field) })?;
+                // the tangential law too, beside the normal law's composition (checked even
+                // where `friction = 0` leaves no tangential force, as the flat keys are)
+                if let Some(tangential) = &self.tangential {
+                    let built = tangential.build(&TangentialContext { partner, field, composition: normal.composition() })?;
+                    if law.friction > 0.0 {
+                        law.tangential = built;
+                    }
+                }
             }
             return Ok(law);
         }
@@ -245,7 +254,6 @@ impl ContactParams {
                     None => (NormalDamping::None, TangentialDamping::None),
                 };
                 let e_star = young / (1.0 - nu * nu);
-                let g_star = young / (2.0 * (1.0 + nu) * (2.0 - nu));
                 let factor = match partner {
                     Partner::Grain => 0.5,
                     Partner::Wall => 1.0,
@@ -254,10 +262,7 @@ impl ContactParams {
                     normal: NormalElastic::Hertz(Hertz { effective_modulus: factor * e_star }),
                     damping,
                     tangential: if friction > 0.0 {
-                        Tangential::Mindlin(Mindlin {
-                            effective_shear_modulus: factor * g_star,
-                            rescale_on_unloading: self.mindlin_rescale.unwrap_or(false),
-                        })
+                        Mindlin::of_grains(young, nu, partner, self.mindlin_rescale.unwrap_or(false)).into()
                     } else {
                         Tangential::None
                     },

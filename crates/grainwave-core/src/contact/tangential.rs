@@ -7,7 +7,8 @@
 
 use super::coulomb::coulomb_cap_lanes;
 use super::parts::VisitParts;
-use super::{ContactLaw, LawHistory, NormalLaw};
+use super::normal::ParamsSchema;
+use super::{Composition, ContactLaw, LawHistory, NormalLaw, Partner};
 use crate::dim::VectorOps;
 use crate::error::{CoreError, Result};
 use crate::real::{select3, Real, Vec3};
@@ -71,6 +72,49 @@ pub enum HistoryKind {
     Force,
 }
 
+/// Where a tangential law is built from its `[contact.tangential]` table: for which partner,
+/// under which key, beside which normal law (the composition whose k_n, or E and ν, the
+/// tangential stiffness is made from).
+#[derive(Clone, Copy, Debug)]
+pub struct TangentialContext<'a> {
+    /// Grain–grain or grain–wall contacts.
+    pub partner: Partner,
+    /// The contact law's key (`contact`, `contact.wall`, …): the table's keys are
+    /// `{field}.tangential.<key>`.
+    pub field: &'a str,
+    /// The normal law's composition.
+    pub composition: Composition,
+}
+
+impl TangentialContext<'_> {
+    /// The key `{field}.tangential.<name>` of the table, for errors.
+    pub fn key(&self, name: &str) -> String {
+        format!("{}.tangential.{name}", self.field)
+    }
+
+    /// k_n of a Hooke composition, for the law `law` (its config name), or the error that the
+    /// law needs the Hooke normal law (`hooke` or `hysteretic`).
+    pub fn hooke_stiffness(&self, law: &str) -> Result<f64> {
+        match self.composition {
+            Composition::Hooke { stiffness, .. } => Ok(stiffness),
+            Composition::Hertz { .. } => Err(self.needs(law, "a Hooke normal law (`law = \"hooke\"` or `\"hysteretic\"`)")),
+        }
+    }
+
+    /// E and ν (default 0) of a Hertz composition, for the law `law`, or the error that the law
+    /// needs the Hertz normal law.
+    pub fn hertz_moduli(&self, law: &str) -> Result<(f64, f64)> {
+        match self.composition {
+            Composition::Hertz { young, poisson } => Ok((young, poisson.unwrap_or(0.0))),
+            Composition::Hooke { .. } => Err(self.needs(law, "the Hertz normal law (`law = \"hertz\"`)")),
+        }
+    }
+
+    fn needs(&self, law: &str, normal: &str) -> CoreError {
+        CoreError::Inconsistent(format!("`{}` = \"{law}\" needs {normal} (`{}.normal.law`)", self.key("law"), self.field))
+    }
+}
+
 /// A tangential law with a per-contact history: the spring that carries the tangential force
 /// below the Coulomb cap μ F_n, one step at a time.
 ///
@@ -90,6 +134,15 @@ pub trait TangentialLaw: Copy + Debug + PartialEq + Serialize + DeserializeOwned
     /// list, carried across rebuilds, reset when the contact opens and checkpointed by the
     /// engine, read and updated by [`TangentialLaw::step_lanes`].
     type Extra: LawHistory;
+    /// The keys of its `[contact.tangential]` table (besides `law`), with
+    /// `deny_unknown_fields`, in physical units or as ratios to the normal law's.
+    type Params: Clone + Debug + PartialEq + Serialize + DeserializeOwned + ParamsSchema;
+    /// The law from its table beside the normal law of `at`, checked: errors name the key
+    /// (`{field}.tangential.<key>`, [`TangentialContext::key`]), the value and what is allowed,
+    /// or the normal law the law needs. A [`Tangential`], so that a table may stand for the
+    /// law of a neighbouring variant (the linear law's `slip_activation_time` > 0 is the
+    /// slip-activation law).
+    fn build(params: &Self::Params, at: &TangentialContext) -> Result<Tangential>;
     /// Checks the law (also one made in code); errors name `{field}.<key>`, the value and what
     /// is allowed.
     fn validate(&self, field: &str) -> Result<()>;
@@ -124,7 +177,7 @@ pub trait TangentialLaw: Copy + Debug + PartialEq + Serialize + DeserializeOwned
     /// One step of a contact from the stored spring rotated into the current tangent plane
     /// (`rotated`), v_t, k_t, γ_t, the step `dt`, the Coulomb cap μ F_n and the law's own
     /// history `extra` (read and updated): the tangential force on i, the spring to store and
-    /// where the contact slides. Default: [`spring_step`] — the increment, the cap, the history
+    /// where the contact slides. Default: `spring_step` — the increment, the cap, the history
     /// past it — which a law without history of its own keeps; a law with one replaces it.
     #[allow(clippy::too_many_arguments)]
     #[inline(always)]
@@ -139,7 +192,7 @@ pub trait TangentialLaw: Copy + Debug + PartialEq + Serialize + DeserializeOwned
         extra: &mut <Self::Extra as LawHistory>::Lanes<R>,
     ) -> (Vec3<R>, Vec3<R>, R::Mask) {
         let _ = extra;
-        spring_step::<R, N, Self>(self, rotated, v_t, k_t, gamma_t, dt, cap)
+        spring_step::<R, N, Self>(self, rotated, v_t, k_t, gamma_t, dt, cap, |_, _, _| {})
     }
 }
 
@@ -273,8 +326,63 @@ macro_rules! tangential_laws {
                 }
             }
         }
+
+        /// The tangential law as a family table, `[contact.tangential]`: `law = "none"` or
+        /// `law = "<name>"` of a registered law and that law's keys ([`TangentialLaw::Params`]).
+        #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+        #[serde(tag = "law", rename_all = "snake_case")]
+        pub enum TangentialTable {
+            /// `law = "none"`: no tangential force (frictionless: `friction` is then 0).
+            None(NoTangential),
+            $(
+                #[doc = concat!("`law = \"", stringify!($module), "\"`: [`", stringify!($Law), "`].")]
+                $Law(<$Law as TangentialLaw>::Params),
+            )*
+        }
+
+        impl TangentialTable {
+            /// The config name of the law of this table.
+            pub fn name(&self) -> &'static str {
+                match self {
+                    TangentialTable::None(_) => "none",
+                    $(TangentialTable::$Law(_) => stringify!($module),)*
+                }
+            }
+
+            /// The law of this table beside the normal law of `at`, checked
+            /// ([`TangentialLaw::build`]; [`Tangential::None`] for `none`).
+            pub fn build(&self, at: &TangentialContext) -> Result<Tangential> {
+                match self {
+                    TangentialTable::None(_) => Ok(Tangential::None),
+                    $(TangentialTable::$Law(p) => <$Law as TangentialLaw>::build(p, at),)*
+                }
+            }
+        }
+
+        #[cfg(feature = "schema")]
+        impl schemars::JsonSchema for TangentialTable {
+            fn schema_name() -> std::borrow::Cow<'static, str> {
+                "TangentialTable".into()
+            }
+            fn json_schema(generator: &mut schemars::SchemaGenerator) -> schemars::Schema {
+                let alternatives = vec![
+                    super::normal::tagged_table::<NoTangential>(generator, "none"),
+                    $(super::normal::tagged_table::<<$Law as TangentialLaw>::Params>(generator, stringify!($module))),*
+                ];
+                schemars::json_schema!({
+                    "description": "The tangential law as a family table, `[contact.tangential]`.",
+                    "oneOf": alternatives
+                })
+            }
+        }
     };
 }
+
+/// The table `law = "none"` of `[contact.tangential]`: no keys.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[serde(deny_unknown_fields)]
+pub struct NoTangential {}
 
 tangential_laws! {
     linear::Linear,
@@ -328,13 +436,16 @@ impl Tangential {
 /// increment ([`TangentialLaw::trial_lanes`]), the cap |F_t| ≤ `cap` ([`coulomb_cap_lanes`]) and
 /// the history to store — the incremented one, or where the contact slides the one that holds
 /// exactly the capped force ([`TangentialLaw::history_for_force_lanes`]) as the law's
-/// [`TangentialLaw::sliding_lanes`] makes it. Returns the tangential force on i, the new
-/// history and where the contact slides. The one implementation of the step (the default of
+/// [`TangentialLaw::sliding_lanes`] makes it. Where some lane slides, `on_slide` sees the
+/// incremented history, the one at the cap and where the contact slides (before
+/// `sliding_lanes`): a law with a history of its own reads the slip of the step there (the
+/// length cut off the spring). Returns the tangential force on i, the new history and where
+/// the contact slides. The one implementation of the step (the default of
 /// [`TangentialLaw::step_lanes`]), run by the general kernel (`f64`) and the engine's vector
 /// paths.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-pub fn spring_step<R: Real, const N: usize, T: TangentialLaw>(
+pub(crate) fn spring_step<R: Real, const N: usize, T: TangentialLaw>(
     law: &T,
     rotated: Vec3<R>,
     v_t: Vec3<R>,
@@ -342,6 +453,7 @@ pub fn spring_step<R: Real, const N: usize, T: TangentialLaw>(
     gamma_t: R,
     dt: f64,
     cap: R,
+    on_slide: impl FnOnce(Vec3<R>, Vec3<R>, R::Mask),
 ) -> (Vec3<R>, Vec3<R>, R::Mask) {
     let (trial, kept) = law.trial_lanes::<R, N>(rotated, v_t, k_t, gamma_t, dt);
     let (f, sliding) = coulomb_cap_lanes::<R, N>(trial, cap);
@@ -349,6 +461,7 @@ pub fn spring_step<R: Real, const N: usize, T: TangentialLaw>(
         return (f, kept, sliding);
     }
     let at_cap = law.history_for_force_lanes::<R, N>(f);
+    on_slide(kept, at_cap, sliding);
     let (force, history) = law.sliding_lanes::<R, N>(dt, f, at_cap, trial, kept, sliding);
     (force, history, sliding)
 }

@@ -19,7 +19,7 @@
 //! mass the grain's (a grain hitting a hysteretic wall rebounds with e = √(k₁/k₂)).
 
 use super::{Composition, NormalContext, NormalLaw, NormalResponse};
-use crate::contact::LawHistory;
+use crate::contact::scalar_history;
 use crate::error::{require_positive, CoreError, Result};
 use crate::real::Real;
 use serde::{Deserialize, Serialize};
@@ -42,37 +42,7 @@ pub struct Hysteretic {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct MaxOverlap(pub f64);
 
-impl LawHistory for MaxOverlap {
-    const NAME: &'static str = "hysteretic.max_overlap";
-    const WIDTH: usize = 1;
-    type Lanes<R: Real> = R;
-    #[inline(always)]
-    fn to_lane(self) -> f64 {
-        self.0
-    }
-    #[inline(always)]
-    fn from_lane(l: f64) -> Self {
-        MaxOverlap(l)
-    }
-    #[inline(always)]
-    fn splat<R: Real>(self) -> R {
-        R::splat(self.0)
-    }
-    #[inline(always)]
-    fn gather<R: Real>(mut at: impl FnMut(usize) -> Self) -> R {
-        R::from_fn(|l| at(l).0)
-    }
-    #[inline(always)]
-    fn scatter<R: Real>(lanes: R, mut put: impl FnMut(usize, Self)) {
-        lanes.for_each_lane(|l, x| put(l, MaxOverlap(x)))
-    }
-    fn encode(&self, out: &mut Vec<f64>) {
-        out.push(self.0);
-    }
-    fn decode(values: &[f64]) -> Self {
-        MaxOverlap(values[0])
-    }
-}
+scalar_history!(MaxOverlap, "hysteretic.max_overlap");
 
 impl NormalLaw for Hysteretic {
     type Params = Hysteretic;

@@ -3,7 +3,8 @@
 //! k_t(ξ) = 8 G*_ij √(R* ξ), trial F_t = F_el + γ_t v_t, capped at μ F_n (F_el reset to the
 //! capped force where the contact slides). History: the elastic tangential force, a force.
 
-use super::{HistoryKind, TangentialLaw};
+use super::{HistoryKind, Tangential, TangentialContext, TangentialLaw};
+use crate::contact::Partner;
 use crate::dim::VectorOps;
 use crate::error::{require_positive, Result};
 use crate::real::{Real, Vec3};
@@ -19,9 +20,40 @@ pub struct Mindlin {
     pub rescale_on_unloading: bool,
 }
 
+impl Mindlin {
+    /// The law of grains of Young's modulus E and Poisson's ratio ν (SPEC §2.3):
+    /// G* = E/[2(1 + ν)(2 − ν)] per grain, halved for a grain–grain pair (two equal grains),
+    /// whole against a rigid wall.
+    pub fn of_grains(young: f64, poisson: f64, partner: Partner, rescale_on_unloading: bool) -> Mindlin {
+        let g_star = young / (2.0 * (1.0 + poisson) * (2.0 - poisson));
+        let factor = match partner {
+            Partner::Grain => 0.5,
+            Partner::Wall => 1.0,
+        };
+        Mindlin { effective_shear_modulus: factor * g_star, rescale_on_unloading }
+    }
+}
+
+/// `[contact.tangential]` with `law = "mindlin"`: G* from the Hertz normal law's E and ν
+/// ([`Mindlin::of_grains`]); the flat key `mindlin_rescale` of `hertz_mindlin`, to the bit.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[serde(deny_unknown_fields)]
+pub struct MindlinTable {
+    /// Rescale the stored force by k_t(new)/k_t(old) when the overlap decreases (default false).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rescale_on_unloading: Option<bool>,
+}
+
 impl TangentialLaw for Mindlin {
     const HISTORY: HistoryKind = HistoryKind::Force;
     type Extra = ();
+    type Params = MindlinTable;
+
+    fn build(params: &MindlinTable, at: &TangentialContext) -> Result<Tangential> {
+        let (young, poisson) = at.hertz_moduli("mindlin")?;
+        Ok(Mindlin::of_grains(young, poisson, at.partner, params.rescale_on_unloading.unwrap_or(false)).into())
+    }
 
     fn validate(&self, field: &str) -> Result<()> {
         require_positive(&format!("{field}.shear_modulus"), self.effective_shear_modulus)

@@ -11,8 +11,9 @@
 //! so a contact may hold more than μ F_n for a time of order τ: it slides at loading time scales
 //! (≫ τ) and sticks at acoustic ones (≪ τ); τ → 0 is the Coulomb cap of [`Linear`].
 
-use super::{HistoryKind, Linear, Tangential, TangentialLaw};
-use crate::dim::VectorOps;
+use super::linear::linear_spring_parts;
+use super::linear::spring_stiffness;
+use super::{HistoryKind, Linear, Tangential, TangentialContext, TangentialLaw};
 use crate::error::{CoreError, Result};
 use crate::real::{select3, Real, Vec3};
 use serde::{Deserialize, Serialize};
@@ -43,9 +44,31 @@ impl SlipActivation {
     }
 }
 
+/// `[contact.tangential]` with `law = "slip_activation"`: K_t = `stiffness_ratio` × k_n of the
+/// linear normal law and τ = `slip_activation_time` > 0 — the law `law = "linear"` gives with
+/// the same keys and τ > 0, written by its own name.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[serde(deny_unknown_fields)]
+pub struct SlipActivationTable {
+    /// K_t / k_n, default 2/7.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stiffness_ratio: Option<f64>,
+    /// τ [time], finite and > 0.
+    pub slip_activation_time: f64,
+}
+
 impl TangentialLaw for SlipActivation {
     const HISTORY: HistoryKind = HistoryKind::Displacement;
     type Extra = ();
+    type Params = SlipActivationTable;
+
+    fn build(params: &SlipActivationTable, at: &TangentialContext) -> Result<Tangential> {
+        let stiffness = spring_stiffness(params.stiffness_ratio, at, "slip_activation")?;
+        let law = SlipActivation { stiffness, activation_time: params.slip_activation_time };
+        law.validate(&format!("{}.tangential", at.field))?;
+        Ok(law.into())
+    }
 
     /// K_t > 0 (the linear law's check) and finite τ > 0 (a law with τ = 0 is the linear law
     /// and is written as one).
@@ -61,27 +84,7 @@ impl TangentialLaw for SlipActivation {
         Ok(())
     }
 
-    #[inline(always)]
-    fn stiffness_lanes<R: Real>(&self, xi: R, r_eff: R) -> R {
-        self.spring().stiffness_lanes(xi, r_eff)
-    }
-
-    #[inline]
-    fn elastic_force<V: VectorOps>(&self, h: V) -> V {
-        self.spring().elastic_force(h)
-    }
-
-    /// The linear law's: D_t ← D_t + v_t Δt, trial F_t = K_t D_t + γ_t v_t.
-    #[inline(always)]
-    fn trial_lanes<R: Real, const N: usize>(&self, rotated: Vec3<R>, v_t: Vec3<R>, k_t: R, gamma_t: R, dt: f64) -> (Vec3<R>, Vec3<R>) {
-        self.spring().trial_lanes::<R, N>(rotated, v_t, k_t, gamma_t, dt)
-    }
-
-    /// The linear law's: D_t = F_t/K_t.
-    #[inline(always)]
-    fn history_for_force_lanes<R: Real, const N: usize>(&self, f: Vec3<R>) -> Vec3<R> {
-        self.spring().history_for_force_lanes::<R, N>(f)
-    }
+    linear_spring_parts!();
 
     /// The excess over the cap relaxed by τ/(τ + Δt) ([`relax_lanes`]).
     #[allow(clippy::too_many_arguments)]

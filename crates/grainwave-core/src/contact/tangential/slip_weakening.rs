@@ -14,11 +14,12 @@
 //! The work of the friction force over the weakening, ∫₀^{D_c} μ(δ) F_n dδ = ½ (μ_s + μ_d) F_n D_c,
 //! exceeds the residual sliding work μ_d F_n D_c by the fracture energy ½ (μ_s − μ_d) F_n D_c.
 
-use super::{HistoryKind, Linear, TangentialLaw};
-use crate::contact::{coulomb_cap_lanes, LawHistory};
-use crate::dim::VectorOps;
+use super::linear::linear_spring_parts;
+use super::linear::spring_stiffness;
+use super::{HistoryKind, Linear, Tangential, TangentialContext, TangentialLaw};
+use crate::contact::{scalar_history, spring_step};
 use crate::error::{CoreError, Result};
-use crate::real::{select3, Real, Vec3};
+use crate::real::{Real, Vec3};
 use serde::{Deserialize, Serialize};
 
 /// Linear spring k_t with a Coulomb coefficient weakening linearly with the contact's
@@ -40,37 +41,7 @@ pub struct SlipWeakening {
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Slip(pub f64);
 
-impl LawHistory for Slip {
-    const NAME: &'static str = "slip_weakening.slip";
-    const WIDTH: usize = 1;
-    type Lanes<R: Real> = R;
-    #[inline(always)]
-    fn to_lane(self) -> f64 {
-        self.0
-    }
-    #[inline(always)]
-    fn from_lane(l: f64) -> Self {
-        Slip(l)
-    }
-    #[inline(always)]
-    fn splat<R: Real>(self) -> R {
-        R::splat(self.0)
-    }
-    #[inline(always)]
-    fn gather<R: Real>(mut at: impl FnMut(usize) -> Self) -> R {
-        R::from_fn(|l| at(l).0)
-    }
-    #[inline(always)]
-    fn scatter<R: Real>(lanes: R, mut put: impl FnMut(usize, Self)) {
-        lanes.for_each_lane(|l, x| put(l, Slip(x)))
-    }
-    fn encode(&self, out: &mut Vec<f64>) {
-        out.push(self.0);
-    }
-    fn decode(values: &[f64]) -> Self {
-        Slip(values[0])
-    }
-}
+scalar_history!(Slip, "slip_weakening.slip");
 
 impl SlipWeakening {
     /// The spring without the weakening: the linear law of the same k_t, whose stiffness,
@@ -88,9 +59,33 @@ impl SlipWeakening {
     }
 }
 
+/// `[contact.tangential]` with `law = "slip_weakening"`: k_t = `stiffness_ratio` × k_n of the
+/// linear normal law, μ_d/μ_s = `residual_ratio` and D_c = `weakening_distance` (μ_s is
+/// `contact.friction`).
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[serde(deny_unknown_fields)]
+pub struct SlipWeakeningTable {
+    /// k_t / k_n, default 2/7.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub stiffness_ratio: Option<f64>,
+    /// r = μ_d/μ_s ∈ [0, 1].
+    pub residual_ratio: f64,
+    /// D_c [length], > 0 (may be inf: no weakening).
+    pub weakening_distance: f64,
+}
+
 impl TangentialLaw for SlipWeakening {
     const HISTORY: HistoryKind = HistoryKind::Displacement;
     type Extra = Slip;
+    type Params = SlipWeakeningTable;
+
+    fn build(params: &SlipWeakeningTable, at: &TangentialContext) -> Result<Tangential> {
+        let stiffness = spring_stiffness(params.stiffness_ratio, at, "slip_weakening")?;
+        let law = SlipWeakening { stiffness, residual_ratio: params.residual_ratio, weakening_distance: params.weakening_distance };
+        law.validate(&format!("{}.tangential", at.field))?;
+        Ok(law.into())
+    }
 
     /// k_t > 0 (the linear law's check), r ∈ [0, 1] and D_c > 0 (may be infinite).
     fn validate(&self, field: &str) -> Result<()> {
@@ -106,47 +101,22 @@ impl TangentialLaw for SlipWeakening {
         Ok(())
     }
 
-    #[inline(always)]
-    fn stiffness_lanes<R: Real>(&self, xi: R, r_eff: R) -> R {
-        self.spring().stiffness_lanes(xi, r_eff)
-    }
-
-    #[inline]
-    fn elastic_force<V: VectorOps>(&self, h: V) -> V {
-        self.spring().elastic_force(h)
-    }
-
-    /// The linear law's: s ← s + v_t Δt, trial F_t = k_t s + γ_t v_t.
-    #[inline(always)]
-    fn trial_lanes<R: Real, const N: usize>(&self, rotated: Vec3<R>, v_t: Vec3<R>, k_t: R, gamma_t: R, dt: f64) -> (Vec3<R>, Vec3<R>) {
-        self.spring().trial_lanes::<R, N>(rotated, v_t, k_t, gamma_t, dt)
-    }
-
-    /// The linear law's: s = F_t/k_t.
-    #[inline(always)]
-    fn history_for_force_lanes<R: Real, const N: usize>(&self, f: Vec3<R>) -> Vec3<R> {
-        self.spring().history_for_force_lanes::<R, N>(f)
-    }
+    linear_spring_parts!();
 
     /// The linear law's step with the cap μ(δ) F_n, then δ ← δ + |s_trial − s_cap| where the
     /// contact slides.
     #[inline(always)]
     fn step_lanes<R: Real, const N: usize>(&self, rotated: Vec3<R>, v_t: Vec3<R>, k_t: R, gamma_t: R, dt: f64, cap: R, slip: &mut R) -> (Vec3<R>, Vec3<R>, R::Mask) {
         let cap = cap * self.weakening(*slip);
-        let (trial, kept) = self.trial_lanes::<R, N>(rotated, v_t, k_t, gamma_t, dt);
-        let (f, sliding) = coulomb_cap_lanes::<R, N>(trial, cap);
-        if R::branch_unless(sliding) {
-            return (f, kept, sliding);
-        }
-        let at_cap = self.history_for_force_lanes::<R, N>(f);
-        let zero = R::splat(0.0);
-        let mut cut = zero;
-        for c in 0..N {
-            let d = kept[c] - at_cap[c];
-            cut = cut + d * d;
-        }
-        *slip = *slip + R::select(sliding, cut.sqrt(), zero);
-        (f, select3::<R>(sliding, at_cap, kept), sliding)
+        spring_step::<R, N, Self>(self, rotated, v_t, k_t, gamma_t, dt, cap, |kept, at_cap, sliding| {
+            let zero = R::splat(0.0);
+            let mut cut = zero;
+            for c in 0..N {
+                let d = kept[c] - at_cap[c];
+                cut = cut + d * d;
+            }
+            *slip = *slip + R::select(sliding, cut.sqrt(), zero);
+        })
     }
 }
 
@@ -154,7 +124,7 @@ impl TangentialLaw for SlipWeakening {
 mod tests {
     use super::*;
     use crate::contact::{ContactLaw, Hooke, Hysteretic, NormalDamping, Rolling, Tangential, TangentialDamping, Twisting};
-    use crate::dim::{Dim, D2, D3};
+    use crate::dim::{Dim, VectorOps, D2, D3};
     use crate::domain::{Domain, Wall};
     use crate::grains::{GrainKind, Grains};
     use crate::sim::{Simulation, SimulationBuilder};
