@@ -500,7 +500,7 @@ mod tests {
         both_partners_equal(&a, &b);
         assert_eq!(b.build(Partner::Grain, "contact").unwrap().tangential, Tangential::from(SlipActivation { stiffness: 0.2 * 1e3, activation_time: 0.05 }));
         b.tangential = Some(TangentialTable::SlipActivation(SlipActivationTable { stiffness_ratio: None, slip_activation_time: 0.0 }));
-        assert!(err(&b).contains("contact.tangential.slip_activation_time"), "{}", err(&b));
+        assert!(err(&b).contains("contact.tangential.slip_activation_time") && err(&b).contains("law = \"linear\""), "{}", err(&b));
         // read from a table: the name selects the law, unknown keys are refused
         let t: TangentialTable = serde_json::from_str(r#"{"law": "slip_weakening", "residual_ratio": 0.5, "weakening_distance": 0.01}"#).unwrap();
         assert_eq!(t.name(), "slip_weakening");

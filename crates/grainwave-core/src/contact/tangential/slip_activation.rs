@@ -65,7 +65,12 @@ impl TangentialLaw for SlipActivation {
 
     fn build(params: &SlipActivationTable, at: &TangentialContext) -> Result<Tangential> {
         let stiffness = spring_stiffness(params.stiffness_ratio, at, "slip_activation")?;
-        let law = SlipActivation { stiffness, activation_time: params.slip_activation_time };
+        let tau = params.slip_activation_time;
+        if !(tau > 0.0 && tau.is_finite()) {
+            // (τ = 0, the Coulomb cap, is `law = "linear"`)
+            return Err(CoreError::invalid(at.key("slip_activation_time"), tau, "a finite time τ > 0 (the Coulomb cap, τ = 0, is `law = \"linear\"`)"));
+        }
+        let law = SlipActivation { stiffness, activation_time: tau };
         law.validate(&format!("{}.tangential", at.field))?;
         Ok(law.into())
     }
