@@ -9,9 +9,10 @@ use crate::real::Real;
 pub(crate) fn clamped_normal_force_lanes<R: Real>(f_el: R, gamma_n: R, v_n: R) -> R {
     (f_el - gamma_n * v_n).max_zero()
 }
-use crate::error::Result;
+use super::{Composition, ParamsSchema};
+use crate::error::{require_non_negative, CoreError, Result};
 use serde::de::DeserializeOwned;
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 use std::f64::consts::PI;
 use std::fmt::Debug;
 
@@ -80,11 +81,148 @@ macro_rules! damping_laws {
     };
 }
 
+/// The registry of `[contact.damping]` tables: `Variant(module::Params)` per table, the module
+/// a file of `contact/damping/normal/` (the normal damping law's own, or a table of its own such
+/// as `restitution`) and its name the table's `law = "<module>"` (the snake case of `Variant`).
+/// Generates [`DampingTable`] (`law = "none"` first, then one variant per table), its `name`,
+/// `build` and JSON schema: a new damping law reaches the configs through its table's
+/// [`DampingParams`] and this one line.
+macro_rules! damping_tables {
+    ($($Variant:ident($module:ident :: $Params:ident)),* $(,)?) => {
+        $(pub use $module::$Params;)*
+
+        /// The damping as a family table, `[contact.damping]`: `law = "none"` or
+        /// `law = "<name>"` of a registered table and its keys ([`DampingParams`]): a normal
+        /// damping law and the tangential damper that goes with it.
+        #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+        #[serde(tag = "law", rename_all = "snake_case")]
+        pub enum DampingTable {
+            /// `law = "none"`: no damping.
+            None(super::NoDamping),
+            $(
+                #[doc = concat!("`law = \"", stringify!($module), "\"`: [`", stringify!($Params), "`].")]
+                $Variant($Params),
+            )*
+        }
+
+        impl DampingTable {
+            /// The tables' names, `none` first, then in registry order.
+            pub const NAMES: &'static [&'static str] = &["none", $(stringify!($module)),*];
+
+            /// The name of this table (its `law`).
+            pub fn name(&self) -> &'static str {
+                match self {
+                    DampingTable::None(_) => "none",
+                    $(DampingTable::$Variant(_) => stringify!($module),)*
+                }
+            }
+
+            /// The normal and tangential damping laws of this table beside the normal law of
+            /// `at`, checked ([`DampingParams::build`]; none for `none`).
+            pub fn build(&self, at: &super::DampingContext) -> crate::error::Result<(NormalDamping, super::TangentialDamping)> {
+                match self {
+                    DampingTable::None(_) => Ok((NormalDamping::None, super::TangentialDamping::None)),
+                    $(DampingTable::$Variant(p) => super::DampingParams::build(p, at),)*
+                }
+            }
+        }
+
+        #[cfg(feature = "schema")]
+        impl schemars::JsonSchema for DampingTable {
+            fn schema_name() -> std::borrow::Cow<'static, str> {
+                "DampingTable".into()
+            }
+            fn json_schema(generator: &mut schemars::SchemaGenerator) -> schemars::Schema {
+                let alternatives = vec![
+                    crate::contact::normal::tagged_table::<super::NoDamping>(generator, "none"),
+                    $(crate::contact::normal::tagged_table::<$Params>(generator, stringify!($module))),*
+                ];
+                schemars::json_schema!({
+                    "description": "The damping as a family table, `[contact.damping]`.",
+                    "oneOf": alternatives
+                })
+            }
+        }
+    };
+}
+
 pub mod normal;
 pub mod tangential;
 
-pub use normal::NormalDamping;
+pub use normal::{DampingTable, NormalDamping};
 pub use tangential::TangentialDamping;
+
+/// The table `law = "none"` of `[contact.damping]`: no keys.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
+#[serde(deny_unknown_fields)]
+pub struct NoDamping {}
+
+/// Where a `[contact.damping]` table is built: under which key, beside which normal law.
+#[derive(Clone, Copy, Debug)]
+pub struct DampingContext<'a> {
+    /// The contact law's key (`contact`, `contact.wall`, …): the table's keys are
+    /// `{field}.damping.<key>`.
+    pub field: &'a str,
+    /// The normal law's composition, which sets the defaults of the tangential damper and the
+    /// laws allowed.
+    pub composition: Composition,
+}
+
+impl DampingContext<'_> {
+    /// `{field}.damping.<k>`.
+    pub fn key(&self, k: &str) -> String {
+        format!("{}.damping.{k}", self.field)
+    }
+
+    /// True beside a Hertz normal law.
+    pub fn is_hertz(&self) -> bool {
+        matches!(self.composition, Composition::Hertz { .. })
+    }
+
+    /// Refuses table `law` beside a Hertz normal law (a dashpot defined for the linear normal
+    /// law), naming `{field}.damping.law` and the tables that are allowed there.
+    pub fn linear_only(&self, law: &str) -> Result<()> {
+        if self.is_hertz() {
+            return Err(CoreError::invalid(
+                self.key("law"),
+                format!("\"{law}\""),
+                "beside the Hertz normal law \"none\", \"critical_fraction\" or \"tsuji\" (this dashpot is defined for a linear normal law)",
+            ));
+        }
+        Ok(())
+    }
+
+    /// The tangential damper of a table: γ_t = `tangential_ratio` × γ_n, or
+    /// γ_t = `tangential_rate` × m* (at most one of them, each ≥ 0), or else `default`.
+    pub fn tangential(&self, ratio: Option<f64>, rate: Option<f64>, default: TangentialDamping) -> Result<TangentialDamping> {
+        match (ratio, rate) {
+            (Some(_), Some(_)) => Err(CoreError::Inconsistent(format!(
+                "give at most one of `{}`, `{}`",
+                self.key("tangential_ratio"),
+                self.key("tangential_rate")
+            ))),
+            (Some(r), None) => {
+                require_non_negative(&self.key("tangential_ratio"), r)?;
+                Ok(tangential::FractionOfNormal { ratio: r }.into())
+            }
+            (None, Some(rate)) => {
+                require_non_negative(&self.key("tangential_rate"), rate)?;
+                Ok(tangential::MassProportional { rate }.into())
+            }
+            (None, None) => Ok(default),
+        }
+    }
+}
+
+/// The keys of one `[contact.damping]` table (besides `law`), with `deny_unknown_fields`: a
+/// way of choosing the normal damping law, and the tangential damper that goes with it.
+/// Register it in the list of `contact/damping/normal.rs`.
+pub trait DampingParams: Clone + Debug + PartialEq + Serialize + DeserializeOwned + ParamsSchema {
+    /// The normal and tangential damping laws of the table beside the normal law of `at`,
+    /// checked: errors name the key (`{field}.damping.<key>`), the value and what is allowed.
+    fn build(&self, at: &DampingContext) -> Result<(NormalDamping, TangentialDamping)>;
+}
 
 impl NormalDamping {
     /// γ_n for a pair of effective mass `m_eff`, current differential normal stiffness `k_n`

@@ -22,14 +22,15 @@
 //!
 //! is the law of `preset = "hooke_cundall_strack"`, `normal_stiffness = 1.0e4`,
 //! `restitution = 0.8`, `tangential_stiffness_ratio = 0.2857`, `rolling_stiffness = 50.0`,
-//! `rolling_friction = 0.01`, to the bit: the damping, rolling and twisting tables are read into
-//! the keys of the composition the normal law names ([`ContactParams::lower_families`]), and the
-//! checks of those keys report under the family's own key names (`contact.normal.stiffness`, …);
-//! the normal and tangential laws are built from their own tables by their own types
+//! `rolling_friction = 0.01`, to the bit: the rolling and twisting tables are read into the keys
+//! of the composition the normal law names ([`ContactParams::lower_families`]), and the checks
+//! of those keys report under the family's own key names (`contact.rolling.stiffness`, …); the
+//! normal, damping and tangential laws are built from their own tables by their own types
 //! ([`NormalLaw::build`](super::NormalLaw::build),
+//! [`DampingParams::build`](super::DampingParams::build),
 //! [`TangentialLaw::build`](super::TangentialLaw::build), the tables generated from the
-//! registries), so a registered tangential law such as `slip_weakening` is reached from a config
-//! with no key of its own anywhere else. One form per family: a
+//! registries), so a registered law such as `slip_weakening` is reached from a config with no
+//! key of its own anywhere else. One form per family: a
 //! family given as a table may not also be given by flat keys, and `preset` (a whole law) goes
 //! with the flat form only. `friction` (the Coulomb coefficient μ) stays a key of `[contact]` in
 //! both forms, so that wall overrides such as `friction = 0` apply to either.
@@ -37,68 +38,6 @@
 use super::{Composition, ContactParams, NormalElastic, TangentialTable};
 use crate::error::{CoreError, Result};
 use serde::{Deserialize, Serialize};
-
-/// The normal damping law and the tangential damping that goes with it (`[contact.damping]`).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[cfg_attr(feature = "schema", derive(schemars::JsonSchema))]
-#[serde(tag = "law", rename_all = "snake_case", deny_unknown_fields)]
-pub enum DampingTable {
-    /// No damping.
-    None {},
-    /// A dashpot giving the restitution coefficient e of a binary collision exactly (Hooke).
-    Restitution {
-        /// e ∈ [e⁻², 1].
-        restitution: f64,
-        /// γ_t / γ_n, default ½.
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        tangential_ratio: Option<f64>,
-        /// γ_t / m* instead of a ratio [1/time].
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        tangential_rate: Option<f64>,
-    },
-    /// A constant dashpot γ_n [force·time/length] (Hooke).
-    Dashpot {
-        /// γ_n.
-        coefficient: f64,
-        /// γ_t / γ_n, default ½.
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        tangential_ratio: Option<f64>,
-        /// γ_t / m* instead of a ratio [1/time].
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        tangential_rate: Option<f64>,
-    },
-    /// A fraction ζ of critical damping, γ_n = 2ζ√(m* k_n), on both parts unless a tangential
-    /// ratio or rate is given (Hooke; Hertz: on both parts always).
-    CriticalFraction {
-        /// ζ ≥ 0.
-        fraction: f64,
-        /// γ_t / γ_n (Hooke).
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        tangential_ratio: Option<f64>,
-        /// γ_t / m* [1/time] (Hooke).
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        tangential_rate: Option<f64>,
-    },
-    /// γ_n = rate × m* [1/time] (Hooke; LAMMPS `gran/hooke/history`'s γ_n).
-    MassProportional {
-        /// γ_n / m*.
-        rate: f64,
-        /// γ_t / γ_n, default ½.
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        tangential_ratio: Option<f64>,
-        /// γ_t / m* instead of a ratio [1/time].
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        tangential_rate: Option<f64>,
-    },
-    /// Tsuji damping from a restitution coefficient, γ_n = α(e)√(m* F_el/ξ).
-    Tsuji {
-        /// e ∈ [0, 1].
-        restitution: f64,
-        /// γ_t / γ_n, default 1 (Hertz) or ½ (Hooke).
-        #[serde(default, skip_serializing_if = "Option::is_none")]
-        tangential_ratio: Option<f64>,
-    },
-}
 
 /// A resistance to relative rotation (`[contact.rolling]`, `[contact.twisting]`): a
 /// spring–dashpot capped at μ R* F_n.
@@ -178,7 +117,7 @@ impl ContactParams {
                 renames.push(("poisson", key("normal.poisson")));
             }
         }
-        if let Some(d) = &self.damping {
+        if self.damping.is_some() {
             given(
                 &[
                     ("restitution", self.restitution.is_some()),
@@ -191,38 +130,8 @@ impl ContactParams {
                 ],
                 "damping",
             )?;
-            let (ratio, rate) = match d {
-                DampingTable::None {} => (None, None),
-                DampingTable::Restitution { restitution, tangential_ratio, tangential_rate } => {
-                    p.restitution = Some(*restitution);
-                    renames.push(("restitution", key("damping.restitution")));
-                    (*tangential_ratio, *tangential_rate)
-                }
-                DampingTable::Dashpot { coefficient, tangential_ratio, tangential_rate } => {
-                    p.normal_damping = Some(*coefficient);
-                    renames.push(("normal_damping", key("damping.coefficient")));
-                    (*tangential_ratio, *tangential_rate)
-                }
-                DampingTable::CriticalFraction { fraction, tangential_ratio, tangential_rate } => {
-                    p.damping_fraction = Some(*fraction);
-                    renames.push(("damping_fraction", key("damping.fraction")));
-                    (*tangential_ratio, *tangential_rate)
-                }
-                DampingTable::MassProportional { rate, tangential_ratio, tangential_rate } => {
-                    p.normal_damping_rate = Some(*rate);
-                    renames.push(("normal_damping_rate", key("damping.rate")));
-                    (*tangential_ratio, *tangential_rate)
-                }
-                DampingTable::Tsuji { restitution, tangential_ratio } => {
-                    p.tsuji_restitution = Some(*restitution);
-                    renames.push(("tsuji_restitution", key("damping.restitution")));
-                    (*tangential_ratio, None)
-                }
-            };
-            p.tangential_damping_ratio = ratio;
-            p.tangential_damping_rate = rate;
-            renames.push(("tangential_damping_ratio", key("damping.tangential_ratio")));
-            renames.push(("tangential_damping_rate", key("damping.tangential_rate")));
+            // the damping itself is built from its own table by its own type
+            // (`ContactParams::build`, `DampingParams::build`)
         }
         if let Some(t) = &self.tangential {
             given(
@@ -323,8 +232,9 @@ fn replace_key(text: &str, from: &str, to: &str) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::contact::damping::normal::{CriticalFractionTable, DashpotTable, MassProportionalTable, RestitutionTable, TsujiTable};
     use crate::contact::tangential::{LinearTable, MindlinTable};
-    use crate::contact::{Hooke, HertzParams, NoTangential, NormalTable, Partner};
+    use crate::contact::{DampingTable, Hooke, HertzParams, NoDamping, NoTangential, NormalDamping, NormalTable, Partner, TangentialDamping};
 
     fn flat(preset: &str) -> ContactParams {
         ContactParams::preset(preset)
@@ -349,7 +259,7 @@ mod tests {
         (a.rolling_stiffness, a.rolling_damping, a.rolling_friction) = (Some(50.0), Some(0.2), Some(0.01));
         let mut b = family(NormalTable::Hooke(Hooke { stiffness: 1e4 }));
         b.friction = Some(0.4);
-        b.damping = Some(DampingTable::Restitution { restitution: 0.8, tangential_ratio: None, tangential_rate: None });
+        b.damping = Some(DampingTable::Restitution(RestitutionTable { restitution: 0.8, tangential_ratio: None, tangential_rate: None }));
         b.tangential = Some(TangentialTable::Linear(LinearTable { stiffness_ratio: Some(0.3), slip_activation_time: None }));
         b.rolling = Some(ResistanceTable { stiffness: 50.0, damping: Some(0.2), friction: Some(0.01) });
         both_partners_equal(&a, &b);
@@ -361,7 +271,7 @@ mod tests {
         let mut a = flat("hooke_cundall_strack");
         (a.normal_stiffness, a.normal_damping_rate, a.tangential_damping_rate, a.slip_activation_time) = (Some(2e3), Some(30.0), Some(10.0), Some(0.05));
         let mut b = family(NormalTable::Hooke(Hooke { stiffness: 2e3 }));
-        b.damping = Some(DampingTable::MassProportional { rate: 30.0, tangential_ratio: None, tangential_rate: Some(10.0) });
+        b.damping = Some(DampingTable::MassProportional(MassProportionalTable { rate: 30.0, tangential_ratio: None, tangential_rate: Some(10.0) }));
         b.tangential = Some(TangentialTable::Linear(LinearTable { stiffness_ratio: None, slip_activation_time: Some(0.05) }));
         both_partners_equal(&a, &b);
         assert!(matches!(b.build(Partner::Grain, "contact").unwrap().tangential, crate::contact::Tangential::SlipActivation(_)));
@@ -369,20 +279,20 @@ mod tests {
         let mut a = flat("hooke_cundall_strack");
         (a.normal_stiffness, a.normal_damping, a.tangential_damping_ratio) = (Some(1e3), Some(0.7), Some(0.25));
         let mut b = family(NormalTable::Hooke(Hooke { stiffness: 1e3 }));
-        b.damping = Some(DampingTable::Dashpot { coefficient: 0.7, tangential_ratio: Some(0.25), tangential_rate: None });
+        b.damping = Some(DampingTable::Dashpot(DashpotTable { coefficient: 0.7, tangential_ratio: Some(0.25), tangential_rate: None }));
         both_partners_equal(&a, &b);
         // Hertz with Tsuji damping and a tangential ratio
         let mut a = flat("hertz_mindlin");
         (a.young, a.poisson, a.tsuji_restitution, a.tangential_damping_ratio) = (Some(1e5), Some(0.3), Some(0.6), Some(0.5));
         let mut b = family(NormalTable::Hertz(HertzParams { young: 1e5, poisson: Some(0.3) }));
-        b.damping = Some(DampingTable::Tsuji { restitution: 0.6, tangential_ratio: Some(0.5) });
+        b.damping = Some(DampingTable::Tsuji(TsujiTable { restitution: 0.6, tangential_ratio: Some(0.5) }));
         both_partners_equal(&a, &b);
         // Hertz, a fraction of critical damping, Mindlin rescaled on unloading, twisting resistance
         let mut a = flat("hertz_mindlin");
         (a.young, a.damping_fraction, a.mindlin_rescale) = (Some(3e4), Some(0.1), Some(true));
         (a.twisting_stiffness, a.twisting_friction) = (Some(2.0), Some(0.05));
         let mut b = family(NormalTable::Hertz(HertzParams { young: 3e4, poisson: None }));
-        b.damping = Some(DampingTable::CriticalFraction { fraction: 0.1, tangential_ratio: None, tangential_rate: None });
+        b.damping = Some(DampingTable::CriticalFraction(CriticalFractionTable { fraction: 0.1, tangential_ratio: None, tangential_rate: None }));
         b.tangential = Some(TangentialTable::Mindlin(MindlinTable { rescale_on_unloading: Some(true) }));
         b.twisting = Some(ResistanceTable { stiffness: 2.0, damping: None, friction: Some(0.05) });
         both_partners_equal(&a, &b);
@@ -391,8 +301,128 @@ mod tests {
         (a.normal_stiffness, a.friction) = (Some(1e3), Some(0.0));
         let mut b = family(NormalTable::Hooke(Hooke { stiffness: 1e3 }));
         b.tangential = Some(TangentialTable::None(NoTangential {}));
-        b.damping = Some(DampingTable::None {});
+        b.damping = Some(DampingTable::None(NoDamping {}));
         both_partners_equal(&a, &b);
+    }
+
+    /// Every `[contact.damping]` table, with its defaults and with each tangential key, builds
+    /// the dampers of its flat keys to the bit beside the linear law (grain–grain and wall); the
+    /// tables that apply beside the Hertz law (`critical_fraction`, also with ζ = 0, which is no
+    /// damping there; `tsuji`, whose default ratio is 1 there and ½ beside the linear law) too;
+    /// the linear-law dashpots beside Hertz, and a tangential ratio with `critical_fraction` there,
+    /// are refused naming the table's key; each table's name is the one serde reads.
+    #[test]
+    fn every_damping_table_builds_the_dampers_of_its_flat_keys() {
+        let hooke = || {
+            let mut a = flat("hooke_cundall_strack");
+            a.normal_stiffness = Some(2e3);
+            a
+        };
+        let hertz = || {
+            let mut a = flat("hertz_mindlin");
+            (a.young, a.poisson) = (Some(1e5), Some(0.2));
+            a
+        };
+        let by_family = |normal: NormalTable, table: &DampingTable| {
+            let mut b = family(normal);
+            b.damping = Some(table.clone());
+            b
+        };
+        let linear = || NormalTable::Hooke(Hooke { stiffness: 2e3 });
+        let hertzian = || NormalTable::Hertz(HertzParams { young: 1e5, poisson: Some(0.2) });
+        type Set = Box<dyn Fn(&mut ContactParams)>;
+        let mut names = Vec::new();
+        for (ratio, rate) in [(None, None), (Some(0.3), None), (None, Some(7.0))] {
+            let cases: [(DampingTable, Set); 4] = [
+                (DampingTable::Restitution(RestitutionTable { restitution: 0.7, tangential_ratio: ratio, tangential_rate: rate }), Box::new(|p| p.restitution = Some(0.7))),
+                (DampingTable::Dashpot(DashpotTable { coefficient: 0.4, tangential_ratio: ratio, tangential_rate: rate }), Box::new(|p| p.normal_damping = Some(0.4))),
+                (DampingTable::CriticalFraction(CriticalFractionTable { fraction: 0.05, tangential_ratio: ratio, tangential_rate: rate }), Box::new(|p| p.damping_fraction = Some(0.05))),
+                (DampingTable::MassProportional(MassProportionalTable { rate: 20.0, tangential_ratio: ratio, tangential_rate: rate }), Box::new(|p| p.normal_damping_rate = Some(20.0))),
+            ];
+            for (table, set) in cases {
+                let mut a = hooke();
+                set(&mut a);
+                (a.tangential_damping_ratio, a.tangential_damping_rate) = (ratio, rate);
+                let b = by_family(linear(), &table);
+                both_partners_equal(&a, &b);
+                // the dampers differ from the default (none): the table was read
+                assert_ne!(b.build(Partner::Grain, "contact").unwrap().damping, NormalDamping::None);
+                names.push(table.name());
+                let beside_hertz = || err(&by_family(hertzian(), &table));
+                match &table {
+                    DampingTable::CriticalFraction(_) if ratio.is_none() && rate.is_none() => {
+                        let mut a = hertz();
+                        set(&mut a);
+                        both_partners_equal(&a, &by_family(hertzian(), &table));
+                    }
+                    DampingTable::CriticalFraction(_) => {
+                        let k = if ratio.is_some() { "`contact.damping.tangential_ratio`" } else { "`contact.damping.tangential_rate`" };
+                        let e = beside_hertz();
+                        assert!(e.contains(k) && e.contains("Hertz"), "{e}");
+                    }
+                    _ => {
+                        let e = beside_hertz();
+                        assert!(e.contains("`contact.damping.law`") && e.contains(&format!("\"{}\"", table.name())) && e.contains("\"tsuji\""), "{e}");
+                    }
+                }
+            }
+        }
+        for ratio in [None, Some(0.3)] {
+            let table = DampingTable::Tsuji(TsujiTable { restitution: 0.6, tangential_ratio: ratio });
+            names.push(table.name());
+            for (mut a, normal, default) in [(hooke(), linear(), 0.5), (hertz(), hertzian(), 1.0)] {
+                (a.tsuji_restitution, a.tangential_damping_ratio) = (Some(0.6), ratio);
+                let b = by_family(normal, &table);
+                both_partners_equal(&a, &b);
+                let law = b.build(Partner::Grain, "contact").unwrap();
+                assert_eq!(law.tangential_damping, crate::contact::damping::tangential::FractionOfNormal { ratio: ratio.unwrap_or(default) }.into());
+            }
+        }
+        // ζ = 0 beside Hertz: no damping (the flat key's meaning)
+        let zero = DampingTable::CriticalFraction(CriticalFractionTable { fraction: 0.0, tangential_ratio: None, tangential_rate: None });
+        let law = by_family(hertzian(), &zero).build(Partner::Wall, "contact").unwrap();
+        assert_eq!((law.damping, law.tangential_damping), (NormalDamping::None, TangentialDamping::None));
+        let mut a = hertz();
+        a.damping_fraction = Some(0.0);
+        both_partners_equal(&a, &by_family(hertzian(), &zero));
+        // the names: every table reached, each the name serde reads and writes
+        names.push(DampingTable::None(NoDamping {}).name());
+        names.sort_unstable();
+        names.dedup();
+        let mut all = DampingTable::NAMES.to_vec();
+        all.sort_unstable();
+        assert_eq!(names, all);
+        for name in DampingTable::NAMES {
+            let keys = match *name {
+                "none" => "",
+                "dashpot" => r#", "coefficient": 1.0"#,
+                "critical_fraction" => r#", "fraction": 0.1"#,
+                "mass_proportional" => r#", "rate": 1.0"#,
+                _ => r#", "restitution": 0.5"#,
+            };
+            let t: DampingTable = serde_json::from_str(&format!(r#"{{"law": "{name}"{keys}}}"#)).unwrap();
+            assert_eq!(t.name(), *name);
+            assert_eq!(serde_json::to_value(&t).unwrap()["law"], *name);
+        }
+        let e = serde_json::from_str::<DampingTable>(r#"{"law": "dashpot", "coefficient": 1.0, "coeficient": 2.0}"#).unwrap_err().to_string();
+        assert!(e.contains("coeficient"), "{e}");
+        let e = serde_json::from_str::<DampingTable>(r#"{"law": "tsuji", "restitution": 0.5, "tangential_rate": 2.0}"#).unwrap_err().to_string();
+        assert!(e.contains("tangential_rate"), "{e}");
+        // values out of range, named by the table's keys
+        for (table, key) in [
+            (DampingTable::Dashpot(DashpotTable { coefficient: -1.0, tangential_ratio: None, tangential_rate: None }), "contact.damping.coefficient"),
+            (DampingTable::MassProportional(MassProportionalTable { rate: f64::NAN, tangential_ratio: None, tangential_rate: None }), "contact.damping.rate"),
+            (DampingTable::CriticalFraction(CriticalFractionTable { fraction: -0.1, tangential_ratio: None, tangential_rate: None }), "contact.damping.fraction"),
+            (DampingTable::Tsuji(TsujiTable { restitution: 1.2, tangential_ratio: None }), "contact.damping.restitution"),
+            (DampingTable::Tsuji(TsujiTable { restitution: 0.5, tangential_ratio: Some(-2.0) }), "contact.damping.tangential_ratio"),
+            (DampingTable::Restitution(RestitutionTable { restitution: 0.1, tangential_ratio: None, tangential_rate: None }), "contact.damping.restitution"),
+            (DampingTable::Restitution(RestitutionTable { restitution: 0.5, tangential_ratio: None, tangential_rate: Some(-1.0) }), "contact.damping.tangential_rate"),
+        ] {
+            let e = err(&by_family(linear(), &table));
+            assert!(e.contains(&format!("`{key}`")), "{e}");
+            assert!(!e.contains("normal_damping") && !e.contains("damping_fraction") && !e.contains("tsuji_restitution"), "{e}");
+        }
+        assert!(err(&by_family(linear(), &DampingTable::Restitution(RestitutionTable { restitution: 0.1, tangential_ratio: None, tangential_rate: None }))).contains("0.1353"));
     }
 
     fn err(p: &ContactParams) -> String {
@@ -409,11 +439,11 @@ mod tests {
         let e = err(&family(NormalTable::Hertz(HertzParams { young: 1e5, poisson: Some(0.7) })));
         assert!(e.contains("contact.normal.poisson") && e.contains("0.7"), "{e}");
         let mut p = family(NormalTable::Hooke(Hooke { stiffness: 1e3 }));
-        p.damping = Some(DampingTable::Restitution { restitution: 1.5, tangential_ratio: None, tangential_rate: None });
+        p.damping = Some(DampingTable::Restitution(RestitutionTable { restitution: 1.5, tangential_ratio: None, tangential_rate: None }));
         let e = err(&p);
         assert!(e.contains("`contact.damping.restitution`") || e.contains("contact.damping.restitution:"), "{e}");
         assert!(!e.contains("contact.restitution"), "{e}");
-        p.damping = Some(DampingTable::Restitution { restitution: 0.5, tangential_ratio: Some(0.2), tangential_rate: Some(3.0) });
+        p.damping = Some(DampingTable::Restitution(RestitutionTable { restitution: 0.5, tangential_ratio: Some(0.2), tangential_rate: Some(3.0) }));
         let e = err(&p);
         assert!(e.contains("contact.damping.tangential_ratio") && e.contains("contact.damping.tangential_rate"), "{e}");
         p.damping = None;

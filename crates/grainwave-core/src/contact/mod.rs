@@ -33,12 +33,12 @@ pub mod tangential;
 pub use coulomb::coulomb_cap;
 pub(crate) use damping::Dampers;
 pub use damping::{
-    clamped_contact_time, clamped_restitution, critical_fraction_for_restitution, textbook_critical_fraction, tsuji_alpha,
-    NormalDamping, NormalDampingLaw, TangentialDamping, TangentialDampingLaw,
+    clamped_contact_time, clamped_restitution, critical_fraction_for_restitution, textbook_critical_fraction, tsuji_alpha, DampingContext,
+    DampingParams, DampingTable, NoDamping, NormalDamping, NormalDampingLaw, TangentialDamping, TangentialDampingLaw,
 };
 pub use kinematics::{pair_kinematics, wall_kinematics, Kinematics};
 pub use normal::*;
-pub use families::{DampingTable, ResistanceTable};
+pub use families::ResistanceTable;
 pub use history::{HistoryColumn, LawHistory, WallHistory};
 pub(crate) use history::{decoding_version, scalar_history, zero_sized_slice};
 pub(crate) use tangential::spring_step;

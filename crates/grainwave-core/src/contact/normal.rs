@@ -102,14 +102,7 @@ impl DampingChoice {
     /// The damping given by a `[contact.damping]` table, or else by the flat keys, under `field`.
     pub(crate) fn of(table: Option<&DampingTable>, flat: &super::ContactParams, field: &str) -> Option<DampingChoice> {
         if let Some(t) = table {
-            let law = match t {
-                DampingTable::None {} => "none",
-                DampingTable::Restitution { .. } => "restitution",
-                DampingTable::Dashpot { .. } => "dashpot",
-                DampingTable::CriticalFraction { .. } => "critical_fraction",
-                DampingTable::MassProportional { .. } => "mass_proportional",
-                DampingTable::Tsuji { .. } => "tsuji",
-            };
+            let law = t.name();
             return Some(DampingChoice { law, key: format!("{field}.damping.law"), value: format!("\"{law}\"") });
         }
         flat.flat_damping()

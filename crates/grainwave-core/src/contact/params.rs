@@ -3,8 +3,8 @@
 use super::damping::{normal as nd, tangential as td};
 use super::rolling::SpringDashpot;
 use super::tangential::Mindlin;
-use super::families::{DampingTable, ResistanceTable};
-use super::{ContactLaw, DampingChoice, Hertz, Hooke, NormalContext, NormalDamping, NormalElastic, NormalTable, Rolling, SlipActivationParams, Tangential, TangentialContext, TangentialDamping, TangentialTable, Twisting};
+use super::families::ResistanceTable;
+use super::{ContactLaw, DampingChoice, DampingContext, DampingTable, Hertz, Hooke, NormalContext, NormalDamping, NormalElastic, NormalTable, Rolling, SlipActivationParams, Tangential, TangentialContext, TangentialDamping, TangentialTable, Twisting};
 use crate::error::{require_non_negative, require_positive, CoreError, Result};
 use serde::{Deserialize, Serialize};
 
@@ -154,6 +154,10 @@ impl ContactParams {
             // the normal law itself: built from its own table by its own type
             if let Some(normal) = &self.normal {
                 law.normal = normal.build(&NormalContext { partner, field, damping: DampingChoice::of(self.damping.as_ref(), self, field) })?;
+                // the damping, from its own table beside the normal law's composition
+                if let Some(damping) = &self.damping {
+                    (law.damping, law.tangential_damping) = damping.build(&DampingContext { field, composition: normal.composition() })?;
+                }
                 // the tangential law too, beside the normal law's composition (checked even
                 // where `friction = 0` leaves no tangential force, as the flat keys are)
                 if let Some(tangential) = &self.tangential {

@@ -1,7 +1,11 @@
 //! The normal damping family (SPEC §2.2): one type per law in its own file
 //! (`contact/damping/normal/<law>.rs`) implementing [`NormalDampingLaw`], and the registry that
-//! makes [`NormalDamping`] and its dispatch. A new normal damping law is one file here and one
-//! line in the registry, appended last (checkpoints encode the variant's index).
+//! makes [`NormalDamping`] and its dispatch; and the `[contact.damping]` tables
+//! ([`DampingTable`]), one per way of choosing a normal damping law in a config (each law's
+//! table in the law's file, `restitution` — the critical fraction that gives a restitution
+//! coefficient — in a file of its own). A new normal damping law is one file here (the law, its
+//! table and their tests) and one line in each registry, appended last (checkpoints encode the
+//! law's variant index).
 
 use super::NormalDampingLaw;
 
@@ -15,4 +19,14 @@ damping_laws! {
         mass_proportional::MassProportional,
         tsuji::Tsuji,
     }
+}
+
+mod restitution;
+
+damping_tables! {
+    Restitution(restitution::RestitutionTable),
+    Dashpot(dashpot::DashpotTable),
+    CriticalFraction(critical_fraction::CriticalFractionTable),
+    MassProportional(mass_proportional::MassProportionalTable),
+    Tsuji(tsuji::TsujiTable),
 }

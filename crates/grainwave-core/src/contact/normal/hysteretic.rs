@@ -123,6 +123,7 @@ impl NormalLaw for Hysteretic {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::contact::damping::normal::{DashpotTable, RestitutionTable, TsujiTable};
     use crate::contact::{ContactLaw, ContactParams, DampingTable, NormalElastic, NormalTable, Partner};
     use crate::dim::{Dim, D2, D3};
     use crate::domain::Domain;
@@ -280,10 +281,10 @@ mod tests {
         let e = params(1e4, f64::INFINITY).build(Partner::Grain, "contact").unwrap_err().to_string();
         assert!(e.contains("contact.normal.unloading_stiffness") && e.contains("inf"), "{e}");
         let mut p = params(1e4, 2e4);
-        p.damping = Some(DampingTable::Restitution { restitution: 0.5, tangential_ratio: None, tangential_rate: None });
+        p.damping = Some(DampingTable::Restitution(RestitutionTable { restitution: 0.5, tangential_ratio: None, tangential_rate: None }));
         let e = p.build(Partner::Grain, "contact").unwrap_err().to_string();
         assert!(e.contains("contact.damping.law") && e.contains("restitution") && e.contains("dashpot"), "{e}");
-        p.damping = Some(DampingTable::Tsuji { restitution: 0.5, tangential_ratio: None });
+        p.damping = Some(DampingTable::Tsuji(TsujiTable { restitution: 0.5, tangential_ratio: None }));
         let e = p.build(Partner::Grain, "contact").unwrap_err().to_string();
         assert!(e.contains("contact.damping.law") && e.contains("\"tsuji\""), "{e}");
         // the same dashpots as flat keys beside the family tables: refused naming the flat key
@@ -301,7 +302,7 @@ mod tests {
         p.normal_damping = Some(0.1);
         assert_eq!(p.build(Partner::Grain, "contact").unwrap().normal, NormalElastic::Hysteretic(Hysteretic { loading_stiffness: 1e4, unloading_stiffness: 2e4 }));
         p.normal_damping = None;
-        p.damping = Some(DampingTable::Dashpot { coefficient: 0.1, tangential_ratio: None, tangential_rate: None });
+        p.damping = Some(DampingTable::Dashpot(DashpotTable { coefficient: 0.1, tangential_ratio: None, tangential_rate: None }));
         let law = p.build(Partner::Grain, "contact").unwrap();
         assert_eq!(law.normal, NormalElastic::Hysteretic(Hysteretic { loading_stiffness: 1e4, unloading_stiffness: 2e4 }));
         // frictionless: no tangential part, the general kernel; with friction, the specialised
