@@ -214,6 +214,41 @@ fn masses_changed_by_hand_reach_the_close_list() {
     }
 }
 
+/// A packing stepped 300 times (its lists also rebuilt every 37 steps), on the general kernel
+/// or the window kernels at vector level `simd` in blocks of `len` pairs (`None`: one block):
+/// its state hash.
+fn run_300<D: Dim>(mut sim: Simulation<D>, general: bool, simd: u8, len: Option<usize>) -> u64 {
+    sim.set_general_kernel(general);
+    sim.set_simd_level(simd);
+    sim.set_force_block_len(len);
+    for s in 0..300 {
+        if s % 37 == 0 {
+            sim.nlist.stale = true;
+        }
+        sim.step().unwrap();
+    }
+    assert!(sim.counters.contacts > 0 && sim.nlist.builds > 8);
+    sim.state_hash()
+}
+
+/// `law` on a dense 2D and a dense 3D packing gives the bits of the general kernel on every
+/// path: 1 and 2 threads with several blocks, and one block, at each vector level of `levels`.
+fn every_path_gives_the_bits_of_the_general_kernel(law: ContactLaw, levels: &[u8]) {
+    let make2 = || dense_2d(30, 40, law, 0.5, 21).expected_overlap(0.05).build().unwrap();
+    let make3 = || dense_3d(4, law, 0.3, 22).expected_overlap(0.05).build().unwrap();
+    let reference = (pool(1).install(|| run_300(make2(), true, 0, Some(300))), pool(1).install(|| run_300(make3(), true, 0, Some(50))));
+    for threads in [1, 2] {
+        for &simd in levels {
+            let got = pool(threads).install(|| (run_300(make2(), false, simd, Some(300)), run_300(make3(), false, simd, Some(50))));
+            assert_eq!(got, reference, "{law:?}, {threads} threads, simd {simd}");
+        }
+    }
+    for &simd in levels {
+        let got = pool(1).install(|| (run_300(make2(), false, simd, None), run_300(make3(), false, simd, None)));
+        assert_eq!(got, reference, "{law:?}, one block, simd {simd}");
+    }
+}
+
 #[test]
 fn a_normal_law_with_history_gives_the_bits_of_the_general_kernel_on_every_path() {
     // The hysteretic normal law (history ξ_max per contact) through its specialised composition
@@ -238,40 +273,15 @@ fn a_normal_law_with_history_gives_the_bits_of_the_general_kernel_on_every_path(
         }
         p.build(Partner::Grain, "contact").unwrap()
     };
-    fn run<D: Dim>(mut sim: Simulation<D>, general: bool, simd: u8, len: Option<usize>) -> u64 {
-        sim.set_general_kernel(general);
-        sim.set_simd_level(simd);
-        sim.set_force_block_len(len);
-        for s in 0..300 {
-            if s % 37 == 0 {
-                sim.nlist.stale = true;
-            }
-            sim.step().unwrap();
-        }
-        assert!(sim.counters.contacts > 0 && sim.nlist.builds > 8);
-        sim.state_hash()
-    }
     let laws = [law(3.0e3, 0, None, false), law(3.0e3, 1, None, true), law(2.0e3, 2, Some(0.05), false), law(4.0e3, 0, Some(0.05), true)];
     for law in laws {
         assert!(matches!(law.specialize(), Specialized::NormalHistory(..)), "{law:?}");
-        let make2 = || dense_2d(30, 40, law, 0.5, 21).expected_overlap(0.05).build().unwrap();
-        let make3 = || dense_3d(4, law, 0.3, 22).expected_overlap(0.05).build().unwrap();
-        let reference = (pool(1).install(|| run(make2(), true, 0, Some(300))), pool(1).install(|| run(make3(), true, 0, Some(50))));
-        for threads in [1, 2] {
-            for &simd in &levels {
-                let got = pool(threads).install(|| (run(make2(), false, simd, Some(300)), run(make3(), false, simd, Some(50))));
-                assert_eq!(got, reference, "{law:?}, {threads} threads, simd {simd}");
-            }
-        }
-        for &simd in &levels {
-            let got = pool(1).install(|| (run(make2(), false, simd, None), run(make3(), false, simd, None)));
-            assert_eq!(got, reference, "{law:?}, one block, simd {simd}");
-        }
+        every_path_gives_the_bits_of_the_general_kernel(law, &levels);
     }
     // the history acts: with k₂ = k₁ (no hysteresis) the same packing at the same time step
     // ends elsewhere
     let (a, b) = (law(3.0e3, 0, None, false), law(1.0e3, 0, None, false));
-    let end = |law: ContactLaw| pool(1).install(|| run(dense_2d(30, 40, law, 0.5, 21).dt(5e-4).build().unwrap(), false, 3, Some(300)));
+    let end = |law: ContactLaw| pool(1).install(|| run_300(dense_2d(30, 40, law, 0.5, 21).dt(5e-4).build().unwrap(), false, 3, Some(300)));
     assert_ne!(end(a), end(b));
 }
 
@@ -297,36 +307,11 @@ fn a_tangential_law_with_history_gives_the_bits_of_the_general_kernel_on_every_p
         let law = p.build(Partner::Grain, "contact").unwrap();
         ContactLaw { tangential: SlipWeakening { stiffness: 300.0, residual_ratio, weakening_distance: 1e-3 }.into(), ..law }
     };
-    fn run<D: Dim>(mut sim: Simulation<D>, general: bool, simd: u8, len: Option<usize>) -> u64 {
-        sim.set_general_kernel(general);
-        sim.set_simd_level(simd);
-        sim.set_force_block_len(len);
-        for s in 0..300 {
-            if s % 37 == 0 {
-                sim.nlist.stale = true;
-            }
-            sim.step().unwrap();
-        }
-        assert!(sim.counters.contacts > 0 && sim.nlist.builds > 8);
-        sim.state_hash()
-    }
     for law in [law(0.2, 0, false), law(0.5, 1, true)] {
         assert!(matches!(law.specialize(), Specialized::TangentialHistory(..)), "{law:?}");
-        let make2 = || dense_2d(30, 40, law, 0.5, 21).expected_overlap(0.05).build().unwrap();
-        let make3 = || dense_3d(4, law, 0.3, 22).expected_overlap(0.05).build().unwrap();
-        let reference = (pool(1).install(|| run(make2(), true, 0, Some(300))), pool(1).install(|| run(make3(), true, 0, Some(50))));
-        for threads in [1, 2] {
-            for &simd in &levels {
-                let got = pool(threads).install(|| (run(make2(), false, simd, Some(300)), run(make3(), false, simd, Some(50))));
-                assert_eq!(got, reference, "{law:?}, {threads} threads, simd {simd}");
-            }
-        }
-        for &simd in &levels {
-            let got = pool(1).install(|| (run(make2(), false, simd, None), run(make3(), false, simd, None)));
-            assert_eq!(got, reference, "{law:?}, one block, simd {simd}");
-        }
+        every_path_gives_the_bits_of_the_general_kernel(law, &levels);
     }
     // the history acts: without weakening (r = 1) the same packing ends elsewhere
-    let end = |law: ContactLaw| pool(1).install(|| run(dense_2d(30, 40, law, 0.5, 21).dt(5e-4).build().unwrap(), false, 3, Some(300)));
+    let end = |law: ContactLaw| pool(1).install(|| run_300(dense_2d(30, 40, law, 0.5, 21).dt(5e-4).build().unwrap(), false, 3, Some(300)));
     assert_ne!(end(law(0.2, 0, false)), end(law(1.0, 0, false)));
 }
