@@ -3,7 +3,8 @@
 by both arrival definitions, from the committed summaries of the 64 × 64 runs.
 
     python3 examples/papers/e2-table2.py                      # the canonical packings in docs/data/e2-64
-    python3 examples/papers/e2-table2.py DIR [DIR ...]        # any run directories (summary.json)
+    python3 examples/papers/e2-table2.py DIR [DIR ...]        # any run directories (summary.json,
+                                                              #   or run.log while the study runs)
     python3 examples/papers/e2-table2.py --amplitude 1e-10    # another |p_a| [t*] (default 1e-9)
 
 Arrival definitions (SPEC §6.5): "maximum" = the time of the maximum of |δv_x| (SPEC's headline
@@ -14,6 +15,7 @@ definition), "first lobe" = the first lobe of the front (the replays' own, docs/
 import json
 import math
 import os
+import re
 import sys
 
 ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
@@ -113,8 +115,30 @@ def table(title, runs, amp, published):
     print()
 
 
+LOG_LINE = re.compile(r"replay (\S+) a = (\S+): speed \S+ v_a \(maximum (\S+), first lobe ([^)]+)\)")
+
+
+def from_log(path):
+    """The speeds of a study that has not finished (no `summary.json` yet) from its `run.log`:
+    each replayed pulse's line `replay NAME a = P: speed … (maximum M, first lobe F)` gives the
+    same two speeds the summary holds (`—`: no front)."""
+    replays = {}
+    with open(path) as f:
+        for line in f:
+            m = LOG_LINE.search(line)
+            if m:
+                name, a, mx, fl = m.groups()
+                value = lambda x: None if x == "—" else float(x)
+                replays.setdefault(name, []).append({"amplitude": float(a), "speed_maximum": value(mx), "speed_first_lobe": value(fl)})
+    return {"replays": [{"name": n, "pairs": p} for n, p in replays.items()]}
+
+
 def load(d):
-    with open(os.path.join(d, "summary.json")) as f:
+    """A run directory's speeds: its `summary.json`, or, while the study runs, its `run.log`."""
+    path = os.path.join(d, "summary.json")
+    if not os.path.exists(path) and os.path.exists(os.path.join(d, "run.log")):
+        return from_log(os.path.join(d, "run.log"))
+    with open(path) as f:
         return json.load(f)
 
 
