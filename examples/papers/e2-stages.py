@@ -15,7 +15,8 @@ For each the time from the end of the loading to the end of its last replay: rep
 time (or more, with more workers) in the plan's order, so this is the time the study took to have
 those results, with the later replays sharing the workers. Times are the log's seconds since the
 start of the process that ran the chain; a chain split over several processes (interrupted and
-resumed) is reported as such. Standard library only.
+resumed) is reported as such; in a run still going, a replay not finished shows the time of its
+last line. Standard library only.
 """
 import os
 import re
