@@ -102,7 +102,7 @@ def table(title, runs, amp, published):
                 cells.append(f"{cell(lp[p])} / {cell(lm[p])}")
             print(f"| {name if label == 'maximum' else ''} | {label} | " + " | ".join(cells) + " |")
     n = len(runs)
-    for label in KEYS:
+    for label in KEYS if n > 1 else []:  # one packing: no mean row (its SE and SD are undefined)
         cells = []
         for p in PROCESSES:
             (mp, ep, sp_, np_), (mm, em, sm, nm) = stats(per[label][p][0]), stats(per[label][p][1])
