@@ -53,10 +53,10 @@ def groups(config):
 
 
 def parse(log_path):
-    """(segments, loading): per process (split at "resuming from"), per replay its first and last
-    time; and the preparation and loading figures of the log."""
-    segments, cur = [], {}
-    info = {}
+    """(segments, info): per process (the log split at "resuming from"), per replay its first and
+    last time; and the log's preparation (time, steps), loading total [s] and where the loading
+    ended (segment index, time)."""
+    segments, info = [{}], {}
     with open(log_path, encoding="utf-8") as f:
         for line in f:
             m = LINE.match(line.rstrip("\n"))
@@ -64,9 +64,7 @@ def parse(log_path):
                 continue
             t, text = float(m.group(1)), m.group(2)
             if text.startswith("resuming from"):
-                if cur:
-                    segments.append(cur)
-                cur = {}
+                segments.append({})
                 continue
             pc = re.match(r"preparation converged: (\d+) steps", text)
             if pc:
@@ -74,14 +72,11 @@ def parse(log_path):
             ld = re.match(r"loading done: .* after ([0-9.]+) t\*, (\d+) checkpoints, ([0-9.]+) s", text)
             if ld:
                 info["loading"] = float(ld.group(3))
-                cur["__loading_end__"] = (t, t)
+                info["loading_end"] = (len(segments) - 1, t)
             rp = re.match(r"replay ([A-Za-z0-9_]+)[ :]", text)
             if rp:
-                name = rp.group(1)
-                a, _ = cur.get(name, (t, t))
-                cur[name] = (a, t)
-    if cur:
-        segments.append(cur)
+                a, _ = segments[-1].get(rp.group(1), (t, t))
+                segments[-1][rp.group(1)] = (a, t)
     return segments, info
 
 
@@ -102,12 +97,10 @@ def main(path):
         print("loading              not finished")
         return
     print(f"loading              {fmt(info['loading'])}  (the log's total over every process)")
-    chain = [s for s in segments if "__loading_end__" in s]
-    seg = chain[-1]
-    t0 = seg["__loading_end__"][1]
-    later = [s for s in segments[segments.index(seg) + 1:]]
-    if later:
-        print(f"note: the chain was resumed {len(later)} time(s); the times below are of the first process only")
+    k, t0 = info["loading_end"]
+    seg = segments[k]
+    if len(segments) > k + 1:
+        print(f"note: the chain was resumed {len(segments) - k - 1} time(s); the times below are of the first process only")
     rows = [("Table 2 replays", table2), ("canonical chain", canonical), ("every replay", set(replays))]
     for label, names in rows:
         ends = [seg[n][1] for n in names if n in seg]
