@@ -122,13 +122,13 @@ def from_log(path):
     """The speeds of a study that has not finished (no `summary.json` yet) from its `run.log`:
     each replayed pulse's line `replay NAME a = P: speed … (maximum M, first lobe F)` gives the
     same two speeds the summary holds (`—`: no front)."""
+    value = lambda x: None if x == "—" else float(x)
     replays = {}
     with open(path) as f:
         for line in f:
             m = LOG_LINE.search(line)
             if m:
                 name, a, mx, fl = m.groups()
-                value = lambda x: None if x == "—" else float(x)
                 replays.setdefault(name, []).append({"amplitude": float(a), "speed_maximum": value(mx), "speed_first_lobe": value(fl)})
     return {"replays": [{"name": n, "pairs": p} for n, p in replays.items()]}
 
